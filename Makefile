@@ -1,0 +1,40 @@
+# PTIR: the two commands of the README.
+#   make demo  -- install everything, build, run the main job on the bundled sample
+#   make test  -- install everything, build, run every test (gtest, pytest, blender -b)
+# Other targets: setup, build, install-addon, bench, clean.
+
+BUILD ?= build
+JOBS ?= $(shell nproc)
+PYTHON := /usr/bin/python3
+export PTIR_BUILD_DIR := $(abspath $(BUILD))
+
+.PHONY: all setup build install-addon demo test test-native test-python bench clean
+
+all: build
+
+setup:
+	./scripts/setup_debian.sh
+
+build: setup
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/python3.11
+	cmake --build $(BUILD) -j $(JOBS)
+
+install-addon: build
+	./scripts/install_addon.sh $(BUILD)
+
+demo: build install-addon
+	./scripts/demo.sh $(BUILD)
+
+test-native: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+test-python: build install-addon
+	$(PYTHON) -m pytest -q tests/python tests/blender
+
+test: test-native test-python
+
+bench: build
+	$(PYTHON) bench/bench_trace.py --build $(BUILD)
+
+clean:
+	rm -rf $(BUILD)

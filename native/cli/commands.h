@@ -1,0 +1,15 @@
+// Subcommands of the `ptir` command-line tool. Each registers its options on a
+// CLI11 subcommand and returns the function that runs it.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+
+namespace ptir::cli {
+
+using Runner = std::function<int()>;
+
+Runner add_render_command(CLI::App& app);
+
+}  // namespace ptir::cli

@@ -1,0 +1,124 @@
+// One Embree 3 scene holding the Gaussians (user geometry, bounded by the AABB of
+// their accepted ellipsoid) and the triangle meshes, and the ordered walk of the
+// Gaussian hits along a ray.
+//
+// Ordered walk: bounded-memory multi-round k-buffer traversal (3dgrut; Embree's
+// next_hit tutorial). Each round collects the k closest hits after the last one
+// processed, ordered by (t_peak, Gaussian id); when the buffer is full the ray's
+// tfar shrinks to the k-th hit so the BVH prunes everything behind it. A triangle
+// hit ends the walk: Gaussians whose peak lies behind the mesh are never visited.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "ptir/accel/gaussian_response.h"
+#include "ptir/math/ray.h"
+#include "ptir/scene/gaussians.h"
+#include "ptir/scene/mesh.h"
+
+namespace ptir {
+
+struct GaussianHit {
+  float t;      // t_peak
+  float alpha;  // effective opacity, already culled and clamped
+  uint32_t id;  // Gaussian index
+};
+
+struct MeshHit {
+  bool valid = false;
+  float t = 0.0f;
+  uint32_t mesh = 0;  // index into the meshes given to SceneAccel
+  uint32_t prim = 0;  // triangle index
+  float u = 0.0f, v = 0.0f;
+};
+
+struct TraceStats {
+  uint64_t rounds = 0;
+  uint64_t hits = 0;  // hits handed to the visitor
+};
+
+// How a walk ended.
+struct WalkEnd {
+  bool stopped = false;  // the visitor asked to stop
+  MeshHit mesh;          // the mesh that ended the walk (valid only when reached)
+};
+
+struct AccelSettings {
+  CullSettings cull;
+  int k = 16;  // hits collected per traversal round (1..64)
+};
+
+class SceneAccel {
+ public:
+  static constexpr int kMaxK = 64;
+
+  SceneAccel(const GaussianField& field, const std::vector<TriangleMesh>& meshes, const AccelSettings& settings = {});
+  ~SceneAccel();
+  SceneAccel(const SceneAccel&) = delete;
+  SceneAccel& operator=(const SceneAccel&) = delete;
+
+  // Calls visit(const GaussianHit&) for every accepted Gaussian hit with
+  // ray.tmin <= t_peak < min(ray.tmax, first mesh hit), in (t_peak, id) order,
+  // until visit returns false. ray.d must be unit length.
+  template <class Visit>
+  WalkEnd walk(const Ray& ray, Visit&& visit, TraceStats* stats = nullptr) const;
+
+  // Closest triangle hit in [ray.tmin, ray.tmax], ignoring Gaussians.
+  MeshHit closest_mesh(const Ray& ray) const;
+
+  const std::vector<GaussianTraceData>& trace_data() const { return data_; }
+  const AccelSettings& settings() const { return settings_; }
+  const std::vector<TriangleMesh>& meshes() const { return *meshes_; }
+  const GaussianField& field() const { return *field_; }
+
+  // One traversal round: the up-to-k closest hits after (t_start, id_start)
+  // (id_start = -1 admits t_peak == t_start), sorted; returns the count. Sets *mesh
+  // when a triangle lies before every hit beyond the buffer (the walk ends there);
+  // *more = true when hits may remain after the last one returned.
+  int round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  const GaussianField* field_;
+  const std::vector<TriangleMesh>* meshes_;
+  AccelSettings settings_;
+  std::vector<GaussianTraceData> data_;
+};
+
+// Builds the per-Gaussian trace data (unit-space transform, opacity).
+std::vector<GaussianTraceData> make_trace_data(const GaussianField& field);
+
+template <class Visit>
+WalkEnd SceneAccel::walk(const Ray& ray, Visit&& visit, TraceStats* stats) const {
+  GaussianHit buffer[kMaxK];
+  float t_start = ray.tmin;
+  int64_t id_start = -1;
+  WalkEnd end;
+  for (;;) {
+    MeshHit mesh;
+    bool more = false;
+    int n = round(ray, t_start, id_start, buffer, &mesh, &more);
+    if (stats) stats->rounds++;
+    // Hand this round's hits to the visitor in order.
+    for (int i = 0; i < n; ++i) {
+      if (stats) stats->hits++;
+      if (!visit(buffer[i])) {
+        end.stopped = true;
+        return end;
+      }
+    }
+    if (mesh.valid) {
+      end.mesh = mesh;
+      return end;
+    }
+    if (!more) return end;
+    // Next round starts just after the last hit processed.
+    t_start = buffer[n - 1].t;
+    id_start = buffer[n - 1].id;
+  }
+}
+
+}  // namespace ptir

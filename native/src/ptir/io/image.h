@@ -1,0 +1,39 @@
+// Float images and their files. EXR/HDR hold linear values; PNG/JPEG are sRGB
+// encoded for colour and stored as is for data (normals, depth, masks).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace ptir {
+
+struct Image {
+  int width = 0, height = 0, channels = 0;
+  std::vector<std::string> channel_names;  // e.g. R,G,B,A; written to EXR
+  std::vector<float> pixels;               // row-major, top row first, interleaved
+
+  Image() = default;
+  Image(int w, int h, std::vector<std::string> names)
+      : width(w), height(h), channels(int(names.size())), channel_names(std::move(names)),
+        pixels(size_t(w) * size_t(h) * size_t(channels), 0.0f) {}
+  float& at(int x, int y, int c) { return pixels[(size_t(y) * width + x) * channels + c]; }
+  float at(int x, int y, int c) const { return pixels[(size_t(y) * width + x) * channels + c]; }
+};
+
+enum class Encoding {
+  Colour,  // 8-bit files get the sRGB curve on colour channels (alpha stays linear)
+  Data,    // values written as they are (clamped to [0, 1] in 8-bit files)
+};
+
+// Writes by extension (.exr float, .png/.jpg/.tif 8-bit, .hdr), atomically: a temp
+// file in the same folder, then rename. Throws ptir::Error naming the file.
+void write_image(const std::string& path, const Image& image, Encoding encoding = Encoding::Colour);
+
+// Reads any format OpenImageIO knows. 8-bit colour files are decoded from sRGB to
+// linear when encoding == Colour. Throws ptir::Error naming the file.
+Image read_image(const std::string& path, Encoding encoding = Encoding::Colour);
+
+float srgb_to_linear(float c);
+float linear_to_srgb(float c);
+
+}  // namespace ptir

@@ -1,0 +1,164 @@
+#include "ptir/render/aov.h"
+
+#include <tbb/blocked_range2d.h>
+#include <tbb/parallel_for.h>
+
+#include <mutex>
+
+#include "ptir/core/error.h"
+
+namespace ptir {
+
+Aov parse_aov(const std::string& name) {
+  static const std::pair<const char*, Aov> table[] = {
+      {"opacity", Aov::Opacity}, {"depth", Aov::Depth},       {"normal", Aov::Normal},   {"albedo", Aov::Albedo},
+      {"roughness", Aov::Roughness}, {"metallic", Aov::Metallic}, {"preview", Aov::Preview}};
+  for (const auto& [n, a] : table)
+    if (name == n) return a;
+  throw Error("unknown AOV '" + name + "' (choose opacity, depth, normal, albedo, roughness, metallic or preview)");
+}
+
+const char* aov_name(Aov aov) {
+  switch (aov) {
+    case Aov::Opacity: return "opacity";
+    case Aov::Depth: return "depth";
+    case Aov::Normal: return "normal";
+    case Aov::Albedo: return "albedo";
+    case Aov::Roughness: return "roughness";
+    case Aov::Metallic: return "metallic";
+    case Aov::Preview: return "preview";
+  }
+  return "?";
+}
+
+Encoding aov_encoding(Aov aov) { return (aov == Aov::Albedo || aov == Aov::Preview) ? Encoding::Colour : Encoding::Data; }
+
+AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
+                    TraceStats* stats) {
+  const GaussianField& field = accel.field();
+  InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, pick_key);
+  Vec3 preview;
+  // Walk the Gaussians front to back: interaction sums and SH colour together.
+  WalkEnd end = accel.walk(
+      ray,
+      [&](const GaussianHit& h) {
+        preview += (builder.transmittance() * h.alpha) * field.sh_colour(h.id, ray.d);
+        return builder.add(h);
+      },
+      stats);
+  SurfaceInteraction si = builder.finish(ray);
+
+  AovSample s;
+  float T = si.transmittance;
+  s.opacity = si.opacity;
+  s.preview = preview;
+  if (si.valid) {
+    s.hit = true;
+    s.depth = si.depth;
+    s.normal = si.n;
+    s.albedo = si.albedo;
+    s.roughness = si.roughness;
+    s.metallic = si.metallic;
+  }
+  // An opaque mesh behind the Gaussians covers what they let through.
+  if (!end.stopped && end.mesh.valid) {
+    const TriangleMesh& mesh = accel.meshes()[end.mesh.mesh];
+    Vec3 ng = mesh.face_normal(end.mesh.prim);
+    if (dot(ng, ray.d) > 0.0f) ng = -ng;
+    s.opacity += T;
+    // Preview shades the mesh by its base colour under a headlight.
+    s.preview += T * mesh.material.base_colour * std::fabs(dot(ng, ray.d));
+    if (!si.valid) {
+      s.hit = true;
+      s.depth = end.mesh.t;
+      s.normal = ng;
+      s.albedo = mesh.material.base_colour;
+      s.roughness = mesh.material.roughness;
+      s.metallic = mesh.material.metallic;
+    }
+  }
+  return s;
+}
+
+namespace {
+
+std::vector<std::string> aov_channels(Aov aov) {
+  switch (aov) {
+    case Aov::Opacity: return {"A"};
+    case Aov::Depth: return {"Z", "A"};
+    case Aov::Normal: return {"X", "Y", "Z", "A"};
+    case Aov::Roughness:
+    case Aov::Metallic: return {"Y", "A"};
+    default: return {"R", "G", "B", "A"};
+  }
+}
+
+// Channel values of one sample (without alpha, which is the mean coverage).
+void aov_values(Aov aov, const AovSample& s, float* v) {
+  switch (aov) {
+    case Aov::Opacity: break;
+    case Aov::Depth: v[0] = s.hit ? s.depth : 0.0f; break;
+    case Aov::Normal: v[0] = s.normal.x; v[1] = s.normal.y; v[2] = s.normal.z; break;
+    case Aov::Albedo: v[0] = s.albedo.x; v[1] = s.albedo.y; v[2] = s.albedo.z; break;
+    case Aov::Roughness: v[0] = s.roughness; break;
+    case Aov::Metallic: v[0] = s.metallic; break;
+    case Aov::Preview: v[0] = s.preview.x; v[1] = s.preview.y; v[2] = s.preview.z; break;
+  }
+}
+
+}  // namespace
+
+Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const AovSettings& settings,
+                 const RenderControl& control, TraceStats* stats) {
+  if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
+  Image image(camera.width, camera.height, aov_channels(aov));
+  const int nc = image.channels;
+  const int spp = settings.spp;
+  std::atomic<int> rows_done{0};
+  std::atomic<uint64_t> rounds{0}, hits{0};
+  std::mutex progress_mutex;
+
+  tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, 8, 0, camera.width, 8), [&](const tbb::blocked_range2d<int>& r) {
+    if (control.cancel && control.cancel->load()) return;
+    TraceStats local;
+    for (int y = r.rows().begin(); y < r.rows().end(); ++y) {
+      for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
+        uint64_t pixel = uint64_t(y) * uint64_t(camera.width) + uint64_t(x);
+        float acc[4] = {0, 0, 0, 0};
+        float coverage = 0.0f;
+        for (int s = 0; s < spp; ++s) {
+          // One sample at the pixel centre, or jittered samples keyed on (seed, pixel, sample).
+          Rng rng(settings.seed, pixel, uint64_t(s));
+          float jx = spp == 1 ? 0.5f : rng.at(0), jy = spp == 1 ? 0.5f : rng.at(1);
+          Ray ray = camera.generate_ray(float(x) + jx, float(y) + jy);
+          AovSample smp = trace_aov(accel, ray, settings, rng.key(), &local);
+          float v[4] = {0, 0, 0, 0};
+          aov_values(aov, smp, v);
+          // Data channels are averaged over covered samples; colour is premultiplied.
+          float weight = (aov == Aov::Preview) ? 1.0f : (smp.hit ? 1.0f : 0.0f);
+          for (int c = 0; c < nc - 1; ++c) acc[c] += weight * v[c];
+          acc[3] += weight;
+          coverage += std::min(1.0f, smp.opacity);
+        }
+        float norm = aov == Aov::Preview ? 1.0f / float(spp) : (acc[3] > 0 ? 1.0f / acc[3] : 0.0f);
+        for (int c = 0; c < nc - 1; ++c) image.at(x, y, c) = acc[c] * norm;
+        image.at(x, y, nc - 1) = coverage / float(spp);
+      }
+    }
+    rounds += local.rounds;
+    hits += local.hits;
+    int done = rows_done.fetch_add(int(r.rows().size() * r.cols().size()));
+    if (control.progress) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      control.progress(float(done + r.rows().size() * r.cols().size()) / float(camera.width * camera.height));
+    }
+  });
+  if (control.cancel && control.cancel->load()) throw Cancelled();
+  if (stats) {
+    stats->rounds += rounds;
+    stats->hits += hits;
+  }
+  return image;
+}
+
+}  // namespace ptir

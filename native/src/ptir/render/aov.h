@@ -1,0 +1,55 @@
+// Arbitrary output variables of the primary hit: coverage, depth, normal and the
+// material channels of the equivalent surface interaction, and an SH-colour
+// preview composited front to back. Meshes are opaque and end the walk.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <string>
+
+#include "ptir/accel/scene_accel.h"
+#include "ptir/io/image.h"
+#include "ptir/scene/camera.h"
+#include "ptir/transport/interaction.h"
+
+namespace ptir {
+
+enum class Aov { Opacity, Depth, Normal, Albedo, Roughness, Metallic, Preview };
+
+// "opacity", "depth", ... ; throws ptir::Error listing the valid names.
+Aov parse_aov(const std::string& name);
+const char* aov_name(Aov aov);
+// Colour AOVs get the sRGB curve in 8-bit files; data AOVs are written as values.
+Encoding aov_encoding(Aov aov);
+
+struct AovSettings {
+  InteractionSettings interaction;
+  int spp = 1;        // 1: one ray through each pixel centre; more: jittered, averaged
+  uint64_t seed = 0;  // jitter and discrete picks
+};
+
+struct RenderControl {
+  std::function<void(float)> progress;        // fraction done; called under a lock from worker threads
+  const std::atomic<bool>* cancel = nullptr;  // set to stop early (throws ptir::Cancelled)
+};
+
+// AOV of one primary ray.
+struct AovSample {
+  float opacity = 0.0f;  // Gaussian O plus the transmitted mesh coverage
+  bool hit = false;      // a valid Gaussian interaction or a mesh
+  float depth = 0.0f;    // ray distance of the interaction
+  Vec3 normal, albedo;
+  float roughness = 0.0f, metallic = 0.0f;
+  Vec3 preview;          // SH colour composited, plus the transmitted mesh colour
+};
+
+AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
+                    TraceStats* stats = nullptr);
+
+// Image layouts: opacity -> A; depth -> Z, A; normal -> X, Y, Z, A (world space,
+// 8-bit as 0.5 + 0.5 n); albedo/preview -> R, G, B, A; roughness/metallic -> Y, A.
+// Background pixels are zero with A = 0.
+Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const AovSettings& settings,
+                 const RenderControl& control = {}, TraceStats* stats = nullptr);
+
+}  // namespace ptir

@@ -1,0 +1,45 @@
+// Pinhole cameras: NeRF-synthetic transforms_*.json frames and explicit matrices.
+//
+// Convention (NeRF / Blender): camera-to-world 4x4; the camera looks down its
+// local -z axis, +y is up, +x is right. camera_angle_x is the horizontal field
+// of view; pixels are square, so the vertical one follows from the aspect ratio.
+// Pixel (0, 0) is the top-left corner of the image.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ptir/math/ray.h"
+#include "ptir/math/vec.h"
+
+namespace ptir {
+
+struct Camera {
+  std::string name;        // e.g. "test_004" from file_path, or "camera"
+  std::string image_path;  // resolved image path from file_path ("" if none)
+  Affine cam_to_world;     // columns of linear: right, up, back; translation: centre
+  float fov_x = 0.6911112f;  // radians
+  int width = 0, height = 0;
+
+  Vec3 centre() const { return cam_to_world.translation; }
+  // Primary ray through image position (px, py) in pixels (px in [0, width)).
+  Ray generate_ray(float px, float py) const;
+};
+
+// Camera from a row-major 4x4 camera-to-world matrix. Throws ptir::Error for a
+// non-finite or degenerate matrix, a field of view outside (0, pi) or a bad size.
+Camera make_camera(const float cam_to_world_rowmajor[16], float fov_x, int width, int height,
+                   const std::string& name = "camera");
+
+// Reads every frame of a NeRF-synthetic transforms_*.json. Image size: width/height
+// when > 0, else the file's "w"/"h" keys, else the header of the first frame's
+// image (file_path with or without extension, relative to the JSON's folder).
+// Throws ptir::Error("<path>: <problem>") for bad JSON or missing keys.
+std::vector<Camera> load_transforms_json(const std::string& path, int width = 0, int height = 0);
+
+// Resolves a NeRF-synthetic file_path ("./train/r_0" or "./train_000/rgba", with or
+// without extension) against `folder`: returns the existing file, trying .png, .exr,
+// .jpg, .jpeg when there is no extension; "" if none exists.
+std::string resolve_image_path(const std::string& folder, const std::string& file_path);
+
+}  // namespace ptir

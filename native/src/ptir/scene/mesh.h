@@ -1,0 +1,42 @@
+// Triangle meshes (walls, floors, props) and their simplified-Disney materials.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ptir/math/vec.h"
+
+namespace ptir {
+
+struct MeshMaterial {
+  std::string name = "default";
+  Vec3 base_colour{0.8f, 0.8f, 0.8f};  // linear RGB
+  float roughness = 0.5f;
+  float metallic = 0.0f;
+  Vec3 emission{0.0f, 0.0f, 0.0f};  // emitted radiance (W/m^2/sr), zero for non-emitters
+};
+
+struct TriangleMesh {
+  std::string name;
+  std::vector<Vec3> vertices;
+  std::vector<std::array<uint32_t, 3>> triangles;
+  MeshMaterial material;
+
+  // Unit geometric normal of triangle `prim` (right-handed winding).
+  Vec3 face_normal(uint32_t prim) const {
+    const auto& tri = triangles[prim];
+    return normalize(cross(vertices[tri[1]] - vertices[tri[0]], vertices[tri[2]] - vertices[tri[0]]));
+  }
+};
+
+// Loads a triangle mesh from .ply (element "vertex" with x,y,z and element "face"
+// with a vertex_indices/vertex_index list; polygons are fan-triangulated) or .obj
+// (v and f lines; polygons fan-triangulated; negative indices allowed; texture and
+// normal indices ignored). Throws ptir::Error("<path>: <problem>") on bad input:
+// unknown extension, missing properties, index out of range, NaN/Inf vertices,
+// no triangles.
+TriangleMesh load_mesh(const std::string& path);
+
+}  // namespace ptir

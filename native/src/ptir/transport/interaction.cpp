@@ -1,0 +1,61 @@
+#include "ptir/transport/interaction.h"
+
+namespace ptir {
+
+bool InteractionBuilder::add(const GaussianHit& hit) {
+  float w = T_ * hit.alpha;
+  O_ += w;
+  hits_++;
+  if (settings_.mode == InteractionMode::Aggregate) {
+    // Running weighted sums; normalised by O in finish().
+    sum_t_ += w * hit.t;
+    sum_n_ += w * field_.normal[hit.id];
+    sum_a_ += w * field_.albedo[hit.id];
+    sum_r_ += w * field_.roughness[hit.id];
+    sum_m_ += w * field_.metallic[hit.id];
+  } else {
+    // Weighted reservoir of size one: hit j survives with probability w_j / O.
+    if (pick_rng_.at(hits_) * O_ < w) {
+      picked_ = hit.id;
+      picked_t_ = hit.t;
+    }
+  }
+  T_ *= 1.0f - hit.alpha;
+  return T_ >= min_transmittance_;
+}
+
+SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
+  SurfaceInteraction si;
+  si.opacity = O_;
+  si.transmittance = T_;
+  si.hits = hits_;
+  si.valid = O_ > settings_.tau_g;
+  if (!(O_ > 0.0f)) return si;
+  Vec3 n;
+  if (settings_.mode == InteractionMode::Aggregate) {
+    float inv = 1.0f / O_;
+    si.depth = sum_t_ * inv;
+    n = sum_n_;
+    si.albedo = sum_a_ * inv;
+    si.roughness = sum_r_ * inv;
+    si.metallic = sum_m_ * inv;
+  } else {
+    si.picked = picked_;
+    si.depth = picked_t_;
+    n = field_.normal[picked_];
+    si.albedo = field_.albedo[picked_];
+    si.roughness = field_.roughness[picked_];
+    si.metallic = field_.metallic[picked_];
+  }
+  si.p = ray.at(si.depth);
+  // Normal rule: normalise the aggregate, then flip it to face the incoming ray, so
+  // a surface is shaded from the side it is seen from. A vanishing aggregate
+  // (opposed normals cancelling) falls back to -d.
+  n = normalize(n);
+  if (length_sq(n) == 0.0f) n = -ray.d;
+  if (dot(n, ray.d) > 0.0f) n = -n;
+  si.n = n;
+  return si;
+}
+
+}  // namespace ptir

@@ -1,0 +1,56 @@
+#include "ptir/transport/orient_normals.h"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+
+namespace ptir {
+
+OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& accel, const std::vector<Camera>& cameras,
+                                      int rays_per_camera) {
+  OrientStats stats;
+  if (field.normals_from_file || field.size() == 0) return stats;
+  const size_t n = field.size();
+  const float min_T = accel.settings().cull.min_transmittance;
+  tbb::enumerable_thread_specific<std::vector<float>> votes_tls([n] { return std::vector<float>(n, 0.0f); });
+
+  for (const Camera& cam : cameras) {
+    // Subsample the pixel grid so each camera costs about rays_per_camera rays.
+    double pixels = double(cam.width) * double(cam.height);
+    int stride = std::max(1, int(std::floor(std::sqrt(pixels / std::max(1, rays_per_camera)))));
+    int rows = (cam.height + stride - 1) / stride, cols = (cam.width + stride - 1) / stride;
+    tbb::parallel_for(0, rows, [&](int ry) {
+      std::vector<float>& votes = votes_tls.local();
+      for (int rx = 0; rx < cols; ++rx) {
+        Ray ray = cam.generate_ray((rx + 0.5f) * stride, (ry + 0.5f) * stride);
+        float T = 1.0f;
+        // Each hit votes with its compositing weight for the side facing the camera.
+        accel.walk(ray, [&](const GaussianHit& h) {
+          float w = T * h.alpha;
+          votes[h.id] += dot(field.normal[h.id], ray.d) < 0.0f ? w : -w;
+          T *= 1.0f - h.alpha;
+          return T >= min_T;
+        });
+      }
+    });
+  }
+
+  std::vector<float> votes(n, 0.0f);
+  for (const auto& local : votes_tls)
+    for (size_t i = 0; i < n; ++i) votes[i] += local[i];
+  std::vector<uint8_t> unseen(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (votes[i] < 0.0f) {
+      field.normal[i] = -field.normal[i];
+      stats.flipped++;
+    } else if (votes[i] == 0.0f) {
+      unseen[i] = 1;
+      stats.unseen++;
+    }
+  }
+  if (stats.unseen > 0) orient_normals_away_from_centroid(field, &unseen);
+  return stats;
+}
+
+}  // namespace ptir

@@ -1,0 +1,28 @@
+// Orienting initial normals toward the cameras that see them (METHOD §1).
+//
+// A trainer's PLY has no normals; the shortest axis is a good normal up to its
+// sign. Each camera traces primary rays and every Gaussian it reaches votes with
+// its compositing weight T_i alpha_i for the sign that faces that camera. Normals
+// with a negative vote are flipped; Gaussians no ray reached fall back to facing
+// away from the field's centroid.
+#pragma once
+
+#include <vector>
+
+#include "ptir/accel/scene_accel.h"
+#include "ptir/scene/camera.h"
+
+namespace ptir {
+
+struct OrientStats {
+  size_t flipped = 0;
+  size_t unseen = 0;  // oriented by the centroid fallback
+};
+
+// Only normals that did not come from the file are re-oriented (all of them when
+// field.normals_from_file is false). rays_per_camera bounds the cost: the image
+// grid is subsampled to about that many rays.
+OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& accel, const std::vector<Camera>& cameras,
+                                      int rays_per_camera = 256 * 256);
+
+}  // namespace ptir

@@ -1,0 +1,302 @@
+"""Builds the bundled sample: a procedural object turned into a 3DGS splat file.
+
+Run inside Blender (3.4+):
+    blender -b --factory-startup -noaudio -P scripts/make_sample_splat.py -- \
+        --out DIR [--subdiv N] [--views N] [--res R]
+
+Scene: Suzanne (head and eyes in distinct colours) resting on a box pedestal,
+standing on a floor plane. The object's SURFACE becomes flat Gaussians, one per
+face, exactly as a 3DGS trainer would store them (INRIA layout: log scales,
+w,x,y,z quaternion, logit opacity, degree-3 SH with f_rest zero, nx,ny,nz = 0).
+Each Gaussian lies in its face's plane (local z = face normal), spans the face in
+plane so that neighbours overlap into an opaque shell, and is very thin along the
+normal, so the engine must recover normals from the shortest axis.
+
+Writes into DIR:
+    gaussians.ply         the splats (binary little-endian)
+    floor.ply             the floor as a triangle mesh (for splats + mesh scenes)
+    transforms_test.json  NeRF-synthetic cameras on a ring around the object
+
+--subdiv is Suzanne's Catmull-Clark level: 3 (default) gives ~35K Gaussians in a
+few seconds, 4 gives ~130K (the benchmark size).
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+
+import bpy
+import numpy as np
+
+SH_C0 = 0.28209479177387814  # degree-0 real spherical harmonic
+SH_REST = 45                 # f_rest count of a degree-3 trainer file (15 coefficients x 3)
+OPACITY = 0.95
+SPREAD = 0.6                 # in-plane sigma / face extent: neighbours overlap to O > 0.8 at seams
+THIN = 1e-3                  # normal-axis sigma / in-plane sigma (a flat disc, as trainers converge to)
+FOV_X = 0.6911112            # NeRF-synthetic's camera_angle_x
+
+# Display colours (sRGB-ish, as a trainer's SH DC term would store them).
+COLOURS = {
+    "head": (0.85, 0.42, 0.16),
+    "eyes": (0.08, 0.10, 0.16),
+    "pedestal_top": (0.82, 0.80, 0.74),
+    "pedestal_side": (0.18, 0.42, 0.55),
+}
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="make_sample_splat.py", description=__doc__.split("\n")[0])
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--subdiv", type=int, default=3, help="Suzanne subdivision level (3: ~35K, 4: ~130K Gaussians)")
+    p.add_argument("--views", type=int, default=8, help="number of ring cameras")
+    p.add_argument("--res", type=int, default=400, help="image width and height of the cameras")
+    return p.parse_args(argv)
+
+
+def material(name):
+    mat = bpy.data.materials.new(name)
+    mat.diffuse_color = (*COLOURS[name], 1.0)
+    return mat
+
+
+# ---------------------------------------------------------------- scene building
+
+def clear_scene():
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj, do_unlink=True)
+
+
+def make_pedestal(size, height):
+    """Open-bottomed box with near-square faces about `size / 24` wide."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.5 * height))
+    obj = bpy.context.active_object
+    obj.name = "pedestal"
+    obj.scale = (size, size, height)
+    bpy.ops.object.transform_apply(scale=True)
+    obj.data.materials.append(material("pedestal_top"))
+    obj.data.materials.append(material("pedestal_side"))
+    # The bottom rests on the floor and is never seen.
+    import bmesh
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[f for f in bm.faces if f.normal.z < -0.9], context="FACES")
+    for f in bm.faces:
+        f.material_index = 0 if f.normal.z > 0.9 else 1
+    bm.to_mesh(obj.data)
+    bm.free()
+    # Uniform cuts give square faces on top; the sides' strips stay anisotropic,
+    # which exercises elongated Gaussians.
+    mod = obj.modifiers.new("grid", "SUBSURF")
+    mod.subdivision_type = "SIMPLE"
+    mod.levels = mod.render_levels = 5
+    return obj
+
+
+def make_suzanne(level, rest_z):
+    """Suzanne facing -y, sitting on z = rest_z; head and eyes as separate objects."""
+    bpy.ops.mesh.primitive_monkey_add(size=1.2, location=(0.0, 0.0, 0.0))
+    head = bpy.context.active_object
+    head.rotation_euler = (math.radians(-10.0), 0.0, 0.0)  # tilt the chin onto the pedestal
+    bpy.ops.object.transform_apply(rotation=True)
+    lowest = min(v.co.z for v in head.data.vertices)
+    head.location.z = rest_z - lowest - 0.02  # sink slightly: no gap under the chin
+    # The eyes are loose parts of the mesh: split them off to colour them.
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.separate(type="LOOSE")
+    bpy.ops.object.mode_set(mode="OBJECT")
+    parts = [o for o in bpy.context.selected_objects]
+    parts.sort(key=lambda o: len(o.data.vertices), reverse=True)
+    for i, obj in enumerate(parts):
+        obj.name = "head" if i == 0 else "eye_%d" % i
+        obj.data.materials.clear()
+        obj.data.materials.append(material("head" if i == 0 else "eyes"))
+        mod = obj.modifiers.new("smooth", "SUBSURF")
+        mod.levels = mod.render_levels = level
+    return parts
+
+
+# ---------------------------------------------------------------- faces -> Gaussians
+
+def world_polygons(obj, depsgraph):
+    """Evaluated (modifiers applied) world-space loop positions and polygon layout."""
+    ev = obj.evaluated_get(depsgraph)
+    mesh = ev.to_mesh()
+    co = np.empty(len(mesh.vertices) * 3, np.float64)
+    mesh.vertices.foreach_get("co", co)
+    m = np.array(obj.matrix_world)
+    co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    n_poly = len(mesh.polygons)
+    start = np.empty(n_poly, np.int64)
+    total = np.empty(n_poly, np.int64)
+    mat = np.empty(n_poly, np.int64)
+    mesh.polygons.foreach_get("loop_start", start)
+    mesh.polygons.foreach_get("loop_total", total)
+    mesh.polygons.foreach_get("material_index", mat)
+    loop_vert = np.empty(len(mesh.loops), np.int64)
+    mesh.loops.foreach_get("vertex_index", loop_vert)
+    ev.to_mesh_clear()
+    # Loops are stored polygon by polygon, so reduceat over `start` sums per polygon.
+    order = np.argsort(start)
+    return co[loop_vert], start[order], total[order], mat[order]
+
+
+def matrices_to_quaternions(r):
+    """(n, 3, 3) rotation matrices (columns = local axes) -> (n, 4) unit w, x, y, z.
+
+    Shepperd's method: build the quaternion from its largest component for accuracy.
+    """
+    m = r
+    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
+    cand = np.stack([1 + tr, 1 + 2 * m[:, 0, 0] - tr, 1 + 2 * m[:, 1, 1] - tr, 1 + 2 * m[:, 2, 2] - tr], axis=1)
+    big = np.argmax(cand, axis=1)
+    s = 2.0 * np.sqrt(np.maximum(cand[np.arange(len(m)), big], 1e-12))
+    a21, a12 = m[:, 2, 1], m[:, 1, 2]
+    a02, a20 = m[:, 0, 2], m[:, 2, 0]
+    a10, a01 = m[:, 1, 0], m[:, 0, 1]
+    q = np.empty((len(m), 4))
+    rows = [  # (w, x, y, z) * s for each choice of largest component
+        (s * s / 4, a21 - a12, a02 - a20, a10 - a01),
+        (a21 - a12, s * s / 4, a01 + a10, a02 + a20),
+        (a02 - a20, a01 + a10, s * s / 4, a12 + a21),
+        (a10 - a01, a02 + a20, a12 + a21, s * s / 4),
+    ]
+    for k, row in enumerate(rows):
+        sel = big == k
+        for c in range(4):
+            q[sel, c] = row[c][sel] / s[sel]
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)  # canonical sign: w >= 0
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def polygons_to_gaussians(loops, start, total, colour_of_poly):
+    """One flat Gaussian per polygon: centre, in-plane frame and extents, colour."""
+    n = len(start)
+    poly_of_loop = np.repeat(np.arange(n), total)
+    centre = np.add.reduceat(loops, start, axis=0) / total[:, None]
+    # Newell's normal: robust for any (even non-planar) polygon.
+    nxt = np.arange(len(loops)) + 1
+    last = start + total - 1
+    nxt[last] = start
+    normal = np.add.reduceat(np.cross(loops, loops[nxt]), start, axis=0)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    # Tangent along the first edge, made orthogonal to the normal.
+    t = loops[start + 1] - loops[start]
+    t -= normal * np.sum(t * normal, axis=1, keepdims=True)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(normal, t)
+    # Extent of the polygon along t and b.
+    d = loops - centre[poly_of_loop]
+    pt = np.sum(d * t[poly_of_loop], axis=1)
+    pb = np.sum(d * b[poly_of_loop], axis=1)
+    ext_t = np.maximum.reduceat(pt, start) - np.minimum.reduceat(pt, start)
+    ext_b = np.maximum.reduceat(pb, start) - np.minimum.reduceat(pb, start)
+    sigma_t, sigma_b = SPREAD * ext_t, SPREAD * ext_b
+    sigma_n = THIN * np.maximum(sigma_t, sigma_b)
+    rot = matrices_to_quaternions(np.stack([t, b, normal], axis=2))
+    return {
+        "position": centre,
+        "scale": np.stack([sigma_t, sigma_b, sigma_n], axis=1),
+        "rotation": rot,
+        "colour": colour_of_poly,
+    }
+
+
+def object_gaussians(obj, depsgraph):
+    loops, start, total, mat = world_polygons(obj, depsgraph)
+    palette = np.array([m.diffuse_color[:3] for m in obj.data.materials])
+    return polygons_to_gaussians(loops, start, total, palette[mat])
+
+
+# ---------------------------------------------------------------- files
+
+def write_gaussians_ply(path, g):
+    """INRIA 3DGS layout, binary little-endian float32, written in one block."""
+    names = (["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"]
+             + ["f_rest_%d" % i for i in range(SH_REST)]
+             + ["opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"])
+    n = len(g["position"])
+    rec = np.zeros(n, dtype=[(name, "<f4") for name in names])
+    for i, axis in enumerate("xyz"):
+        rec[axis] = g["position"][:, i]
+    for i in range(3):
+        rec["f_dc_%d" % i] = (g["colour"][:, i] - 0.5) / SH_C0
+        rec["scale_%d" % i] = np.log(g["scale"][:, i])
+    for i in range(4):
+        rec["rot_%d" % i] = g["rotation"][:, i]
+    rec["opacity"] = math.log(OPACITY / (1.0 - OPACITY))
+    header = "ply\nformat binary_little_endian 1.0\nelement vertex %d\n" % n
+    header += "".join("property float %s\n" % name for name in names) + "end_header\n"
+    with open(path, "wb") as f:
+        f.write(header.encode("ascii"))
+        f.write(rec.tobytes())
+
+
+def write_floor_ply(path, half_size):
+    """A square floor at z = 0, two triangles facing +z (ASCII PLY)."""
+    h = half_size
+    verts = [(-h, -h, 0.0), (h, -h, 0.0), (h, h, 0.0), (-h, h, 0.0)]
+    faces = [(0, 1, 2), (0, 2, 3)]
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\ncomment PTIR sample floor\n")
+        f.write("element vertex %d\nproperty float x\nproperty float y\nproperty float z\n" % len(verts))
+        f.write("element face %d\nproperty list uchar int vertex_indices\nend_header\n" % len(faces))
+        for v in verts:
+            f.write("%g %g %g\n" % v)
+        for tri in faces:
+            f.write("3 %d %d %d\n" % tri)
+
+
+def look_at(eye, target):
+    """Camera-to-world 4x4 (NeRF/Blender: camera looks down -z, +y up, world z up)."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    back = eye - target
+    back /= np.linalg.norm(back)
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, up, back, eye
+    return m
+
+
+def write_transforms(path, views, res, target, radius, height):
+    frames = []
+    for i in range(views):
+        # Frame 0 looks at Suzanne's face (she faces -y).
+        phi = -0.5 * math.pi + 2.0 * math.pi * i / views
+        eye = (radius * math.cos(phi), radius * math.sin(phi), height)
+        frames.append({"file_path": "./test_%03d/rgba" % i,
+                       "transform_matrix": look_at(eye, target).round(6).tolist()})
+    with open(path, "w") as f:
+        json.dump({"camera_angle_x": FOV_X, "w": res, "h": res, "frames": frames}, f, indent=1)
+
+
+def main():
+    args = parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    clear_scene()
+    pedestal_height = 0.3
+    parts = [make_pedestal(2.0, pedestal_height)] + make_suzanne(args.subdiv, pedestal_height)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    pieces = [object_gaussians(o, depsgraph) for o in parts]
+    g = {key: np.concatenate([p[key] for p in pieces]) for key in pieces[0]}
+    write_gaussians_ply(os.path.join(args.out, "gaussians.ply"), g)
+    write_floor_ply(os.path.join(args.out, "floor.ply"), 5.0)
+    write_transforms(os.path.join(args.out, "transforms_test.json"), args.views, args.res,
+                     target=(0.0, 0.0, 0.75), radius=4.5, height=2.2)
+    print("make_sample_splat: %d Gaussians, %d views (%dx%d) -> %s"
+          % (len(g["position"]), args.views, args.res, args.res, os.path.abspath(args.out)))
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except Exception as e:  # blender -b would otherwise exit 0 after a traceback
+        import traceback
+        traceback.print_exc()
+        print("make_sample_splat: error: %s" % e, file=sys.stderr)
+        sys.exit(1)
