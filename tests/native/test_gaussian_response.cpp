@@ -43,7 +43,10 @@ double density(const Mat3d& inv, Vec3 mu, double x, double y, double z) {
 
 TEST(GaussianResponse, PeakAndResponseMatchBruteForceSampling) {
   GaussianField f = test::random_field(40, 7, 0.05f, 0.5f);
-  auto data = make_trace_data(f);
+  auto sorted = make_trace_data(f);
+  // The trace data is stored in spatial order; index it by Gaussian id here.
+  std::vector<GaussianTraceData> data(sorted.size());
+  for (const auto& g : sorted) data[g.id] = g;
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   int checked = 0;

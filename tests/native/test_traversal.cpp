@@ -50,8 +50,8 @@ std::vector<GaussianHit> naive_hits(const std::vector<GaussianTraceData>& data, 
   for (uint32_t i = 0; i < data.size(); ++i) {
     PeakResponse p = peak_response(data[i], r.o, r.d);
     if (!(p.t >= r.tmin) || !(p.t < t_end)) continue;
-    float a = hit_alpha(p, data[i].opacity, cull);
-    if (a > 0) hits.push_back({p.t, a, i});
+    float a = hit_alpha(p.d2, data[i].opacity, data[i].accept_d2, cull);
+    if (a > 0) hits.push_back({p.t, a, data[i].id});
   }
   std::sort(hits.begin(), hits.end(), [](const GaussianHit& a, const GaussianHit& b) { return a.t < b.t || (a.t == b.t && a.id < b.id); });
   float T = 1;

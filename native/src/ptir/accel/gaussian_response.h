@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 
 #include "ptir/math/vec.h"
 
@@ -25,7 +26,9 @@ struct CullSettings {
 struct alignas(64) GaussianTraceData {
   Vec3 mu;
   float opacity;
-  Mat3 to_unit;  // S^-1 R^T: world offset -> unit space
+  Mat3 to_unit;      // S^-1 R^T: world offset -> unit space
+  float accept_d2;   // accept_radius_sq(opacity): hits need D^2 <= this (< 0: never)
+  uint32_t id;       // index of the Gaussian in the field
 };
 
 struct PeakResponse {
@@ -34,13 +37,27 @@ struct PeakResponse {
   float response;  // rho = exp(-d2 / 2)
 };
 
+// The ray in a Gaussian's unit space.
+struct UnitRay {
+  Vec3 ou, du;
+  float dd;  // |du|^2
+};
+
+inline UnitRay to_unit_ray(const GaussianTraceData& g, Vec3 o, Vec3 d) {
+  UnitRay u;
+  u.ou = g.to_unit * (o - g.mu);
+  u.du = g.to_unit * d;
+  u.dd = dot(u.du, u.du);
+  return u;
+}
+inline float peak_t(const UnitRay& u) { return -dot(u.ou, u.du) / u.dd; }
+inline float peak_d2(const UnitRay& u) { return length_sq(cross(u.du, u.ou)) / u.dd; }
+
 inline PeakResponse peak_response(const GaussianTraceData& g, Vec3 o, Vec3 d) {
-  Vec3 ou = g.to_unit * (o - g.mu);
-  Vec3 du = g.to_unit * d;
-  float dd = dot(du, du);
+  UnitRay u = to_unit_ray(g, o, d);
   PeakResponse p;
-  p.t = -dot(ou, du) / dd;
-  p.d2 = length_sq(cross(du, ou)) / dd;
+  p.t = peak_t(u);
+  p.d2 = peak_d2(u);
   p.response = std::exp(-0.5f * p.d2);
   return p;
 }
@@ -60,12 +77,16 @@ inline float accept_radius_sq(float sigma, const CullSettings& cull) {
   return std::min(r_response, r_alpha);
 }
 
-// Alpha of an accepted hit, or 0 when culled.
+// Alpha of a hit at squared distance d2, or 0 when culled. The test on D^2 is the
+// cull rule (rho >= min_response and sigma rho >= min_alpha) in closed form, and
+// lets the traversal reject a candidate before evaluating exp.
+inline float hit_alpha(float d2, float sigma, float accept_d2, const CullSettings& cull) {
+  if (!(d2 <= accept_d2)) return 0.0f;
+  return std::min(cull.max_alpha, sigma * std::exp(-0.5f * d2));
+}
+
 inline float hit_alpha(const PeakResponse& p, float sigma, const CullSettings& cull) {
-  if (p.response < cull.min_response) return 0.0f;
-  float a = sigma * p.response;
-  if (a < cull.min_alpha) return 0.0f;
-  return std::min(cull.max_alpha, a);
+  return hit_alpha(p.d2, sigma, accept_radius_sq(sigma, cull), cull);
 }
 
 }  // namespace ptir

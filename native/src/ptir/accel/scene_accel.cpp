@@ -31,12 +31,15 @@ struct BoxTable {
 struct RoundContext {
   RTCIntersectContext context;
   const GaussianTraceData* data;
+  uint32_t data_size;
+  uint32_t cluster;  // Gaussians per Embree primitive
   CullSettings cull;
   float t_start;
   int64_t id_start;
   GaussianHit* buffer;
   int k;
   int count;
+  uint64_t candidates;
 };
 
 inline bool hit_before(float t, uint32_t id, const GaussianHit& h) { return t < h.t || (t == h.t && id < h.id); }
@@ -46,36 +49,32 @@ void gaussian_bounds(const RTCBoundsFunctionArguments* args) {
   *args->bounds_o = table->boxes[args->primID];
 }
 
-// Intersect callback: evaluate the Gaussian's peak response and keep the hit in
-// the round's sorted k-buffer. It never reports a hit to Embree; it only shrinks
-// tfar once the buffer is full.
-void gaussian_intersect(const RTCIntersectFunctionNArguments* args) {
-  if (!args->valid[0]) return;
-  auto* rc = reinterpret_cast<RoundContext*>(args->context);
-  auto* rayhit = reinterpret_cast<RTCRayHit*>(args->rayhit);
+// Keeps one candidate hit in the round's sorted k-buffer; shrinks tfar once the
+// buffer is full.
+inline void consider(RoundContext* rc, RTCRayHit* rayhit, const GaussianTraceData& g, Vec3 o, Vec3 d) {
   RTCRay& ray = rayhit->ray;
-  const uint32_t id = args->primID;
-  const GaussianTraceData& g = rc->data[id];
+  const uint32_t id = g.id;
 
-  // Peak along the ray: after the last processed hit, before tfar, not culled.
-  Vec3 o(ray.org_x, ray.org_y, ray.org_z), d(ray.dir_x, ray.dir_y, ray.dir_z);
-  PeakResponse p = peak_response(g, o, d);
-  if (!(p.t >= rc->t_start) || (p.t == rc->t_start && int64_t(id) <= rc->id_start)) return;
-  if (!(p.t <= ray.tfar)) return;
-  float alpha = hit_alpha(p, g.opacity, rc->cull);
+  // Peak along the ray (unit space): after the last processed hit, before tfar.
+  UnitRay u = to_unit_ray(g, o, d);
+  float t = peak_t(u);
+  if (!(t >= rc->t_start) || (t == rc->t_start && int64_t(id) <= rc->id_start)) return;
+  if (!(t <= ray.tfar)) return;
+  // Cull on the squared distance at the peak; exp only for accepted hits.
+  float alpha = hit_alpha(peak_d2(u), g.opacity, g.accept_d2, rc->cull);
   if (alpha <= 0.0f) return;
 
   // Drop buffered hits that a triangle found since then hides.
   while (rc->count > 0 && rc->buffer[rc->count - 1].t > ray.tfar) rc->count--;
-  if (rc->count == rc->k && !hit_before(p.t, id, rc->buffer[rc->k - 1])) return;
+  if (rc->count == rc->k && !hit_before(t, id, rc->buffer[rc->k - 1])) return;
 
   // Insert into the sorted buffer (the last entry falls off when full).
   int i = std::min(rc->count, rc->k - 1);
-  while (i > 0 && hit_before(p.t, id, rc->buffer[i - 1])) {
+  while (i > 0 && hit_before(t, id, rc->buffer[i - 1])) {
     rc->buffer[i] = rc->buffer[i - 1];
     --i;
   }
-  rc->buffer[i] = GaussianHit{p.t, alpha, id};
+  rc->buffer[i] = GaussianHit{t, alpha, id};
   if (rc->count < rc->k) rc->count++;
 
   // A full buffer bounds the round: nothing behind its last hit matters now.
@@ -84,6 +83,20 @@ void gaussian_intersect(const RTCIntersectFunctionNArguments* args) {
     // A triangle found earlier lies behind the new tfar; a later round finds it again.
     rayhit->hit.geomID = kNoGeometry;
   }
+}
+
+// Intersect callback of one Embree primitive: a cluster of Gaussians adjacent in
+// memory (Morton order). It never reports a hit to Embree; it only fills the
+// k-buffer and shrinks tfar.
+void gaussian_intersect(const RTCIntersectFunctionNArguments* args) {
+  if (!args->valid[0]) return;
+  auto* rc = reinterpret_cast<RoundContext*>(args->context);
+  auto* rayhit = reinterpret_cast<RTCRayHit*>(args->rayhit);
+  const RTCRay& ray = rayhit->ray;
+  Vec3 o(ray.org_x, ray.org_y, ray.org_z), d(ray.dir_x, ray.dir_y, ray.dir_z);
+  uint32_t begin = args->primID * rc->cluster, end = std::min(begin + rc->cluster, rc->data_size);
+  rc->candidates += end - begin;
+  for (uint32_t slot = begin; slot < end; ++slot) consider(rc, rayhit, rc->data[slot], o, d);
 }
 
 void embree_error(void*, RTCError code, const char* message) {
@@ -117,17 +130,58 @@ void check_device(RTCDevice device, const char* what) {
 
 }  // namespace
 
-std::vector<GaussianTraceData> make_trace_data(const GaussianField& field) {
-  std::vector<GaussianTraceData> data(field.size());
+namespace {
+
+// Spreads the low 10 bits of v to every third bit (Morton code helper).
+uint32_t spread_bits(uint32_t v) {
+  v &= 0x3FF;
+  v = (v | (v << 16)) & 0x030000FF;
+  v = (v | (v << 8)) & 0x0300F00F;
+  v = (v | (v << 4)) & 0x030C30C3;
+  v = (v | (v << 2)) & 0x09249249;
+  return v;
+}
+
+// Gaussian indices sorted along a Morton curve over the field's bounds, so that
+// Gaussians close in space are close in memory: a ray's candidates then share
+// cache lines (the traversal is bound by memory latency, not arithmetic).
+std::vector<uint32_t> morton_order(const GaussianField& field) {
+  Vec3 lo(INFINITY), hi(-INFINITY);
+  for (const Vec3& p : field.position) {
+    lo = vmin(lo, p);
+    hi = vmax(hi, p);
+  }
+  Vec3 extent = vmax(hi - lo, Vec3(1e-20f));
+  std::vector<std::pair<uint32_t, uint32_t>> keys(field.size());
   for (size_t i = 0; i < field.size(); ++i) {
+    Vec3 q = (field.position[i] - lo) / extent * 1023.0f;
+    uint32_t code = (spread_bits(uint32_t(q.x)) << 2) | (spread_bits(uint32_t(q.y)) << 1) | spread_bits(uint32_t(q.z));
+    keys[i] = {code, uint32_t(i)};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<uint32_t> order(field.size());
+  for (size_t i = 0; i < keys.size(); ++i) order[i] = keys[i].second;
+  return order;
+}
+
+}  // namespace
+
+std::vector<GaussianTraceData> make_trace_data(const GaussianField& field, const CullSettings& cull) {
+  std::vector<uint32_t> order = morton_order(field);
+  std::vector<GaussianTraceData> data(field.size());
+  for (size_t slot = 0; slot < field.size(); ++slot) {
+    const uint32_t i = order[slot];
     Mat3 r = field.rotation_matrix(i);
     Vec3 s = field.scale[i];
     float s_floor = std::max(kMinScale, kMinScaleRatio * max_component(s));
     s = vmax(s, Vec3(s_floor));
     // Rows of S^-1 R^T are the local axes divided by their scales.
-    data[i].mu = field.position[i];
-    data[i].opacity = field.opacity[i];
-    data[i].to_unit = Mat3::from_rows(r.col(0) / s.x, r.col(1) / s.y, r.col(2) / s.z);
+    GaussianTraceData& g = data[slot];
+    g.mu = field.position[i];
+    g.opacity = field.opacity[i];
+    g.to_unit = Mat3::from_rows(r.col(0) / s.x, r.col(1) / s.y, r.col(2) / s.z);
+    g.accept_d2 = accept_radius_sq(field.opacity[i], cull);
+    g.id = i;
   }
   return data;
 }
@@ -172,7 +226,8 @@ void attach_mesh(RTCDevice device, RTCScene scene, const TriangleMesh& mesh, uns
 SceneAccel::SceneAccel(const GaussianField& field, const std::vector<TriangleMesh>& meshes, const AccelSettings& settings)
     : impl_(std::make_unique<Impl>()), field_(&field), meshes_(&meshes), settings_(settings) {
   if (settings_.k < 1 || settings_.k > kMaxK) throw Error("k-buffer size must be in 1.." + std::to_string(kMaxK));
-  data_ = make_trace_data(field);
+  if (settings_.cluster < 1 || settings_.cluster > 64) throw Error("Gaussians per BVH primitive must be in 1..64");
+  data_ = make_trace_data(field, settings_.cull);
   impl_->device = rtcNewDevice(nullptr);
   if (!impl_->device) throw Error("Embree device could not be created (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
   rtcSetDeviceErrorFunction(impl_->device, embree_error, nullptr);
@@ -184,21 +239,32 @@ SceneAccel::SceneAccel(const GaussianField& field, const std::vector<TriangleMes
   // Geometry 0: the Gaussians as user primitives bounded by their accepted ellipsoid.
   unsigned next_id = 0;
   if (field.size() > 0) {
-    impl_->boxes.boxes.resize(field.size());
-    for (size_t i = 0; i < field.size(); ++i) {
-      float r2 = accept_radius_sq(field.opacity[i], settings_.cull);
-      if (r2 < 0.0f) {
-        // Never a hit: an empty box far from everything.
-        RTCBounds b{};
+    // One box per cluster of consecutive (Morton-ordered) Gaussians: the union of
+    // their accepted ellipsoids' boxes; empty when none can ever be hit.
+    const size_t cluster = size_t(settings_.cluster);
+    const size_t clusters = (field.size() + cluster - 1) / cluster;
+    impl_->boxes.boxes.resize(clusters);
+    for (size_t c = 0; c < clusters; ++c) {
+      RTCBounds b{};
+      b.lower_x = b.lower_y = b.lower_z = INFINITY;
+      b.upper_x = b.upper_y = b.upper_z = -INFINITY;
+      for (size_t slot = c * cluster; slot < std::min((c + 1) * cluster, field.size()); ++slot) {
+        float r2 = data_[slot].accept_d2;
+        if (r2 < 0.0f) continue;
+        RTCBounds g = proxy_box(field, data_[slot].id, std::sqrt(r2) * kBoundPad);
+        b.lower_x = std::min(b.lower_x, g.lower_x); b.upper_x = std::max(b.upper_x, g.upper_x);
+        b.lower_y = std::min(b.lower_y, g.lower_y); b.upper_y = std::max(b.upper_y, g.upper_y);
+        b.lower_z = std::min(b.lower_z, g.lower_z); b.upper_z = std::max(b.upper_z, g.upper_z);
+      }
+      if (b.lower_x > b.upper_x) {
+        // Never a hit: an inverted box Embree skips.
         b.lower_x = b.lower_y = b.lower_z = 1.0f;
         b.upper_x = b.upper_y = b.upper_z = -1.0f;
-        impl_->boxes.boxes[i] = b;
-        continue;
       }
-      impl_->boxes.boxes[i] = proxy_box(field, i, std::sqrt(r2) * kBoundPad);
+      impl_->boxes.boxes[c] = b;
     }
     RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_USER);
-    rtcSetGeometryUserPrimitiveCount(geom, unsigned(field.size()));
+    rtcSetGeometryUserPrimitiveCount(geom, unsigned(clusters));
     rtcSetGeometryUserData(geom, &impl_->boxes);
     rtcSetGeometryBoundsFunction(geom, gaussian_bounds, nullptr);
     rtcSetGeometryIntersectFunction(geom, gaussian_intersect);
@@ -223,16 +289,20 @@ SceneAccel::SceneAccel(const GaussianField& field, const std::vector<TriangleMes
 
 SceneAccel::~SceneAccel() = default;
 
-int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more) const {
+int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more,
+                      uint64_t* candidates) const {
   RoundContext rc;
   rtcInitIntersectContext(&rc.context);
   rc.data = data_.data();
   rc.cull = settings_.cull;
   rc.t_start = t_start;
   rc.id_start = id_start;
+  rc.data_size = uint32_t(data_.size());
+  rc.cluster = uint32_t(settings_.cluster);
   rc.buffer = buffer;
   rc.k = settings_.k;
   rc.count = 0;
+  rc.candidates = 0;
 
   RTCRayHit rh;
   rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
@@ -246,6 +316,7 @@ int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianH
   rh.hit.geomID = kNoGeometry;
   rh.hit.instID[0] = kNoGeometry;
   rtcIntersect1(impl_->scene, &rc.context, &rh);
+  if (candidates) *candidates += rc.candidates;
 
   // A triangle hit survived: the walk ends there, after the Gaussians before it.
   if (rh.hit.geomID != kNoGeometry) {

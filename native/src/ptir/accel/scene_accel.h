@@ -36,7 +36,8 @@ struct MeshHit {
 
 struct TraceStats {
   uint64_t rounds = 0;
-  uint64_t hits = 0;  // hits handed to the visitor
+  uint64_t hits = 0;        // hits handed to the visitor
+  uint64_t candidates = 0;  // proxy boxes the rays entered (intersect callbacks)
 };
 
 // How a walk ended.
@@ -47,7 +48,8 @@ struct WalkEnd {
 
 struct AccelSettings {
   CullSettings cull;
-  int k = 16;  // hits collected per traversal round (1..64)
+  int k = 16;        // hits collected per traversal round (1..64)
+  int cluster = 1;   // Gaussians per BVH primitive (consecutive in Morton order)
 };
 
 class SceneAccel {
@@ -77,7 +79,8 @@ class SceneAccel {
   // (id_start = -1 admits t_peak == t_start), sorted; returns the count. Sets *mesh
   // when a triangle lies before every hit beyond the buffer (the walk ends there);
   // *more = true when hits may remain after the last one returned.
-  int round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more) const;
+  int round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more,
+            uint64_t* candidates = nullptr) const;
 
  private:
   struct Impl;
@@ -88,8 +91,8 @@ class SceneAccel {
   std::vector<GaussianTraceData> data_;
 };
 
-// Builds the per-Gaussian trace data (unit-space transform, opacity).
-std::vector<GaussianTraceData> make_trace_data(const GaussianField& field);
+// Builds the per-Gaussian trace data (unit-space transform, opacity, accepted radius).
+std::vector<GaussianTraceData> make_trace_data(const GaussianField& field, const CullSettings& cull = {});
 
 template <class Visit>
 WalkEnd SceneAccel::walk(const Ray& ray, Visit&& visit, TraceStats* stats) const {
@@ -100,7 +103,7 @@ WalkEnd SceneAccel::walk(const Ray& ray, Visit&& visit, TraceStats* stats) const
   for (;;) {
     MeshHit mesh;
     bool more = false;
-    int n = round(ray, t_start, id_start, buffer, &mesh, &more);
+    int n = round(ray, t_start, id_start, buffer, &mesh, &more, stats ? &stats->candidates : nullptr);
     if (stats) stats->rounds++;
     // Hand this round's hits to the visitor in order.
     for (int i = 0; i < n; ++i) {

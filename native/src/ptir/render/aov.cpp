@@ -34,7 +34,7 @@ const char* aov_name(Aov aov) {
 Encoding aov_encoding(Aov aov) { return (aov == Aov::Albedo || aov == Aov::Preview) ? Encoding::Colour : Encoding::Data; }
 
 AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
-                    TraceStats* stats) {
+                    bool with_preview, TraceStats* stats) {
   const GaussianField& field = accel.field();
   InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, pick_key);
   Vec3 preview;
@@ -42,7 +42,7 @@ AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& 
   WalkEnd end = accel.walk(
       ray,
       [&](const GaussianHit& h) {
-        preview += (builder.transmittance() * h.alpha) * field.sh_colour(h.id, ray.d);
+        if (with_preview) preview += (builder.transmittance() * h.alpha) * field.sh_colour(h.id, ray.d);
         return builder.add(h);
       },
       stats);
@@ -115,7 +115,7 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
   const int nc = image.channels;
   const int spp = settings.spp;
   std::atomic<int> rows_done{0};
-  std::atomic<uint64_t> rounds{0}, hits{0};
+  std::atomic<uint64_t> rounds{0}, hits{0}, candidates{0};
   std::mutex progress_mutex;
 
   tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, 8, 0, camera.width, 8), [&](const tbb::blocked_range2d<int>& r) {
@@ -131,7 +131,7 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
           Rng rng(settings.seed, pixel, uint64_t(s));
           float jx = spp == 1 ? 0.5f : rng.at(0), jy = spp == 1 ? 0.5f : rng.at(1);
           Ray ray = camera.generate_ray(float(x) + jx, float(y) + jy);
-          AovSample smp = trace_aov(accel, ray, settings, rng.key(), &local);
+          AovSample smp = trace_aov(accel, ray, settings, rng.key(), aov == Aov::Preview, &local);
           float v[4] = {0, 0, 0, 0};
           aov_values(aov, smp, v);
           // Data channels are averaged over covered samples; colour is premultiplied.
@@ -147,6 +147,7 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
     }
     rounds += local.rounds;
     hits += local.hits;
+    candidates += local.candidates;
     int done = rows_done.fetch_add(int(r.rows().size() * r.cols().size()));
     if (control.progress) {
       std::lock_guard<std::mutex> lock(progress_mutex);
@@ -157,6 +158,7 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
   if (stats) {
     stats->rounds += rounds;
     stats->hits += hits;
+    stats->candidates += candidates;
   }
   return image;
 }

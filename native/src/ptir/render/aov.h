@@ -43,8 +43,9 @@ struct AovSample {
   Vec3 preview;          // SH colour composited, plus the transmitted mesh colour
 };
 
+// The preview colour (SH evaluated per hit) is only computed when with_preview is set.
 AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
-                    TraceStats* stats = nullptr);
+                    bool with_preview, TraceStats* stats = nullptr);
 
 // Image layouts: opacity -> A; depth -> Z, A; normal -> X, Y, Z, A (world space,
 // 8-bit as 0.5 + 0.5 n); albedo/preview -> R, G, B, A; roughness/metallic -> Y, A.
