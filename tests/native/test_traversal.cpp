@@ -65,14 +65,21 @@ std::vector<GaussianHit> naive_hits(const std::vector<GaussianTraceData>& data, 
   return hits;
 }
 
-std::vector<GaussianHit> walk_hits(const SceneAccel& accel, const Ray& r) {
+// The walk with a compositing visitor; with stop_when_opaque the traversal also
+// prunes behind the point where the ray turns opaque.
+std::vector<GaussianHit> walk_hits(const SceneAccel& accel, const Ray& r, bool stop_when_opaque = false,
+                                   WalkEnd* end_out = nullptr) {
   std::vector<GaussianHit> hits;
   float T = 1;
-  accel.walk(r, [&](const GaussianHit& h) {
-    hits.push_back(h);
-    T *= 1 - h.alpha;
-    return T >= accel.settings().cull.min_transmittance;
-  });
+  WalkEnd end = accel.walk(
+      r,
+      [&](const GaussianHit& h) {
+        hits.push_back(h);
+        T *= 1 - h.alpha;
+        return T >= accel.settings().cull.min_transmittance;
+      },
+      nullptr, stop_when_opaque);
+  if (end_out) *end_out = end;
   return hits;
 }
 
@@ -111,8 +118,8 @@ TEST_P(TraversalVsNaive, IdenticalHitSets) {
   for (int i = 0; i < 400; ++i) {
     Ray r = random_ray(rng, i % 2 == 1);
     auto expected = naive_hits(accel.trace_data(), r, r.tmax, settings.cull);
-    auto got = walk_hits(accel, r);
-    expect_same_hits(got, expected, i);
+    expect_same_hits(walk_hits(accel, r, false), expected, i);
+    expect_same_hits(walk_hits(accel, r, true), expected, i);
     total += expected.size();
   }
   EXPECT_GT(total, 2000u);  // the rays really cross the field
@@ -174,20 +181,17 @@ TEST(Traversal, RandomFieldWithWallsMatchesNaive) {
       Ray r = random_ray(rng, i % 3 == 0);
       double t_mesh = naive_mesh_t(r, meshes);
       auto expected = naive_hits(accel.trace_data(), r, float(t_mesh), settings.cull);
-      std::vector<GaussianHit> got;
-      float T = 1;
-      WalkEnd end = accel.walk(r, [&](const GaussianHit& h) {
-        got.push_back(h);
-        T *= 1 - h.alpha;
-        return T >= settings.cull.min_transmittance;
-      });
-      // Skip rays grazing a mesh edge where float and double disagree on the hit.
-      if (std::isfinite(t_mesh) && !end.stopped && !end.mesh.valid) continue;
-      if (end.mesh.valid) {
-        mesh_rays++;
-        EXPECT_NEAR(end.mesh.t, t_mesh, 1e-4 * (1 + t_mesh)) << "ray " << i;
+      for (bool opaque_walk : {false, true}) {
+        WalkEnd end;
+        auto got = walk_hits(accel, r, opaque_walk, &end);
+        // Skip rays grazing a mesh edge where float and double disagree on the hit.
+        if (std::isfinite(t_mesh) && !end.stopped && !end.mesh.valid) continue;
+        if (end.mesh.valid) {
+          mesh_rays++;
+          EXPECT_NEAR(end.mesh.t, t_mesh, 1e-4 * (1 + t_mesh)) << "ray " << i;
+        }
+        expect_same_hits(got, expected, i);
       }
-      expect_same_hits(got, expected, i);
     }
     EXPECT_GT(mesh_rays, 50);
   }
@@ -228,4 +232,30 @@ TEST(Traversal, AovsMatchNaiveComposite) {
       }
     }
   EXPECT_GT(valid, 50);
+}
+
+TEST(Traversal, OpaqueWalkMatchesNaiveOnDenseField) {
+  // Dense field with walls inside it: most rays turn opaque, some reach a wall first.
+  GaussianField field = test::random_field(3000, 41, 0.03f, 0.15f);
+  std::vector<TriangleMesh> meshes = {test::quad_z(0.3f, 0.5f)};
+  for (int k : {2, 8, 32}) {
+    AccelSettings settings;
+    settings.k = k;
+    SceneAccel accel(field, meshes, settings);
+    std::mt19937 rng(17);
+    int opaque_rays = 0, mesh_rays = 0;
+    for (int i = 0; i < 300; ++i) {
+      Ray r = random_ray(rng, i % 4 == 0);
+      double t_mesh = naive_mesh_t(r, meshes);
+      auto expected = naive_hits(accel.trace_data(), r, float(t_mesh), settings.cull);
+      WalkEnd end;
+      auto got = walk_hits(accel, r, true, &end);
+      if (std::isfinite(t_mesh) && !end.stopped && !end.mesh.valid) continue;  // grazing a wall edge
+      opaque_rays += end.stopped;
+      mesh_rays += end.mesh.valid;
+      expect_same_hits(got, expected, i);
+    }
+    EXPECT_GT(opaque_rays, 100) << "k=" << k;
+    EXPECT_GT(mesh_rays, 5) << "k=" << k;
+  }
 }

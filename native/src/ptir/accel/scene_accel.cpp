@@ -40,6 +40,11 @@ struct RoundContext {
   int k;
   int count;
   uint64_t candidates;
+  // Opacity-aware cut: T_after[i] = T0 * prod_{j<=i} (1 - alpha_j) over the buffer.
+  float T0;
+  float min_T;  // 0: no cut
+  bool opaque;  // the buffer ends at the hit where T fell below min_T
+  float T_after[SceneAccel::kMaxK];
 };
 
 inline bool hit_before(float t, uint32_t id, const GaussianHit& h) { return t < h.t || (t == h.t && id < h.id); }
@@ -64,9 +69,14 @@ inline void consider(RoundContext* rc, RTCRayHit* rayhit, const GaussianTraceDat
   float alpha = hit_alpha(peak_d2(u), g.opacity, g.accept_d2, rc->cull);
   if (alpha <= 0.0f) return;
 
-  // Drop buffered hits that a triangle found since then hides.
-  while (rc->count > 0 && rc->buffer[rc->count - 1].t > ray.tfar) rc->count--;
-  if (rc->count == rc->k && !hit_before(t, id, rc->buffer[rc->k - 1])) return;
+  // Drop buffered hits that a triangle found since then hides (the opaque cut, being
+  // the last entry, goes first).
+  while (rc->count > 0 && rc->buffer[rc->count - 1].t > ray.tfar) {
+    rc->count--;
+    rc->opaque = false;
+  }
+  // Behind the last entry of a full or opaque buffer: never needed.
+  if ((rc->count == rc->k || rc->opaque) && !hit_before(t, id, rc->buffer[rc->count - 1])) return;
 
   // Insert into the sorted buffer (the last entry falls off when full).
   int i = std::min(rc->count, rc->k - 1);
@@ -77,9 +87,24 @@ inline void consider(RoundContext* rc, RTCRayHit* rayhit, const GaussianTraceDat
   rc->buffer[i] = GaussianHit{t, alpha, id};
   if (rc->count < rc->k) rc->count++;
 
-  // A full buffer bounds the round: nothing behind its last hit matters now.
-  if (rc->count == rc->k && rc->buffer[rc->k - 1].t < ray.tfar) {
-    ray.tfar = rc->buffer[rc->k - 1].t;
+  // Opacity cut: once the buffered prefix is opaque, nothing behind it is visited.
+  if (rc->min_T > 0.0f) {
+    rc->opaque = false;  // entries before i are not opaque (else this hit would lie behind the cut)
+    float T = i == 0 ? rc->T0 : rc->T_after[i - 1];
+    for (int j = i; j < rc->count; ++j) {
+      T *= 1.0f - rc->buffer[j].alpha;
+      rc->T_after[j] = T;
+      if (T < rc->min_T) {
+        rc->count = j + 1;
+        rc->opaque = true;
+        break;
+      }
+    }
+  }
+
+  // A full (or opaque) buffer bounds the round: nothing behind its last hit matters now.
+  if ((rc->count == rc->k || rc->opaque) && rc->buffer[rc->count - 1].t < ray.tfar) {
+    ray.tfar = rc->buffer[rc->count - 1].t;
     // A triangle found earlier lies behind the new tfar; a later round finds it again.
     rayhit->hit.geomID = kNoGeometry;
   }
@@ -290,7 +315,7 @@ SceneAccel::SceneAccel(const GaussianField& field, const std::vector<TriangleMes
 SceneAccel::~SceneAccel() = default;
 
 int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more,
-                      uint64_t* candidates) const {
+                      uint64_t* candidates, float T0, float min_transmittance) const {
   RoundContext rc;
   rtcInitIntersectContext(&rc.context);
   rc.data = data_.data();
@@ -303,6 +328,9 @@ int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianH
   rc.k = settings_.k;
   rc.count = 0;
   rc.candidates = 0;
+  rc.T0 = T0;
+  rc.min_T = min_transmittance;
+  rc.opaque = false;
 
   RTCRayHit rh;
   rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
@@ -331,8 +359,8 @@ int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianH
     return rc.count;
   }
   mesh->valid = false;
-  // Hits may remain only if the buffer filled up.
-  *more = rc.count == rc.k;
+  // Hits may remain only if the buffer filled up before the ray became opaque.
+  *more = rc.count == rc.k && !rc.opaque;
   return rc.count;
 }
 

@@ -64,8 +64,14 @@ class SceneAccel {
   // Calls visit(const GaussianHit&) for every accepted Gaussian hit with
   // ray.tmin <= t_peak < min(ray.tmax, first mesh hit), in (t_peak, id) order,
   // until visit returns false. ray.d must be unit length.
+  //
+  // stop_when_opaque: the walk itself also stops after the first hit at which the
+  // transmittance prod(1 - alpha) of the hits visited falls below
+  // cull.min_transmittance, and it prunes the BVH behind that hit while collecting
+  // (opacity-aware k-buffer). Only for visitors that consume every hit in order
+  // and would stop there anyway (compositing); not for visitors that skip hits.
   template <class Visit>
-  WalkEnd walk(const Ray& ray, Visit&& visit, TraceStats* stats = nullptr) const;
+  WalkEnd walk(const Ray& ray, Visit&& visit, TraceStats* stats = nullptr, bool stop_when_opaque = false) const;
 
   // Closest triangle hit in [ray.tmin, ray.tmax], ignoring Gaussians.
   MeshHit closest_mesh(const Ray& ray) const;
@@ -78,9 +84,11 @@ class SceneAccel {
   // One traversal round: the up-to-k closest hits after (t_start, id_start)
   // (id_start = -1 admits t_peak == t_start), sorted; returns the count. Sets *mesh
   // when a triangle lies before every hit beyond the buffer (the walk ends there);
-  // *more = true when hits may remain after the last one returned.
+  // *more = true when hits may remain after the last one returned. With
+  // min_transmittance > 0 the buffer is cut after the first hit at which T0 times
+  // the buffered prefix's transmittance falls below it (then *more = false).
   int round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more,
-            uint64_t* candidates = nullptr) const;
+            uint64_t* candidates = nullptr, float T0 = 1.0f, float min_transmittance = 0.0f) const;
 
  private:
   struct Impl;
@@ -95,20 +103,23 @@ class SceneAccel {
 std::vector<GaussianTraceData> make_trace_data(const GaussianField& field, const CullSettings& cull = {});
 
 template <class Visit>
-WalkEnd SceneAccel::walk(const Ray& ray, Visit&& visit, TraceStats* stats) const {
+WalkEnd SceneAccel::walk(const Ray& ray, Visit&& visit, TraceStats* stats, bool stop_when_opaque) const {
   GaussianHit buffer[kMaxK];
   float t_start = ray.tmin;
   int64_t id_start = -1;
+  const float min_T = stop_when_opaque ? settings_.cull.min_transmittance : 0.0f;
+  float T = 1.0f;  // transmittance of the hits visited so far
   WalkEnd end;
   for (;;) {
     MeshHit mesh;
     bool more = false;
-    int n = round(ray, t_start, id_start, buffer, &mesh, &more, stats ? &stats->candidates : nullptr);
+    int n = round(ray, t_start, id_start, buffer, &mesh, &more, stats ? &stats->candidates : nullptr, T, min_T);
     if (stats) stats->rounds++;
     // Hand this round's hits to the visitor in order.
     for (int i = 0; i < n; ++i) {
       if (stats) stats->hits++;
-      if (!visit(buffer[i])) {
+      T *= 1.0f - buffer[i].alpha;
+      if (!visit(buffer[i]) || T < min_T) {
         end.stopped = true;
         return end;
       }

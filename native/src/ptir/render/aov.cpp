@@ -45,7 +45,7 @@ AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& 
         if (with_preview) preview += (builder.transmittance() * h.alpha) * field.sh_colour(h.id, ray.d);
         return builder.add(h);
       },
-      stats);
+      stats, /*stop_when_opaque=*/true);
   SurfaceInteraction si = builder.finish(ray);
 
   AovSample s;

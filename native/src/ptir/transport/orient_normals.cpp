@@ -31,7 +31,7 @@ OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& ac
           votes[h.id] += dot(field.normal[h.id], ray.d) < 0.0f ? w : -w;
           T *= 1.0f - h.alpha;
           return T >= min_T;
-        });
+        }, nullptr, /*stop_when_opaque=*/true);
       }
     });
   }
