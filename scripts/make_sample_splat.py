@@ -27,6 +27,7 @@ import math
 import os
 import sys
 
+import bmesh
 import bpy
 import numpy as np
 
@@ -79,7 +80,6 @@ def make_pedestal(size, height):
     obj.data.materials.append(material("pedestal_top"))
     obj.data.materials.append(material("pedestal_side"))
     # The bottom rests on the floor and is never seen.
-    import bmesh
     bm = bmesh.new()
     bm.from_mesh(obj.data)
     bmesh.ops.delete(bm, geom=[f for f in bm.faces if f.normal.z < -0.9], context="FACES")
@@ -108,7 +108,7 @@ def make_suzanne(level, rest_z):
     bpy.ops.mesh.select_all(action="SELECT")
     bpy.ops.mesh.separate(type="LOOSE")
     bpy.ops.object.mode_set(mode="OBJECT")
-    parts = [o for o in bpy.context.selected_objects]
+    parts = list(bpy.context.selected_objects)
     parts.sort(key=lambda o: len(o.data.vertices), reverse=True)
     for i, obj in enumerate(parts):
         obj.name = "head" if i == 0 else "eye_%d" % i

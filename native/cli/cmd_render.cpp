@@ -1,4 +1,6 @@
 // `ptir render`: AOV images of a Gaussian field (plus meshes) from a camera.
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -82,7 +84,9 @@ int run_render(const RenderOptions& o) {
   // Trainer PLYs carry no normals: face the shortest axes toward the dataset's cameras.
   if (!field.normals_from_file && field.size() > 0) {
     std::vector<Camera> all = o.cameras.empty() ? std::vector<Camera>{camera} : load_transforms_json(o.cameras, camera.width, camera.height);
-    orient_normals_to_cameras(field, accel, all);
+    // About 256K orientation rays in all, however many cameras the file has.
+    int rays_per_camera = std::max(4096, int(262144 / std::max<size_t>(1, all.size())));
+    orient_normals_to_cameras(field, accel, all, rays_per_camera);
   }
 
   AovSettings settings;
@@ -98,7 +102,13 @@ int run_render(const RenderOptions& o) {
   TraceStats stats;
   Image image = render_aov(accel, camera, aov, settings, control, &stats);
   bar.finish();
-  write_image(o.output, image, aov_encoding(aov));
+  // 8-bit files get normals as 0.5 + 0.5 n and depth divided by its maximum.
+  std::string ext = o.output.size() >= 4 ? o.output.substr(o.output.size() - 4) : "";
+  for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  bool eight_bit = ext != ".exr" && ext != ".hdr" && ext != ".pfm";
+  float depth_max = 0.0f;
+  write_image(o.output, eight_bit ? aov_for_8bit(aov, image, &depth_max) : image, aov_encoding(aov));
+  if (eight_bit && aov == Aov::Depth && !o.quiet) std::fprintf(stderr, "depth PNG: 1.0 = %.4g\n", depth_max);
   double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!o.quiet)
     std::fprintf(stderr, "wrote %s (%dx%d, %s, %zu Gaussians, %.2f hits/ray, %.2f s)\n", o.output.c_str(), camera.width,

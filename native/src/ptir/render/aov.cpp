@@ -66,8 +66,9 @@ AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& 
     Vec3 ng = mesh.face_normal(end.mesh.prim);
     if (dot(ng, ray.d) > 0.0f) ng = -ng;
     s.opacity += T;
-    // Preview shades the mesh by its base colour under a headlight.
-    s.preview += T * mesh.material.base_colour * std::fabs(dot(ng, ray.d));
+    // Preview shades the mesh by its base colour under a headlight (display space).
+    Vec3 shaded = mesh.material.base_colour * std::fabs(dot(ng, ray.d));
+    s.preview += T * Vec3(linear_to_srgb(shaded.x), linear_to_srgb(shaded.y), linear_to_srgb(shaded.z));
     if (!si.valid) {
       s.hit = true;
       s.depth = end.mesh.t;
@@ -142,6 +143,14 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
         }
         float norm = aov == Aov::Preview ? 1.0f / float(spp) : (acc[3] > 0 ? 1.0f / acc[3] : 0.0f);
         for (int c = 0; c < nc - 1; ++c) image.at(x, y, c) = acc[c] * norm;
+        // Preview: display-space composite back to linear.
+        if (aov == Aov::Preview)
+          for (int c = 0; c < 3; ++c) image.at(x, y, c) = srgb_to_linear(std::min(1.0f, image.at(x, y, c)));
+        // Normals averaged over samples are renormalised.
+        if (aov == Aov::Normal && acc[3] > 0) {
+          Vec3 n = normalize(Vec3(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2)));
+          for (int c = 0; c < 3; ++c) image.at(x, y, c) = n[c];
+        }
         image.at(x, y, nc - 1) = coverage / float(spp);
       }
     }
@@ -161,6 +170,23 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
     stats->candidates += candidates;
   }
   return image;
+}
+
+
+Image aov_for_8bit(Aov aov, const Image& image, float* depth_scale) {
+  Image out = image;
+  const int nc = image.channels;
+  if (aov == Aov::Normal) {
+    for (size_t p = 0; p < size_t(image.width) * image.height; ++p)
+      for (int c = 0; c < 3; ++c) out.pixels[p * nc + c] = 0.5f + 0.5f * image.pixels[p * nc + c];
+  } else if (aov == Aov::Depth) {
+    float max_depth = 0.0f;
+    for (size_t p = 0; p < size_t(image.width) * image.height; ++p) max_depth = std::max(max_depth, image.pixels[p * nc]);
+    float scale = max_depth > 0.0f ? 1.0f / max_depth : 1.0f;
+    for (size_t p = 0; p < size_t(image.width) * image.height; ++p) out.pixels[p * nc] *= scale;
+    if (depth_scale) *depth_scale = max_depth;
+  }
+  return out;
 }
 
 }  // namespace ptir

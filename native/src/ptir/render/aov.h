@@ -47,10 +47,21 @@ struct AovSample {
 AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
                     bool with_preview, TraceStats* stats = nullptr);
 
-// Image layouts: opacity -> A; depth -> Z, A; normal -> X, Y, Z, A (world space,
-// 8-bit as 0.5 + 0.5 n); albedo/preview -> R, G, B, A; roughness/metallic -> Y, A.
-// Background pixels are zero with A = 0.
+// Image layouts: opacity -> A; depth -> Z, A; normal -> X, Y, Z, A (world space);
+// albedo/preview -> R, G, B, A; roughness/metallic -> Y, A. Background pixels are
+// zero with A = 0. All values are linear; see aov_for_8bit for PNG output.
+//
+// Preview: 3DGS trainers fit SH colours to sRGB photos, so an SH colour is a
+// display (sRGB) value. The preview composites in that space, as a splat
+// rasteriser does (a mesh behind contributes its shaded base colour, encoded),
+// and converts the result to linear so EXR holds linear values like every AOV.
 Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const AovSettings& settings,
                  const RenderControl& control = {}, TraceStats* stats = nullptr);
+
+// The image to write into an 8-bit file, where values must fit [0, 1]: normals
+// become 0.5 + 0.5 n, depth is divided by the largest depth in the image (the
+// scale is stored in the returned image's name, e.g. "depth/8.25"); other AOVs are
+// unchanged (colour AOVs get the sRGB curve from write_image).
+Image aov_for_8bit(Aov aov, const Image& image, float* depth_scale = nullptr);
 
 }  // namespace ptir

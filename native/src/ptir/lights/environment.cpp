@@ -1,0 +1,164 @@
+#include "ptir/lights/environment.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ptir/core/error.h"
+
+namespace ptir {
+
+namespace {
+constexpr double kPiD = 3.14159265358979323846;
+}  // namespace
+
+Environment::Environment() : texels_(3, 0.0f) { rebuild_sampling(); }
+
+Environment::Environment(const Image& image, float strength, float rotation_z, const std::string& name)
+    : width_(image.width), height_(image.height), strength_(strength) {
+  if (image.width <= 0 || image.height <= 0) throw Error(name, "environment map is empty");
+  if (image.channels != 1 && image.channels < 3)
+    throw Error(name, "environment map needs 1 (grey) or at least 3 (RGB) channels, got " +
+                          std::to_string(image.channels));
+  if (image.pixels.size() < size_t(image.width) * image.height * image.channels)
+    throw Error(name, "environment map has fewer pixels than width x height x channels");
+  texels_.resize(size_t(width_) * height_ * 3);
+  for (int y = 0; y < height_; ++y) {
+    for (int x = 0; x < width_; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        float v = image.at(x, y, image.channels == 1 ? 0 : c);
+        if (!std::isfinite(v))
+          throw Error(name, "environment map has a non-finite value at pixel (" + std::to_string(x) + ", " +
+                                std::to_string(y) + ")");
+        texels_[(size_t(y) * width_ + x) * 3 + c] = std::max(v, 0.0f);
+      }
+    }
+  }
+  set_rotation_z(rotation_z);
+  rebuild_sampling();
+}
+
+Environment Environment::constant(Vec3 radiance, int width, int height) {
+  Image img(std::max(width, 1), std::max(height, 1), {"R", "G", "B"});
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x)
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = radiance[c];
+  return Environment(img, 1.0f, 0.0f, "constant environment");
+}
+
+Environment Environment::load(const std::string& path, float strength, float rotation_z) {
+  Image img = read_image(path, Encoding::Colour);  // throws Error naming the file
+  return Environment(img, strength, rotation_z, path);
+}
+
+Vec3 Environment::texel(int x, int y) const {
+  const float* p = &texels_[(size_t(y) * width_ + x) * 3];
+  return {p[0], p[1], p[2]};
+}
+
+void Environment::set_texel(int x, int y, Vec3 rgb) {
+  float* p = &texels_[(size_t(y) * width_ + x) * 3];
+  p[0] = rgb.x;
+  p[1] = rgb.y;
+  p[2] = rgb.z;
+}
+
+void Environment::set_rotation_z(float r) {
+  rotation_z_ = r;
+  cos_rot_ = std::cos(r);
+  sin_rot_ = std::sin(r);
+}
+
+void Environment::rebuild_sampling() {
+  std::vector<float> weights(size_t(width_) * height_);
+  for (int y = 0; y < height_; ++y) {
+    const float sin_theta = float(std::sin(kPiD * (y + 0.5) / height_));
+    for (int x = 0; x < width_; ++x) weights[size_t(y) * width_ + x] = luminance(texel(x, y)) * sin_theta;
+  }
+  distribution_ = Distribution2D(weights.data(), width_, height_);
+}
+
+Vec3 Environment::to_world(Vec3 d) const {
+  return {cos_rot_ * d.x + sin_rot_ * d.y, -sin_rot_ * d.x + cos_rot_ * d.y, d.z};
+}
+
+// u in [0, 1), t = theta / pi = 1 - v in [0, 1], and sin(theta), of the lookup
+// direction Rz(rotation) d, in double precision. theta = atan2(|xy|, z) stays
+// accurate near the poles, where acos(z) of a float z would not.
+void Environment::local_angles(Vec3 d, double* u, double* t, double* sin_theta) const {
+  const double x = double(cos_rot_) * d.x - double(sin_rot_) * d.y;
+  const double y = double(sin_rot_) * d.x + double(cos_rot_) * d.y;
+  const double z = d.z;
+  const double rxy = std::hypot(x, y);
+  double uu = 0.5 - std::atan2(y, x) / (2.0 * kPiD);
+  if (uu >= 1.0) uu -= 1.0;
+  if (uu < 0.0) uu += 1.0;
+  *u = uu;
+  *t = std::atan2(rxy, z) / kPiD;
+  if (sin_theta) {
+    const double len = std::sqrt(rxy * rxy + z * z);
+    *sin_theta = len > 0.0 ? rxy / len : 0.0;
+  }
+}
+
+EnvUV Environment::direction_to_uv(Vec3 d) const {
+  double u, t;
+  local_angles(d, &u, &t, nullptr);
+  return {float(u), float(1.0 - t)};
+}
+
+Vec3 Environment::uv_to_direction(float u, float v) const {
+  const double phi = kPiD * (1.0 - 2.0 * double(u));
+  const double theta = kPiD * (1.0 - double(v));
+  const double st = std::sin(theta);
+  Vec3 l(float(st * std::cos(phi)), float(st * std::sin(phi)), float(std::cos(theta)));
+  return to_world(l);
+}
+
+void Environment::texel_coords(Vec3 d, int* x, int* y) const {
+  double u, t;
+  local_angles(d, &u, &t, nullptr);
+  int ix = int(std::floor(u * width_));
+  ix = ((ix % width_) + width_) % width_;
+  int iy = std::clamp(int(std::floor(t * height_)), 0, height_ - 1);
+  *x = ix;
+  *y = iy;
+}
+
+int Environment::texel_index(Vec3 d) const {
+  int x, y;
+  texel_coords(d, &x, &y);
+  return y * width_ + x;
+}
+
+Vec3 Environment::eval(Vec3 d) const {
+  int x, y;
+  texel_coords(d, &x, &y);
+  return texel(x, y) * strength_;
+}
+
+EnvSample Environment::sample(float u0, float u1) const {
+  EnvSample s;
+  Sample2D uv = distribution_.sample(u0, u1);  // uv.x = u, uv.y = t = 1 - v
+  const double theta = kPiD * double(uv.y);
+  const double sin_theta = std::sin(theta);
+  if (!(sin_theta > 0.0) || !(uv.pdf > 0.0f)) return s;
+  const double phi = kPiD * (1.0 - 2.0 * double(uv.x));
+  Vec3 l(float(sin_theta * std::cos(phi)), float(sin_theta * std::sin(phi)), float(std::cos(theta)));
+  s.wi = to_world(l);
+  s.texel = uv.iy * width_ + uv.ix;
+  s.Li = texel(uv.ix, uv.iy) * strength_;
+  s.pdf = float(double(uv.pdf) / (2.0 * kPiD * kPiD * sin_theta));
+  return s;
+}
+
+float Environment::pdf(Vec3 d) const {
+  double u, t, sin_theta;
+  local_angles(d, &u, &t, &sin_theta);
+  if (!(sin_theta > 0.0)) return 0.0f;
+  int ix = int(std::floor(u * width_));
+  ix = ((ix % width_) + width_) % width_;
+  int iy = std::clamp(int(std::floor(t * height_)), 0, height_ - 1);
+  return float(double(distribution_.pdf_cell(ix, iy)) / (2.0 * kPiD * kPiD * sin_theta));
+}
+
+}  // namespace ptir
