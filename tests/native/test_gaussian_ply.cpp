@@ -34,7 +34,8 @@ std::string num(double v) {
 }
 
 // ASCII PLY with one "vertex" element; props are "type name", rows are whole lines.
-std::string write_ascii(const std::string& name, const std::vector<std::string>& props, const std::vector<std::string>& rows) {
+std::string write_ascii(const std::string& name, const std::vector<std::string>& props,
+                        const std::vector<std::string>& rows) {
   const std::string path = gs_tmp(name);
   std::ofstream f(path, std::ios::binary);
   f << "ply\nformat ascii 1.0\nelement vertex " << rows.size() << "\n";
@@ -75,10 +76,9 @@ void expect_load_error(const std::string& path, std::initializer_list<std::strin
 TEST(GaussianPly, ActivationsAndDefaults) {
   std::vector<std::string> props = kBasic;
   props[0] = "double x";  // any numeric type is accepted
-  const std::string path = write_ascii(
-      "act.ply", props,
-      {"1 2 3 " + num(std::log(0.5)) + " " + num(std::log(2.0)) + " 0 2 0 0 0 0",
-       "-1 0 4 0 0 " + num(std::log(0.1)) + " 1 1 1 1 2"});
+  const std::string path = write_ascii("act.ply", props,
+                                       {"1 2 3 " + num(std::log(0.5)) + " " + num(std::log(2.0)) + " 0 2 0 0 0 0",
+                                        "-1 0 4 0 0 " + num(std::log(0.1)) + " 1 1 1 1 2"});
   const GaussianField f = load_gaussians(path);
   ASSERT_EQ(f.size(), 2u);
   EXPECT_EQ(f.source_path, path);
@@ -114,7 +114,8 @@ TEST(GaussianPly, ShChannelMajorLayoutAndColour) {
     distinct += " " + std::to_string(10 + j);
     small += " " + num(0.01 * (j + 1));
   }
-  const GaussianField f = load_gaussians(write_ascii("sh1.ply", props, {distinct, small, kBasicRow + " -5 -5 -5 0 0 0 0 0 0 0 0 0"}));
+  const GaussianField f =
+      load_gaussians(write_ascii("sh1.ply", props, {distinct, small, kBasicRow + " -5 -5 -5 0 0 0 0 0 0 0 0 0"}));
   ASSERT_EQ(f.sh_degree, 1);
   ASSERT_EQ(f.sh_stride(), 12);
   // sh[k*3 + c]: k = 0 is f_dc_c, k >= 1 is f_rest_[c*3 + k-1].
@@ -149,9 +150,9 @@ TEST(GaussianPly, MaterialsAndFileNormals) {
   for (const char* n : {"albedo_0", "albedo_1", "albedo_2", "roughness", "metallic", "nx", "ny", "nz"})
     props.push_back(std::string("float ") + n);
   // Gaussian 0 has a file normal (normalised on load); Gaussian 1 has a zero normal -> shortest axis.
-  const std::string path = write_ascii("mat.ply", props,
-                                       {"0 0 0 0 0 0 1 0 0 0 0 0.1 0.2 0.3 0.4 0.5 0 3 4",
-                                        "0 0 0 0 0 -3 1 0 0 0 0 0.6 0.7 0.8 0.9 1 0 0 0"});
+  const std::string path = write_ascii(
+      "mat.ply", props,
+      {"0 0 0 0 0 0 1 0 0 0 0 0.1 0.2 0.3 0.4 0.5 0 3 4", "0 0 0 0 0 -3 1 0 0 0 0 0.6 0.7 0.8 0.9 1 0 0 0"});
   const GaussianField f = load_gaussians(path);
   EXPECT_FLOAT_EQ(f.albedo[0].y, 0.2f);
   EXPECT_FLOAT_EQ(f.albedo[1].z, 0.8f);
@@ -161,14 +162,16 @@ TEST(GaussianPly, MaterialsAndFileNormals) {
   EXPECT_NEAR(f.normal[0].z, 0.8f, 1e-6);
   EXPECT_NEAR(std::fabs(f.normal[1].z), 1.0f, 1e-6);
   EXPECT_FALSE(f.normals_from_file);
-  const GaussianField g = load_gaussians(write_ascii("mat2.ply", props, {"0 0 0 0 0 0 1 0 0 0 0 0.1 0.2 0.3 0.4 0.5 0 0 2"}));
+  const GaussianField g =
+      load_gaussians(write_ascii("mat2.ply", props, {"0 0 0 0 0 0 1 0 0 0 0 0.1 0.2 0.3 0.4 0.5 0 0 2"}));
   EXPECT_TRUE(g.normals_from_file);
 }
 
 TEST(GaussianPly, BadInputMessages) {
   expect_load_error(write_ascii("pointcloud.ply", {"float x", "float y", "float z", "uchar red"}, {"0 0 0 1"}),
                     {"not a 3D Gaussian splat PLY: missing properties scale_0, scale_1, scale_2, rot_0, rot_1, rot_2, "
-                     "rot_3, opacity", "plain point cloud"});
+                     "rot_3, opacity",
+                     "plain point cloud"});
   std::vector<std::string> partial = kBasic;
   partial.erase(partial.begin() + 4);  // scale_1
   expect_load_error(write_ascii("partial.ply", partial, {"0 0 0 0 0 1 0 0 0 0"}), {"missing properties scale_1 ("});
@@ -207,4 +210,145 @@ TEST(GaussianPly, ShortestAxisAndCentroidOrientation) {
   EXPECT_NEAR(f.normal[2].y, 1.0f, 1e-6);
   orient_normals_away_from_centroid(f);
   EXPECT_FLOAT_EQ(f.normal[1].z, -1.0f);
+}
+
+namespace {
+
+// A binary splat file with degree-3 SH, a double and a uchar extra property.
+io::PlyFile make_splat_ply(size_t n) {
+  io::PlyFile ply;
+  ply.comments = {"trained by somebody"};
+  io::PlyElement v;
+  v.name = "vertex";
+  v.count = n;
+  std::vector<float> col(n);
+  auto put = [&](const std::string& name, auto&& fn) {
+    for (size_t i = 0; i < n; ++i) col[i] = static_cast<float>(fn(static_cast<double>(i)));
+    v.set_float_column(name, col);
+  };
+  put("x", [](double i) { return std::sin(i); });
+  put("y", [](double i) { return std::cos(i * 0.7); });
+  put("z", [](double i) { return 0.01 * i; });
+  for (int c = 0; c < 3; ++c) put("f_dc_" + std::to_string(c), [c](double i) { return 0.1 * c - 0.01 * i; });
+  for (int j = 0; j < 45; ++j) put("f_rest_" + std::to_string(j), [j](double i) { return 0.001 * j + 1e-5 * i; });
+  put("opacity", [](double i) { return std::fmod(i, 7.0) - 3.0; });
+  for (int k = 0; k < 3; ++k) put("scale_" + std::to_string(k), [k](double i) { return -4.0 + k + 0.001 * i; });
+  for (int k = 0; k < 4; ++k) put("rot_" + std::to_string(k), [k](double i) { return k == 0 ? 1.0 + i : 0.1 * k; });
+  io::PlyProperty extra_d;
+  extra_d.name = "my_double";
+  extra_d.type = io::PlyType::Float64;
+  io::PlyProperty extra_u;
+  extra_u.name = "my_flag";
+  extra_u.type = io::PlyType::UInt8;
+  for (size_t i = 0; i < n; ++i) {
+    const double d = 1.0 / 3.0 + static_cast<double>(i);
+    const uint8_t* b = reinterpret_cast<const uint8_t*>(&d);
+    extra_d.data.insert(extra_d.data.end(), b, b + 8);
+    extra_u.data.push_back(static_cast<uint8_t>(i * 37));
+  }
+  v.properties.push_back(extra_d);
+  v.properties.push_back(extra_u);
+  ply.elements.push_back(std::move(v));
+  return ply;
+}
+
+}  // namespace
+
+TEST(GaussianPly, SaveKeepsInputBitExactAndAddsMaterials) {
+  const std::string in = gs_tmp("deg3_in.ply"), out = gs_tmp("deg3_out.ply");
+  io::write_ply(in, make_splat_ply(5));
+  GaussianField f = load_gaussians(in);
+  ASSERT_EQ(f.sh_degree, 3);
+  EXPECT_FLOAT_EQ(f.sh[2 * 48 + 5 * 3 + 1], 0.001f * (15 + 4) + 2e-5f);  // k=5, c=1 -> f_rest_[1*15 + 4], Gaussian 2
+  for (size_t i = 0; i < f.size(); ++i) {
+    f.albedo[i] = Vec3(0.1f * i, 0.2f, 0.3f);
+    f.roughness[i] = 0.05f * i;
+    f.metallic[i] = 0.5f;
+  }
+  save_gaussians(out, f);
+
+  const io::PlyFile a = io::read_ply(in), b = io::read_ply(out);
+  const io::PlyElement &va = *a.get("vertex"), &vb = *b.get("vertex");
+  ASSERT_EQ(vb.properties.size(), va.properties.size() + 8);
+  for (size_t k = 0; k < va.properties.size(); ++k) {
+    EXPECT_EQ(vb.properties[k].name, va.properties[k].name);
+    EXPECT_EQ(vb.properties[k].type, va.properties[k].type);
+    EXPECT_EQ(vb.properties[k].data, va.properties[k].data) << va.properties[k].name;
+  }
+  EXPECT_EQ(b.comments, a.comments);
+  for (const char* name : {"albedo_0", "albedo_1", "albedo_2", "roughness", "metallic", "nx", "ny", "nz"}) {
+    ASSERT_NE(vb.get(name), nullptr) << name;
+    EXPECT_EQ(vb.get(name)->type, io::PlyType::Float32);
+  }
+  const GaussianField g = load_gaussians(out);
+  EXPECT_TRUE(g.normals_from_file);
+  for (size_t i = 0; i < g.size(); ++i) {
+    EXPECT_FLOAT_EQ(g.albedo[i].x, f.albedo[i].x);
+    EXPECT_FLOAT_EQ(g.roughness[i], f.roughness[i]);
+    EXPECT_FLOAT_EQ(g.metallic[i], 0.5f);
+    EXPECT_NEAR(dot(g.normal[i], f.normal[i]), 1.0f, 1e-6);
+  }
+}
+
+TEST(GaussianPly, SaveFieldBuiltInCode) {
+  GaussianField f;
+  f.position = {Vec3(1, 2, 3), Vec3(-1, 0, 0)};
+  f.scale = {Vec3(0.5f, 1, 2), Vec3(0.1f, 0.1f, 0.01f)};
+  f.rotation = {{1, 0, 0, 0}, {0.5f, 0.5f, 0.5f, 0.5f}};
+  f.opacity = {0.25f, 1.0f};  // 1.0 must not become an infinite logit
+  f.sh_degree = 1;
+  f.sh.resize(2 * 12);
+  for (size_t j = 0; j < f.sh.size(); ++j) f.sh[j] = 0.01f * j;
+  f.albedo = {Vec3(0.1f), Vec3(0.9f)};
+  f.roughness = {0.2f, 0.7f};
+  f.metallic = {0.0f, 1.0f};
+  init_normals_shortest_axis(f);
+  const std::string path = gs_tmp("from_code.ply");
+  save_gaussians(path, f);
+  const GaussianField g = load_gaussians(path);
+  ASSERT_EQ(g.size(), 2u);
+  EXPECT_EQ(g.sh_degree, 1);
+  for (size_t j = 0; j < f.sh.size(); ++j) EXPECT_FLOAT_EQ(g.sh[j], f.sh[j]);
+  EXPECT_NEAR(g.scale[1].z, 0.01f, 1e-7);
+  EXPECT_NEAR(g.opacity[0], 0.25f, 1e-6);
+  EXPECT_NEAR(g.opacity[1], 1.0f, 1e-6);
+  EXPECT_NEAR(g.rotation[1][3], 0.5f, 1e-6);
+  EXPECT_FLOAT_EQ(g.albedo[1].y, 0.9f);
+  EXPECT_FLOAT_EQ(g.metallic[1], 1.0f);
+  EXPECT_TRUE(g.normals_from_file);
+}
+
+// Throwaway timing of a 1M-Gaussian degree-3 file (62 float properties). Run with
+// --gtest_also_run_disabled_tests; no assertion on the time.
+TEST(GaussianPly, DISABLED_Load1MGaussiansTiming) {
+  const size_t n = 1000000;
+  io::PlyFile ply;
+  ply.elements.push_back({"vertex", n, {}});
+  io::PlyElement& v = ply.elements[0];
+  std::vector<std::string> names = {"x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"};
+  for (int j = 0; j < 45; ++j) names.push_back("f_rest_" + std::to_string(j));
+  for (const char* s : {"opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"})
+    names.push_back(s);
+  ASSERT_EQ(names.size(), 62u);
+  std::vector<float> col(n);
+  for (size_t k = 0; k < names.size(); ++k) {
+    for (size_t i = 0; i < n; ++i) col[i] = names[k] == "rot_0" ? 1.0f : 0.001f * static_cast<float>((i + k) % 1000);
+    v.set_float_column(names[k], col);
+  }
+  const std::string path = gs_tmp("million.ply");
+  io::write_ply(path, ply);
+  ply = io::PlyFile();
+  auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+  for (int rep = 0; rep < 3; ++rep) {
+    auto t0 = std::chrono::steady_clock::now();
+    io::PlyFile raw = io::read_ply(path);
+    auto t1 = std::chrono::steady_clock::now();
+    const GaussianField f = gaussians_from_ply(std::move(raw), path);
+    auto t2 = std::chrono::steady_clock::now();
+    std::printf("1M Gaussians, 62 props, %.0f MB: read_ply %.0f ms + gaussians_from_ply %.0f ms = %.0f ms\n",
+                std::filesystem::file_size(path) / 1e6, ms(t0, t1), ms(t1, t2), ms(t0, t2));
+    EXPECT_EQ(f.size(), n);
+    EXPECT_EQ(f.sh_degree, 3);
+  }
+  std::filesystem::remove(path);
 }

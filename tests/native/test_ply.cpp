@@ -58,7 +58,14 @@ void expect_bad_ply(const std::string& name, const std::string& contents, std::i
 
 // One row of the round-trip data set: one value of each scalar type and a list.
 struct Row {
-  int8_t a; uint8_t b; int16_t c; uint16_t d; int32_t e; uint32_t f; float g; double h;
+  int8_t a;
+  uint8_t b;
+  int16_t c;
+  uint16_t d;
+  int32_t e;
+  uint32_t f;
+  float g;
+  double h;
   std::vector<int32_t> list;
 };
 
@@ -95,8 +102,14 @@ std::string test_header(const std::string& format, bool aliases) {
 std::string binary_file(bool big_endian) {
   std::string s = test_header(big_endian ? "binary_big_endian" : "binary_little_endian", big_endian);
   for (const Row& r : kRows) {
-    append(s, r.a, big_endian); append(s, r.b, big_endian); append(s, r.c, big_endian); append(s, r.d, big_endian);
-    append(s, r.e, big_endian); append(s, r.f, big_endian); append(s, r.g, big_endian); append(s, r.h, big_endian);
+    append(s, r.a, big_endian);
+    append(s, r.b, big_endian);
+    append(s, r.c, big_endian);
+    append(s, r.d, big_endian);
+    append(s, r.e, big_endian);
+    append(s, r.f, big_endian);
+    append(s, r.g, big_endian);
+    append(s, r.h, big_endian);
     append(s, static_cast<uint8_t>(r.list.size()), big_endian);
     for (int32_t v : r.list) append(s, v, big_endian);
   }
@@ -108,9 +121,9 @@ std::string ascii_file() {
   std::string s = test_header("ascii", false);
   char buf[512];
   for (const Row& r : kRows) {
-    std::snprintf(buf, sizeof buf, "%d %u %d %u %d %u %.9g %.17g %zu", static_cast<int>(r.a), static_cast<unsigned>(r.b), static_cast<int>(r.c),
-                  static_cast<unsigned>(r.d), static_cast<int>(r.e), static_cast<unsigned>(r.f), static_cast<double>(r.g), r.h,
-                  r.list.size());
+    std::snprintf(buf, sizeof buf, "%d %u %d %u %d %u %.9g %.17g %zu", static_cast<int>(r.a),
+                  static_cast<unsigned>(r.b), static_cast<int>(r.c), static_cast<unsigned>(r.d), static_cast<int>(r.e),
+                  static_cast<unsigned>(r.f), static_cast<double>(r.g), r.h, r.list.size());
     s += buf;
     for (int32_t v : r.list) s += " " + std::to_string(v);
     s += "\n";
@@ -146,7 +159,7 @@ void check_contents(const PlyFile& ply) {
   ASSERT_EQ(v.name, "vertex");
   ASSERT_EQ(v.count, kRows.size());
   ASSERT_EQ(v.properties.size(), 9u);
-  const PlyType types[] = {PlyType::Int8, PlyType::UInt8, PlyType::Int16, PlyType::UInt16,
+  const PlyType types[] = {PlyType::Int8,  PlyType::UInt8,  PlyType::Int16,   PlyType::UInt16,
                            PlyType::Int32, PlyType::UInt32, PlyType::Float32, PlyType::Float64};
   for (int k = 0; k < 8; ++k) {
     EXPECT_EQ(v.properties[k].type, types[k]);
@@ -175,7 +188,8 @@ void check_contents(const PlyFile& ply) {
 
 }  // namespace
 
-// Each input format reads to the same columns; write -> read is bit-exact; write -> read -> write gives identical bytes.
+// Each input format reads to the same columns; write -> read is bit-exact; write -> read -> write gives identical
+// bytes.
 TEST(PlyIo, RoundTripAllTypesAllFormats) {
   const std::pair<std::string, std::string> inputs[] = {
       {"rt_ascii.ply", ascii_file()}, {"rt_le.ply", binary_file(false)}, {"rt_be.ply", binary_file(true)}};
@@ -231,25 +245,29 @@ TEST(PlyIo, HeaderErrors) {
                  {"unknown property type 'quad'"});
   expect_bad_ply("order.ply", "ply\nformat ascii 1.0\nproperty float x\nelement vertex 1\nend_header\n1\n",
                  {"property before any element"});
-  expect_bad_ply("noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n",
-                 {"missing end_header"});
+  expect_bad_ply("noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", {"missing end_header"});
   expect_bad_ply("count.ply", "ply\nformat ascii 1.0\nelement vertex -3\nproperty float x\nend_header\n",
                  {"bad element count '-3'"});
 }
 
 TEST(PlyIo, BinaryBodyErrors) {
-  const std::string xyz = "ply\nformat binary_little_endian 1.0\nelement vertex 10\nproperty float x\nproperty float y\n"
-                          "property float z\nend_header\n";
-  expect_bad_ply("trunc.ply", xyz + std::string(50, '\0'), {"truncated: element 'vertex' needs 120 bytes, file has 50"});
+  const std::string xyz =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 10\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n";
+  expect_bad_ply("trunc.ply", xyz + std::string(50, '\0'),
+                 {"truncated: element 'vertex' needs 120 bytes, file has 50"});
   expect_bad_ply("extra.ply", xyz + std::string(124, '\0'),
                  {"count mismatch: 4 bytes of extra data after the last element 'vertex'"});
   expect_bad_ply("huge.ply",
                  "ply\nformat binary_little_endian 1.0\nelement vertex 18446744073709551615\nproperty double x\n"
-                 "end_header\n" + std::string(16, '\0'),
+                 "end_header\n" +
+                     std::string(16, '\0'),
                  {"truncated", "more than 2^64"});
-  const std::string faces = "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list char int v\nend_header\n";
+  const std::string faces =
+      "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list char int v\nend_header\n";
   expect_bad_ply("negative.ply", faces + std::string(1, '\xff') + std::string(12, '\0'), {"negative list count -1"});
-  const std::string ufaces = "ply\nformat binary_big_endian 1.0\nelement face 2\nproperty list uint int v\nend_header\n";
+  const std::string ufaces =
+      "ply\nformat binary_big_endian 1.0\nelement face 2\nproperty list uint int v\nend_header\n";
   expect_bad_ply("absurd.ply", ufaces + std::string(4, '\xff') + std::string(8, '\0'),
                  {"truncated: list count 4294967295"});
   expect_bad_ply("cutrow.ply", faces + std::string(1, '\x02') + std::string(4, '\0'), {"truncated"});

@@ -53,4 +53,42 @@ inline TriangleMesh quad_z(float z0, float h) {
   return m;
 }
 
+// Unit quaternion (w, x, y, z) of the rotation whose columns are s, t, n.
+inline std::array<float, 4> quat_from_frame(const Frame& f) {
+  Mat3 m = Mat3::from_cols(f.s, f.t, f.n);
+  float tr = m.m[0][0] + m.m[1][1] + m.m[2][2];
+  if (tr > 0) {
+    float S = std::sqrt(tr + 1) * 2;
+    return {0.25f * S, (m.m[2][1] - m.m[1][2]) / S, (m.m[0][2] - m.m[2][0]) / S, (m.m[1][0] - m.m[0][1]) / S};
+  }
+  if (m.m[0][0] > m.m[1][1] && m.m[0][0] > m.m[2][2]) {
+    float S = std::sqrt(1 + m.m[0][0] - m.m[1][1] - m.m[2][2]) * 2;
+    return {(m.m[2][1] - m.m[1][2]) / S, 0.25f * S, (m.m[0][1] + m.m[1][0]) / S, (m.m[0][2] + m.m[2][0]) / S};
+  }
+  if (m.m[1][1] > m.m[2][2]) {
+    float S = std::sqrt(1 + m.m[1][1] - m.m[0][0] - m.m[2][2]) * 2;
+    return {(m.m[0][2] - m.m[2][0]) / S, (m.m[0][1] + m.m[1][0]) / S, 0.25f * S, (m.m[1][2] + m.m[2][1]) / S};
+  }
+  float S = std::sqrt(1 + m.m[2][2] - m.m[0][0] - m.m[1][1]) * 2;
+  return {(m.m[1][0] - m.m[0][1]) / S, (m.m[0][2] + m.m[2][0]) / S, (m.m[1][2] + m.m[2][1]) / S, 0.25f * S};
+}
+
+// A closed sphere surface of n flat, overlapping, nearly opaque Gaussians (a
+// Fibonacci lattice), normals pointing out.
+inline GaussianField gaussian_sphere(size_t n, float radius, Vec3 albedo, float roughness, float metallic,
+                                     float opacity = 0.99f) {
+  GaussianField f;
+  float spacing = radius * std::sqrt(4.0f * kPi / float(n));
+  for (size_t i = 0; i < n; ++i) {
+    float z = 1 - 2 * (i + 0.5f) / float(n), r = std::sqrt(std::max(0.0f, 1 - z * z)), phi = float(i) * 2.39996323f;
+    Vec3 nrm(r * std::cos(phi), r * std::sin(phi), z);
+    Frame fr(nrm);
+    add_gaussian(f, nrm * radius, Vec3(0.7f * spacing, 0.7f * spacing, 1e-3f * spacing), quat_from_frame(fr), opacity,
+                 albedo, roughness, metallic);
+    f.normal.back() = nrm;
+  }
+  f.normals_from_file = true;
+  return f;
+}
+
 }  // namespace ptir::test

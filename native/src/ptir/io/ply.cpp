@@ -5,12 +5,14 @@
 // so hostile headers give a ptir::Error, never a crash or a huge allocation.
 #include "ptir/io/ply.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -28,9 +30,13 @@ namespace ptir::io {
 
 size_t ply_type_size(PlyType t) {
   switch (t) {
-    case PlyType::Int8: case PlyType::UInt8: return 1;
-    case PlyType::Int16: case PlyType::UInt16: return 2;
-    case PlyType::Int32: case PlyType::UInt32: case PlyType::Float32: return 4;
+    case PlyType::Int8:
+    case PlyType::UInt8: return 1;
+    case PlyType::Int16:
+    case PlyType::UInt16: return 2;
+    case PlyType::Int32:
+    case PlyType::UInt32:
+    case PlyType::Float32: return 4;
     case PlyType::Float64: return 8;
   }
   return 1;
@@ -51,28 +57,62 @@ const char* ply_type_name(PlyType t) {
 }
 
 bool parse_ply_type(std::string_view name, PlyType& out) {
-  struct Alias { const char* a; const char* b; PlyType t; };
-  static const Alias kAliases[] = {
-      {"char", "int8", PlyType::Int8},        {"uchar", "uint8", PlyType::UInt8},
-      {"short", "int16", PlyType::Int16},     {"ushort", "uint16", PlyType::UInt16},
-      {"int", "int32", PlyType::Int32},       {"uint", "uint32", PlyType::UInt32},
-      {"float", "float32", PlyType::Float32}, {"double", "float64", PlyType::Float64}};
+  struct Alias {
+    const char* a;
+    const char* b;
+    PlyType t;
+  };
+  static const Alias kAliases[] = {{"char", "int8", PlyType::Int8},        {"uchar", "uint8", PlyType::UInt8},
+                                   {"short", "int16", PlyType::Int16},     {"ushort", "uint16", PlyType::UInt16},
+                                   {"int", "int32", PlyType::Int32},       {"uint", "uint32", PlyType::UInt32},
+                                   {"float", "float32", PlyType::Float32}, {"double", "float64", PlyType::Float64}};
   for (const Alias& al : kAliases) {
-    if (name == al.a || name == al.b) { out = al.t; return true; }
+    if (name == al.a || name == al.b) {
+      out = al.t;
+      return true;
+    }
   }
   return false;
 }
 
 double ply_value_as_double(const uint8_t* p, PlyType t) {
   switch (t) {
-    case PlyType::Int8: { int8_t v; std::memcpy(&v, p, 1); return v; }
+    case PlyType::Int8: {
+      int8_t v;
+      std::memcpy(&v, p, 1);
+      return v;
+    }
     case PlyType::UInt8: return *p;
-    case PlyType::Int16: { int16_t v; std::memcpy(&v, p, 2); return v; }
-    case PlyType::UInt16: { uint16_t v; std::memcpy(&v, p, 2); return v; }
-    case PlyType::Int32: { int32_t v; std::memcpy(&v, p, 4); return v; }
-    case PlyType::UInt32: { uint32_t v; std::memcpy(&v, p, 4); return v; }
-    case PlyType::Float32: { float v; std::memcpy(&v, p, 4); return v; }
-    case PlyType::Float64: { double v; std::memcpy(&v, p, 8); return v; }
+    case PlyType::Int16: {
+      int16_t v;
+      std::memcpy(&v, p, 2);
+      return v;
+    }
+    case PlyType::UInt16: {
+      uint16_t v;
+      std::memcpy(&v, p, 2);
+      return v;
+    }
+    case PlyType::Int32: {
+      int32_t v;
+      std::memcpy(&v, p, 4);
+      return v;
+    }
+    case PlyType::UInt32: {
+      uint32_t v;
+      std::memcpy(&v, p, 4);
+      return v;
+    }
+    case PlyType::Float32: {
+      float v;
+      std::memcpy(&v, p, 4);
+      return v;
+    }
+    case PlyType::Float64: {
+      double v;
+      std::memcpy(&v, p, 8);
+      return v;
+    }
   }
   return 0.0;
 }
@@ -103,7 +143,8 @@ PlyProperty* PlyElement::get(const std::string& property) {
 std::vector<float> PlyElement::column_as_float(const std::string& property, const std::string& path_for_errors) const {
   const PlyProperty* p = get(property);
   if (!p) throw Error(path_for_errors, "element '" + name + "' has no property '" + property + "'");
-  if (p->is_list) throw Error(path_for_errors, "property '" + property + "' of element '" + name + "' is a list, expected a scalar");
+  if (p->is_list)
+    throw Error(path_for_errors, "property '" + property + "' of element '" + name + "' is a list, expected a scalar");
   std::vector<float> out(count);
   if (p->data.size() != count * ply_type_size(p->type))
     throw Error(path_for_errors, "property '" + property + "' has the wrong number of values");
@@ -202,9 +243,12 @@ size_t parse_header(const std::string& path, std::string_view file, PlyFile& ply
       return pos;
     } else if (kw == "format") {
       if (tok.size() != 3) throw bad("bad format line '" + std::string(line) + "'");
-      if (tok[1] == "ascii") ply.format = PlyFormat::Ascii;
-      else if (tok[1] == "binary_little_endian") ply.format = PlyFormat::BinaryLittleEndian;
-      else if (tok[1] == "binary_big_endian") ply.format = PlyFormat::BinaryBigEndian;
+      if (tok[1] == "ascii")
+        ply.format = PlyFormat::Ascii;
+      else if (tok[1] == "binary_little_endian")
+        ply.format = PlyFormat::BinaryLittleEndian;
+      else if (tok[1] == "binary_big_endian")
+        ply.format = PlyFormat::BinaryBigEndian;
       else
         throw bad("unsupported format '" + std::string(tok[1]) +
                   "' (expected ascii, binary_little_endian or binary_big_endian)");
@@ -245,8 +289,7 @@ size_t parse_header(const std::string& path, std::string_view file, PlyFile& ply
       } else {
         throw bad("bad property line '" + std::string(line) + "'");
       }
-      if (el.find(prop.name) >= 0)
-        throw bad("duplicate property '" + prop.name + "' in element '" + el.name + "'");
+      if (el.find(prop.name) >= 0) throw bad("duplicate property '" + prop.name + "' in element '" + el.name + "'");
       el.properties.push_back(std::move(prop));
     } else {
       throw bad("unexpected header line '" + std::string(line) + "'");
@@ -259,28 +302,45 @@ size_t parse_header(const std::string& path, std::string_view file, PlyFile& ply
 // ---------------------------------------------------------------------------
 // Whole-file read; the body parsers live in ply_body.cpp.
 
-std::string read_file_bytes(const std::string& path) {
+FileBytes::FileBytes(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw Error(path, "cannot open file: it is a directory");
-  FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw Error(path, std::string("cannot open file: ") + std::strerror(errno));
-  std::string bytes;
-  if (std::fseek(f, 0, SEEK_END) == 0) {
-    long size = std::ftell(f);
-    if (size > 0) bytes.resize(static_cast<size_t>(size));
-    std::fseek(f, 0, SEEK_SET);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(path, std::string("cannot open file: ") + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) == 0 && st.st_size > 0 && S_ISREG(st.st_mode)) {
+    size_ = static_cast<size_t>(st.st_size);
+    void* m = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+    if (m != MAP_FAILED) {
+      map_ = m;
+      ::close(fd);
+      return;
+    }
   }
-  size_t got = bytes.empty() ? 0 : std::fread(bytes.data(), 1, bytes.size(), f);
-  bool failed = std::ferror(f) != 0;
-  int err = errno;
-  std::fclose(f);
-  if (failed) throw Error(path, std::string("cannot read file: ") + std::strerror(err));
-  bytes.resize(got);
-  return bytes;
+  // Fallback (pipes, special files, failed mapping): read until end of file.
+  size_ = 0;
+  char buf[1 << 16];
+  while (true) {
+    const ssize_t got = ::read(fd, buf, sizeof buf);
+    if (got == 0) break;
+    if (got < 0) {
+      if (errno == EINTR) continue;
+      const int err = errno;
+      ::close(fd);
+      throw Error(path, std::string("cannot read file: ") + std::strerror(err));
+    }
+    copy_.append(buf, static_cast<size_t>(got));
+  }
+  ::close(fd);
+}
+
+FileBytes::~FileBytes() {
+  if (map_) ::munmap(map_, size_);
 }
 
 PlyFile read_ply(const std::string& path) {
-  const std::string bytes = read_file_bytes(path);
+  const FileBytes file(path);
+  const std::string_view bytes = file.view();
   PlyFile ply;
   const size_t body = parse_header(path, bytes, ply);
   if (ply.format == PlyFormat::Ascii) {

@@ -36,9 +36,9 @@ constexpr size_t kChunkSize = 256;
 constexpr double kShC0 = 0.28209479177387814;
 
 const char* const kPacked[] = {"packed_position", "packed_rotation", "packed_scale", "packed_color"};
-const char* const kChunkBounds[] = {"min_x", "min_y", "min_z", "max_x", "max_y", "max_z",
-                                    "min_scale_x", "min_scale_y", "min_scale_z",
-                                    "max_scale_x", "max_scale_y", "max_scale_z"};
+const char* const kChunkBounds[] = {"min_x",       "min_y",       "min_z",       "max_x",
+                                    "max_y",       "max_z",       "min_scale_x", "min_scale_y",
+                                    "min_scale_z", "max_scale_x", "max_scale_y", "max_scale_z"};
 const char* const kChunkColour[] = {"min_r", "min_g", "min_b", "max_r", "max_g", "max_b"};
 
 double unorm(uint32_t bits, int width) {
@@ -54,7 +54,8 @@ std::vector<uint32_t> packed_words(const PlyElement& vertex, const char* name, c
   if (!p) throw Error(path, std::string("compressed splat PLY: vertex property '") + name + "' is missing");
   if (p->is_list || (p->type != PlyType::UInt32 && p->type != PlyType::Int32))
     throw Error(path, std::string("compressed splat PLY: vertex property '") + name +
-                          "' must be a 32-bit unsigned integer, found " + (p->is_list ? "a list" : ply_type_name(p->type)));
+                          "' must be a 32-bit unsigned integer, found " +
+                          (p->is_list ? "a list" : ply_type_name(p->type)));
   std::vector<uint32_t> words(vertex.count);
   if (vertex.count) std::memcpy(words.data(), p->data.data(), vertex.count * 4);
   return words;
@@ -123,14 +124,19 @@ PlyFile decode_compressed_splat_ply(const PlyFile& ply, const std::string& path)
 
   // Decode geometry and colour, splat by splat.
   std::vector<float> xyz[3], scale[3], dc[3], rot[4], opacity(n);
-  for (int k = 0; k < 3; ++k) { xyz[k].resize(n); scale[k].resize(n); dc[k].resize(n); }
+  for (int k = 0; k < 3; ++k) {
+    xyz[k].resize(n);
+    scale[k].resize(n);
+    dc[k].resize(n);
+  }
   for (auto& r : rot) r.resize(n);
   const int widths[3] = {11, 10, 11}, shifts[3] = {21, 11, 0};
   for (size_t i = 0; i < n; ++i) {
     const size_t c = i / kChunkSize;
     for (int k = 0; k < 3; ++k) {
       xyz[k][i] = static_cast<float>(lerp(bounds[k][c], bounds[3 + k][c], unorm(pos_w[i] >> shifts[k], widths[k])));
-      scale[k][i] = static_cast<float>(lerp(bounds[6 + k][c], bounds[9 + k][c], unorm(scl_w[i] >> shifts[k], widths[k])));
+      scale[k][i] =
+          static_cast<float>(lerp(bounds[6 + k][c], bounds[9 + k][c], unorm(scl_w[i] >> shifts[k], widths[k])));
       double t = unorm(col_w[i] >> (24 - 8 * k), 8);
       if (!colour_bounds.empty()) t = lerp(colour_bounds[k][c], colour_bounds[3 + k][c], t);
       dc[k][i] = static_cast<float>((t - 0.5) / kShC0);
@@ -175,7 +181,10 @@ PlyFile decode_compressed_splat_ply(const PlyFile& ply, const std::string& path)
   out.obj_info = ply.obj_info;
   for (const PlyElement& el : ply.elements) {
     if (el.name == "chunk" || el.name == "sh") continue;
-    if (el.name != "vertex") { out.elements.push_back(el); continue; }
+    if (el.name != "vertex") {
+      out.elements.push_back(el);
+      continue;
+    }
     PlyElement v;
     v.name = "vertex";
     v.count = n;

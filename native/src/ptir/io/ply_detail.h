@@ -17,8 +17,21 @@ bool parse_ply_type(std::string_view name, PlyType& out);
 // One value of type t (host byte order) at p, converted to double.
 double ply_value_as_double(const uint8_t* p, PlyType t);
 
-// The whole file, or ptir::Error(path, "cannot open file: <strerror>").
-std::string read_file_bytes(const std::string& path);
+// The whole file, read-only (memory-mapped; read into memory where mapping fails).
+// Throws ptir::Error(path, "cannot open file: <strerror>").
+class FileBytes {
+ public:
+  explicit FileBytes(const std::string& path);
+  ~FileBytes();
+  FileBytes(const FileBytes&) = delete;
+  FileBytes& operator=(const FileBytes&) = delete;
+  std::string_view view() const { return map_ ? std::string_view(static_cast<const char*>(map_), size_) : copy_; }
+
+ private:
+  void* map_ = nullptr;
+  size_t size_ = 0;
+  std::string copy_;
+};
 
 // Body parsers: fill every element's columns from the bytes after end_header.
 // Throw ptir::Error(path, ...) for truncated data, bad values or count mismatches.

@@ -58,7 +58,8 @@ std::string header_text(const PlyFile& ply) {
     h += "element " + el.name + " " + std::to_string(el.count) + "\n";
     for (const PlyProperty& p : el.properties) {
       if (p.is_list)
-        h += std::string("property list ") + ply_type_name(p.count_type) + " " + ply_type_name(p.type) + " " + p.name + "\n";
+        h += std::string("property list ") + ply_type_name(p.count_type) + " " + ply_type_name(p.type) + " " + p.name +
+             "\n";
       else
         h += std::string("property ") + ply_type_name(p.type) + " " + p.name + "\n";
     }

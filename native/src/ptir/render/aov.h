@@ -8,6 +8,7 @@
 #include <string>
 
 #include "ptir/accel/scene_accel.h"
+#include "ptir/core/render_control.h"
 #include "ptir/io/image.h"
 #include "ptir/scene/camera.h"
 #include "ptir/transport/interaction.h"
@@ -26,11 +27,6 @@ struct AovSettings {
   InteractionSettings interaction;
   int spp = 1;        // 1: one ray through each pixel centre; more: jittered, averaged
   uint64_t seed = 0;  // jitter and discrete picks
-};
-
-struct RenderControl {
-  std::function<void(float)> progress;        // fraction done; called under a lock from worker threads
-  const std::atomic<bool>* cancel = nullptr;  // set to stop early (throws ptir::Cancelled)
 };
 
 // AOV of one primary ray.

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <iterator>
 #include <limits>
 
@@ -19,19 +20,44 @@ namespace {
 using io::PlyElement;
 using io::PlyFile;
 
-const char* const kRequired[] = {"x", "y", "z", "scale_0", "scale_1", "scale_2",
-                                 "rot_0", "rot_1", "rot_2", "rot_3", "opacity"};
+const char* const kRequired[] = {"x",     "y",     "z",     "scale_0", "scale_1", "scale_2",
+                                 "rot_0", "rot_1", "rot_2", "rot_3",   "opacity"};
 
-// A scalar column as float; NaN/Inf is refused with the property and the first bad index.
-std::vector<float> finite_column(const PlyElement& v, const std::string& name, const std::string& path) {
-  std::vector<float> col = v.column_as_float(name, path);
-  for (size_t i = 0; i < col.size(); ++i) {
-    if (!std::isfinite(col[i]))
-      throw Error(path, "property '" + name + "' is " + (std::isnan(col[i]) ? "NaN" : "infinite") +
-                            " at vertex " + std::to_string(i) + " (first bad vertex)");
+// Read-only view of one scalar property, value by value as float, without copying the
+// column. NaN/Inf is refused with the property name and the vertex index.
+class Column {
+ public:
+  Column() = default;
+  Column(const PlyElement& v, const std::string& name, const std::string& path) : name_(name), path_(&path) {
+    p_ = v.get(name);
+    if (!p_) throw Error(path, "element 'vertex' has no property '" + name + "'");
+    if (p_->is_list) throw Error(path, "property '" + name + "' is a list, expected a scalar");
+    if (p_->data.size() != v.count * io::ply_type_size(p_->type))
+      throw Error(path, "property '" + name + "' has the wrong number of values");
+    f32_ = p_->type == io::PlyType::Float32;
   }
-  return col;
-}
+  explicit operator bool() const { return p_ != nullptr; }
+
+  float operator()(size_t i) const {
+    float x;
+    if (f32_)
+      std::memcpy(&x, p_->data.data() + 4 * i, 4);
+    else
+      x = p_->as_float(i);
+    if (!std::isfinite(x)) fail(i, x);
+    return x;
+  }
+
+ private:
+  [[noreturn]] void fail(size_t i, float x) const {
+    throw Error(*path_, "property '" + name_ + "' is " + (std::isnan(x) ? "NaN" : "infinite") + " at vertex " +
+                            std::to_string(i) + " (first bad vertex)");
+  }
+  const io::PlyProperty* p_ = nullptr;
+  std::string name_;
+  const std::string* path_ = nullptr;
+  bool f32_ = false;
+};
 
 // A short guess of what a non-splat PLY is, for the error message.
 std::string looks_like(const PlyFile& ply, const PlyElement& v) {
@@ -55,8 +81,10 @@ bool optional_group(const PlyElement& v, const std::vector<std::string>& names, 
   std::string missing;
   size_t found = 0;
   for (const std::string& n : names) {
-    if (v.get(n)) ++found;
-    else missing += (missing.empty() ? "" : ", ") + n;
+    if (v.get(n))
+      ++found;
+    else
+      missing += (missing.empty() ? "" : ", ") + n;
   }
   if (found == 0) return false;
   if (found < names.size()) throw Error(path, "incomplete property group: missing " + missing);
@@ -75,7 +103,8 @@ int sh_degree_from_rest(const PlyElement& v, const std::string& path) {
     throw Error(path, "unsupported SH: " + std::to_string(count) +
                           " f_rest_* properties (expected 0, 9, 24 or 45 for SH degree 0 to 3)");
   for (const std::string& name : numbered("f_rest_", count))
-    if (!v.get(name)) throw Error(path, "f_rest_* properties are not numbered 0.." + std::to_string(count - 1) + ": missing " + name);
+    if (!v.get(name))
+      throw Error(path, "f_rest_* properties are not numbered 0.." + std::to_string(count - 1) + ": missing " + name);
   return degree;
 }
 
@@ -100,53 +129,55 @@ GaussianField gaussians_from_ply(io::PlyFile ply, const std::string& path) {
   f.position.resize(n);
   f.scale.resize(n);
   f.rotation.resize(n);
-  f.opacity = finite_column(v, "opacity", path);
+  f.opacity.resize(n);
 
-  // Geometry with activations.
+  // Geometry with activations: exp scale, sigmoid opacity, normalised quaternion.
   {
-    std::vector<float> c[3];
-    for (int k = 0; k < 3; ++k) c[k] = finite_column(v, std::string(1, "xyz"[k]), path);
-    for (size_t i = 0; i < n; ++i) f.position[i] = Vec3(c[0][i], c[1][i], c[2][i]);
-    for (int k = 0; k < 3; ++k) c[k] = finite_column(v, "scale_" + std::to_string(k), path);
+    const Column x(v, "x", path), y(v, "y", path), z(v, "z", path), op(v, "opacity", path);
+    const Column s[3] = {{v, "scale_0", path}, {v, "scale_1", path}, {v, "scale_2", path}};
+    const Column q[4] = {{v, "rot_0", path}, {v, "rot_1", path}, {v, "rot_2", path}, {v, "rot_3", path}};
     for (size_t i = 0; i < n; ++i) {
+      f.position[i] = Vec3(x(i), y(i), z(i));
+      f.opacity[i] = sigmoid(op(i));
       for (int k = 0; k < 3; ++k) {
-        float s = std::exp(c[k][i]);
-        if (!std::isfinite(s))
+        const float raw = s[k](i), e = std::exp(raw);
+        if (!std::isfinite(e))
           throw Error(path, "property 'scale_" + std::to_string(k) + "' at vertex " + std::to_string(i) +
-                                " is too large: exp(" + std::to_string(c[k][i]) + ") overflows");
-        f.scale[i][k] = std::max(s, std::numeric_limits<float>::min());  // keeps 1/scale finite
+                                " is too large: exp(" + std::to_string(raw) + ") overflows");
+        f.scale[i][k] = std::max(e, std::numeric_limits<float>::min());  // keeps 1/scale finite
       }
-    }
-  }
-  for (float& o : f.opacity) o = sigmoid(o);
-  {
-    std::vector<float> q[4];
-    for (int k = 0; k < 4; ++k) q[k] = finite_column(v, "rot_" + std::to_string(k), path);
-    for (size_t i = 0; i < n; ++i) {
-      double len2 = 0;
-      for (int k = 0; k < 4; ++k) len2 += static_cast<double>(q[k][i]) * q[k][i];
+      double qd[4], len2 = 0;
+      for (int k = 0; k < 4; ++k) {
+        qd[k] = q[k](i);
+        len2 += qd[k] * qd[k];
+      }
       if (len2 == 0.0)
         throw Error(path, "zero-length rotation quaternion (rot_0..rot_3 all zero) at vertex " + std::to_string(i));
       const double inv = 1.0 / std::sqrt(len2);
-      for (int k = 0; k < 4; ++k) f.rotation[i][k] = static_cast<float>(q[k][i] * inv);
+      for (int k = 0; k < 4; ++k) f.rotation[i][k] = static_cast<float>(qd[k] * inv);
     }
   }
 
   // SH: sh[i*stride + k*3 + c]; the file stores f_rest channel-major, f_rest_[c*K + (k-1)].
+  // Filled in blocks of Gaussians so the strided writes stay in cache.
   f.sh_degree = sh_degree_from_rest(v, path);
   const bool has_dc = optional_group(v, numbered("f_dc_", 3), path);
   {
     const size_t stride = static_cast<size_t>(f.sh_stride());
     const size_t K = stride / 3 - 1;
-    f.sh.assign(n * stride, 0.0f);
-    for (int c = 0; c < 3 && has_dc; ++c) {
-      std::vector<float> col = finite_column(v, "f_dc_" + std::to_string(c), path);
-      for (size_t i = 0; i < n; ++i) f.sh[i * stride + c] = col[i];
-    }
+    std::vector<Column> src(stride);  // src[k*3 + c]; empty for a missing DC
     for (size_t c = 0; c < 3; ++c) {
-      for (size_t k = 1; k <= K; ++k) {
-        std::vector<float> col = finite_column(v, "f_rest_" + std::to_string(c * K + (k - 1)), path);
-        for (size_t i = 0; i < n; ++i) f.sh[i * stride + k * 3 + c] = col[i];
+      if (has_dc) src[c] = Column(v, "f_dc_" + std::to_string(c), path);
+      for (size_t k = 1; k <= K; ++k) src[k * 3 + c] = Column(v, "f_rest_" + std::to_string(c * K + (k - 1)), path);
+    }
+    f.sh.assign(n * stride, 0.0f);
+    constexpr size_t kBlock = 1024;
+    for (size_t i0 = 0; i0 < n; i0 += kBlock) {
+      const size_t i1 = std::min(n, i0 + kBlock);
+      for (size_t j = 0; j < stride; ++j) {
+        if (!src[j]) continue;
+        float* dst = f.sh.data() + j;
+        for (size_t i = i0; i < i1; ++i) dst[i * stride] = src[j](i);
       }
     }
   }
@@ -154,26 +185,33 @@ GaussianField gaussians_from_ply(io::PlyFile ply, const std::string& path) {
   // Material: albedo, roughness, metallic (defaults when absent).
   f.albedo.assign(n, Vec3(kDefaultAlbedo));
   if (optional_group(v, numbered("albedo_", 3), path)) {
-    for (int c = 0; c < 3; ++c) {
-      std::vector<float> col = finite_column(v, "albedo_" + std::to_string(c), path);
-      for (size_t i = 0; i < n; ++i) f.albedo[i][c] = col[i];
-    }
+    const Column a[3] = {{v, "albedo_0", path}, {v, "albedo_1", path}, {v, "albedo_2", path}};
+    for (size_t i = 0; i < n; ++i) f.albedo[i] = Vec3(a[0](i), a[1](i), a[2](i));
   }
-  f.roughness = v.get("roughness") ? finite_column(v, "roughness", path) : std::vector<float>(n, kDefaultRoughness);
-  f.metallic = v.get("metallic") ? finite_column(v, "metallic", path) : std::vector<float>(n, kDefaultMetallic);
+  f.roughness.assign(n, kDefaultRoughness);
+  if (v.get("roughness")) {
+    const Column r(v, "roughness", path);
+    for (size_t i = 0; i < n; ++i) f.roughness[i] = r(i);
+  }
+  f.metallic.assign(n, kDefaultMetallic);
+  if (v.get("metallic")) {
+    const Column m(v, "metallic", path);
+    for (size_t i = 0; i < n; ++i) f.metallic[i] = m(i);
+  }
 
   // Normals: from nx,ny,nz where non-zero, else the shortest axis.
   init_normals_shortest_axis(f);
   f.normals_from_file = false;
   if (optional_group(v, {"nx", "ny", "nz"}, path)) {
-    std::vector<float> c[3];
-    for (int k = 0; k < 3; ++k) c[k] = finite_column(v, std::string("n") + "xyz"[k], path);
+    const Column c[3] = {{v, "nx", path}, {v, "ny", path}, {v, "nz", path}};
     bool all = true;
     for (size_t i = 0; i < n; ++i) {
-      const Vec3 nrm(c[0][i], c[1][i], c[2][i]);
+      const Vec3 nrm(c[0](i), c[1](i), c[2](i));
       const float len = length(nrm);
-      if (len > 0.0f && std::isfinite(len)) f.normal[i] = nrm / len;
-      else all = false;
+      if (len > 0.0f && std::isfinite(len))
+        f.normal[i] = nrm / len;
+      else
+        all = false;
     }
     f.normals_from_file = all;
   }

@@ -36,7 +36,8 @@ Vec3 GaussianField::sh_colour(size_t i, Vec3 dir) const {
                 kC2[3] * xz * coef(7) + kC2[4] * (xx - yy) * coef(8);
       if (sh_degree > 2) {
         result += kC3[0] * y * (3.0f * xx - yy) * coef(9) + kC3[1] * xy * z * coef(10) +
-                  kC3[2] * y * (4.0f * zz - xx - yy) * coef(11) + kC3[3] * z * (2.0f * zz - 3.0f * xx - 3.0f * yy) * coef(12) +
+                  kC3[2] * y * (4.0f * zz - xx - yy) * coef(11) +
+                  kC3[3] * z * (2.0f * zz - 3.0f * xx - 3.0f * yy) * coef(12) +
                   kC3[4] * x * (4.0f * zz - xx - yy) * coef(13) + kC3[5] * z * (xx - yy) * coef(14) +
                   kC3[6] * x * (xx - 3.0f * yy) * coef(15);
       }

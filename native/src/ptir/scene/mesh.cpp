@@ -40,7 +40,8 @@ void load_ply_mesh(const std::string& path, TriangleMesh& mesh) {
   if (!idx || !idx->is_list)
     throw Error(path, "mesh PLY: element 'face' needs a list property 'vertex_indices' (or 'vertex_index')");
   if (idx->type == io::PlyType::Float32 || idx->type == io::PlyType::Float64)
-    throw Error(path, "mesh PLY: face vertex indices must be integers, found " + std::string(io::ply_type_name(idx->type)));
+    throw Error(path,
+                "mesh PLY: face vertex indices must be integers, found " + std::string(io::ply_type_name(idx->type)));
 
   const size_t is = io::ply_type_size(idx->type);
   std::vector<uint32_t> poly;
@@ -49,8 +50,9 @@ void load_ply_mesh(const std::string& path, TriangleMesh& mesh) {
     for (uint64_t j = idx->list_offsets[f]; j < idx->list_offsets[f + 1]; ++j) {
       const double v = io::ply_value_as_double(idx->list_data.data() + j * is, idx->type);
       if (v < 0 || v >= static_cast<double>(mesh.vertices.size()))
-        throw Error(path, "face " + std::to_string(f) + " refers to vertex " + std::to_string(static_cast<long long>(v)) +
-                              ", the mesh has " + std::to_string(mesh.vertices.size()) + " vertices");
+        throw Error(path, "face " + std::to_string(f) + " refers to vertex " +
+                              std::to_string(static_cast<long long>(v)) + ", the mesh has " +
+                              std::to_string(mesh.vertices.size()) + " vertices");
       poly.push_back(static_cast<uint32_t>(v));
     }
     add_fan(poly, mesh.triangles);
@@ -82,14 +84,15 @@ bool parse_float(std::string_view tok, float& out) {
 }
 
 void load_obj_mesh(const std::string& path, TriangleMesh& mesh) {
-  const std::string text = io::read_file_bytes(path);
+  const io::FileBytes file(path);
+  const std::string_view text = file.view();
   std::vector<int64_t> poly;          // 0-based, not yet range-checked against the final count
   std::vector<size_t> triangle_line;  // source line of each triangle, for messages
   std::vector<std::array<int64_t, 3>> tris;
   size_t pos = 0, line_no = 0;
   while (pos < text.size()) {
     size_t nl = text.find('\n', pos);
-    if (nl == std::string::npos) nl = text.size();
+    if (nl == std::string_view::npos) nl = text.size();
     const std::string_view line(text.data() + pos, nl - pos);
     pos = nl + 1;
     ++line_no;
@@ -128,8 +131,9 @@ void load_obj_mesh(const std::string& path, TriangleMesh& mesh) {
     std::array<uint32_t, 3> tri{};
     for (int k = 0; k < 3; ++k) {
       if (tris[t][k] >= static_cast<int64_t>(mesh.vertices.size()))
-        throw Error(path, "line " + std::to_string(triangle_line[t]) + ": face index " + std::to_string(tris[t][k] + 1) +
-                              " is out of range (the file has " + std::to_string(mesh.vertices.size()) + " vertices)");
+        throw Error(path, "line " + std::to_string(triangle_line[t]) + ": face index " +
+                              std::to_string(tris[t][k] + 1) + " is out of range (the file has " +
+                              std::to_string(mesh.vertices.size()) + " vertices)");
       tri[k] = static_cast<uint32_t>(tris[t][k]);
     }
     mesh.triangles.push_back(tri);
@@ -141,7 +145,8 @@ void load_obj_mesh(const std::string& path, TriangleMesh& mesh) {
 TriangleMesh load_mesh(const std::string& path) {
   const std::filesystem::path p(path);
   std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   TriangleMesh mesh;
   mesh.name = p.stem().string();
   if (ext == ".ply")
@@ -154,7 +159,8 @@ TriangleMesh load_mesh(const std::string& path) {
   if (mesh.vertices.size() > static_cast<size_t>(UINT32_MAX))
     throw Error(path, "mesh has too many vertices for 32-bit indices");
   for (size_t i = 0; i < mesh.vertices.size(); ++i)
-    if (!is_finite(mesh.vertices[i])) throw Error(path, "vertex " + std::to_string(i) + " has a NaN or infinite coordinate");
+    if (!is_finite(mesh.vertices[i]))
+      throw Error(path, "vertex " + std::to_string(i) + " has a NaN or infinite coordinate");
   if (mesh.triangles.empty()) throw Error(path, "mesh has no triangles");
   return mesh;
 }

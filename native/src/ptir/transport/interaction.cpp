@@ -13,6 +13,7 @@ bool InteractionBuilder::add(const GaussianHit& hit) {
     sum_a_ += w * field_.albedo[hit.id];
     sum_r_ += w * field_.roughness[hit.id];
     sum_m_ += w * field_.metallic[hit.id];
+    sum_size_ += w * max_component(field_.scale[hit.id]);
   } else {
     // Weighted reservoir of size one: hit j survives with probability w_j / O.
     if (pick_rng_.at(hits_) * O_ < w) {
@@ -39,6 +40,7 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
     si.albedo = sum_a_ * inv;
     si.roughness = sum_r_ * inv;
     si.metallic = sum_m_ * inv;
+    si.size = sum_size_ * inv;
   } else {
     si.picked = picked_;
     si.depth = picked_t_;
@@ -46,6 +48,7 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
     si.albedo = field_.albedo[picked_];
     si.roughness = field_.roughness[picked_];
     si.metallic = field_.metallic[picked_];
+    si.size = max_component(field_.scale[picked_]);
   }
   si.p = ray.at(si.depth);
   // Normal rule: normalise the aggregate, then flip it to face the incoming ray, so

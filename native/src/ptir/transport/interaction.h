@@ -14,15 +14,9 @@
 #include "ptir/math/ray.h"
 #include "ptir/math/rng.h"
 #include "ptir/scene/gaussians.h"
+#include "ptir/scene/render_settings.h"
 
 namespace ptir {
-
-enum class InteractionMode { Aggregate, Discrete };
-
-struct InteractionSettings {
-  float tau_g = 0.5f;  // validity threshold on O
-  InteractionMode mode = InteractionMode::Aggregate;
-};
 
 struct SurfaceInteraction {
   bool valid = false;          // chi_geom = [O > tau_g]
@@ -34,6 +28,7 @@ struct SurfaceInteraction {
   Vec3 albedo;
   float roughness = 0.0f;
   float metallic = 0.0f;
+  float size = 0.0f;           // sum w_i max(scale_i): the footprint of the Gaussians involved
   uint32_t hits = 0;           // Gaussians composited
   uint32_t picked = 0;         // discrete mode: the Gaussian chosen
 };
@@ -65,7 +60,7 @@ class InteractionBuilder {
   // Aggregate sums of w_i * attribute (unnormalised), or the picked hit's values.
   float sum_t_ = 0.0f;
   Vec3 sum_n_, sum_a_;
-  float sum_r_ = 0.0f, sum_m_ = 0.0f;
+  float sum_r_ = 0.0f, sum_m_ = 0.0f, sum_size_ = 0.0f;
   uint32_t picked_ = 0;
   float picked_t_ = 0.0f;
 };

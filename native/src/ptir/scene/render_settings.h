@@ -1,0 +1,39 @@
+// Settings of the renderers, as plain data: read from scene files and the
+// command line, used by the transport layer.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+
+namespace ptir {
+
+enum class InteractionMode { Aggregate, Discrete };
+
+struct InteractionSettings {
+  float tau_g = 0.5f;  // validity threshold on O
+  InteractionMode mode = InteractionMode::Aggregate;
+};
+
+// How rays spawned at a Gaussian interaction avoid re-hitting the surface they leave.
+enum class SelfIntersection {
+  BackfaceAware,  // skip back-facing Gaussians (d.n_i > 0) within a range scaled to the interaction's Gaussians
+  FixedOffset,    // PTIR code: origin + offset d, skip hits t <= range with n_i.d > 0.1 (world units)
+};
+
+struct IntegratorSettings {
+  int spp = 32;
+  int max_bounces = 2;  // indirect bounces, as Cycles counts them (0: direct light only)
+  uint64_t seed = 0;
+  InteractionSettings interaction;       // aggregate/discrete, tau_g
+  bool geometric_criterion = true;       // chi_geom gate; off: every hit with O > 0 is an interaction
+  SelfIntersection self_intersection = SelfIntersection::BackfaceAware;
+  // Backface-aware: back-facing hits are skipped within this many times the
+  // interaction's Gaussian size; infinity (default) is the paper's rule, which
+  // skips every back-facing hit of a spawned ray.
+  float self_range_scale = std::numeric_limits<float>::infinity();
+  float fixed_offset = 0.02f;            // fixed-offset variant: origin offset (world units)
+  float fixed_range = 0.08f;             // fixed-offset variant: skip range (world units)
+  float min_throughput = 1e-4f;          // end a path when max(beta) falls below this
+};
+
+}  // namespace ptir

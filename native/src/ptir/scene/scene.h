@@ -1,0 +1,41 @@
+// A whole scene: Gaussian field, meshes with materials, lights, environment,
+// cameras and integrator settings. Built in code, from a scene JSON file
+// (scene_json.h) or from Blender by the add-on.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ptir/lights/emitters.h"
+#include "ptir/lights/env_sg.h"
+#include "ptir/lights/environment.h"
+#include "ptir/scene/camera.h"
+#include "ptir/scene/gaussians.h"
+#include "ptir/scene/mesh.h"
+#include "ptir/scene/render_settings.h"
+
+namespace ptir {
+
+// The environment: none (black), a lat-long map, or spherical Gaussians.
+struct SceneEnvironment {
+  std::optional<Environment> latlong;
+  std::optional<SgEnvironment> sg;
+  bool present() const { return latlong.has_value() || sg.has_value(); }
+};
+
+struct Scene {
+  std::shared_ptr<GaussianField> gaussians = std::make_shared<GaussianField>();
+  std::vector<TriangleMesh> meshes;
+  std::vector<Emitter> emitters;
+  SceneEnvironment environment;
+  std::vector<Camera> cameras;
+  IntegratorSettings integrator;
+  std::string source_path;  // the scene file, for messages
+
+  // Camera by name (throws ptir::Error listing the names when missing); "" = the first.
+  const Camera& camera(const std::string& name) const;
+};
+
+}  // namespace ptir

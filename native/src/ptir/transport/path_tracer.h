@@ -1,0 +1,44 @@
+// The path tracer over Gaussians and meshes (METHOD §4): equivalent surface
+// interactions, the simplified Disney BRDF, next-event estimation of every light
+// with MIS (power heuristic) against BRDF sampling at every vertex, stochastic
+// transmittance shadow rays through the Gaussians, the chi_pass continuation
+// rule, and backface-aware self-intersection rejection.
+//
+// Random numbers are keyed on (seed, pixel, sample, bounce, dimension), so a
+// path is a pure function of its keys: images do not depend on the thread count
+// and any path can be replayed exactly (path replay backpropagation).
+#pragma once
+
+#include <memory>
+
+#include "ptir/accel/scene_accel.h"
+#include "ptir/scene/scene.h"
+
+namespace ptir {
+
+struct PathStats {
+  uint64_t paths = 0;
+  uint64_t vertices = 0;     // surface interactions shaded
+  uint64_t shadow_rays = 0;
+};
+
+class PathTracer {
+ public:
+  // Builds the acceleration structure of the scene (which must outlive the tracer).
+  explicit PathTracer(const Scene& scene, const AccelSettings& accel_settings = {});
+
+  // Radiance of one camera-ray sample; *coverage gets 1 when the ray found a
+  // surface (Gaussian interaction or mesh), else 0. pixel is y * width + x.
+  Vec3 sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
+                       float* coverage = nullptr, PathStats* stats = nullptr) const;
+
+  const Scene& scene() const { return scene_; }
+  const SceneAccel& accel() const { return *accel_; }
+
+ private:
+  const Scene& scene_;
+  std::unique_ptr<SceneAccel> accel_;
+  float mesh_epsilon_ = 1e-4f;  // offset of rays leaving a mesh, relative to the scene's size
+};
+
+}  // namespace ptir

@@ -1,0 +1,182 @@
+#include "ptir/transport/scattering.h"
+
+#include <cmath>
+
+#include "ptir/math/sampling.h"
+#include "ptir/transport/path_tracer.h"
+
+namespace ptir {
+
+namespace {
+
+// Fixed-offset variant (PTIR code): skipped hits must face away by more than this.
+constexpr float kFixedBackfaceCos = 0.1f;
+
+Vec3 mesh_emission(const TriangleMesh& mesh, const MeshHit& hit, Vec3 d) {
+  // One-sided like Blender's emission: only the front of the triangle emits.
+  if (mesh.material.emission.x <= 0 && mesh.material.emission.y <= 0 && mesh.material.emission.z <= 0) return Vec3(0.0f);
+  return dot(mesh.face_normal(hit.prim), d) < 0.0f ? mesh.material.emission : Vec3(0.0f);
+}
+
+}  // namespace
+
+Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const IntegratorSettings& settings, float mesh_epsilon)
+    : scene_(scene), accel_(accel), field_(accel.field()), settings_(settings), mesh_epsilon_(mesh_epsilon) {}
+
+bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const {
+  if (from.kind != SpawnContext::Gaussian) return false;
+  float d_dot_n = dot(d, field_.normal[h.id]);
+  if (settings_.self_intersection == SelfIntersection::BackfaceAware)
+    return h.t > 0.0f && d_dot_n > 0.0f && h.t <= from.self_range;
+  return h.t <= settings_.fixed_range && d_dot_n > kFixedBackfaceCos;
+}
+
+NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce) const {
+  InteractionSettings isettings = settings_.interaction;
+  if (!settings_.geometric_criterion) isettings.tau_g = 0.0f;  // ablation: any response forms an interaction
+  uint64_t pick_key = hash_combine(hash_combine(path_key, bounce), kStreamPick);
+  InteractionBuilder builder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key);
+
+  // Composite the Gaussians front to back, skipping the surface the ray leaves.
+  WalkEnd end;
+  if (from.kind == SpawnContext::Gaussian) {
+    end = accel_.walk(ray, [&](const GaussianHit& h) { return is_self_hit(from, ray.d, h) ? true : builder.add(h); });
+  } else {
+    end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true);
+  }
+  SurfaceInteraction si = builder.finish(ray);
+
+  NextEvent ev;
+  ev.si = si;
+  // A valid Gaussian interaction (chi_geom = 1).
+  if (si.valid) {
+    ev.kind = NextEvent::Gaussian;
+    ev.t = si.depth;
+    ev.p = si.p;
+    ev.n = si.n;
+    ev.albedo = si.albedo;
+    ev.roughness = si.roughness;
+    ev.metallic = si.metallic;
+    ev.size = si.size;
+    return ev;
+  }
+  // chi_pass: through the field with probability T_ray, else absorbed.
+  if (si.opacity > 0.0f && !(Rng(path_key, bounce, kStreamPass).at(0) < si.transmittance)) {
+    ev.kind = NextEvent::Absorbed;
+    ev.t = si.opacity > 0.0f ? si.depth : ray.tmax;
+    return ev;
+  }
+  if (end.mesh.valid) {
+    const TriangleMesh& mesh = accel_.meshes()[end.mesh.mesh];
+    Vec3 ng = mesh.face_normal(end.mesh.prim);
+    ev.kind = NextEvent::Mesh;
+    ev.mesh = end.mesh;
+    ev.t = end.mesh.t;
+    ev.p = ray.at(end.mesh.t);
+    ev.n = dot(ng, ray.d) > 0.0f ? -ng : ng;
+    ev.albedo = mesh.material.base_colour;
+    ev.roughness = mesh.material.roughness;
+    ev.metallic = mesh.material.metallic;
+    ev.emission = mesh_emission(mesh, end.mesh, ray.d);
+    return ev;
+  }
+  ev.kind = NextEvent::Escape;
+  return ev;
+}
+
+SpawnContext Scatterer::spawn_context(const NextEvent& ev, const Ray& incoming) const {
+  SpawnContext s;
+  s.p = ev.p;
+  if (ev.kind == NextEvent::Mesh) {
+    s.kind = SpawnContext::Mesh;
+    s.ng = ev.n;
+  } else {
+    s.kind = SpawnContext::Gaussian;
+    s.self_range = settings_.self_range_scale * ev.size;
+    if (std::isnan(s.self_range)) s.self_range = INFINITY;  // inf * 0
+  }
+  return s;
+}
+
+Ray Scatterer::spawn_ray(const SpawnContext& from, Vec3 wi, float max_distance) const {
+  Ray r;
+  r.o = from.p;
+  r.d = wi;
+  r.tmin = 0.0f;
+  r.tmax = max_distance;
+  if (from.kind == SpawnContext::Mesh) {
+    // Leave the triangle on the side of wi; the scene-scaled offset avoids re-hitting it.
+    r.o = from.p + (dot(from.ng, wi) >= 0.0f ? from.ng : -from.ng) * mesh_epsilon_;
+  } else if (from.kind == SpawnContext::Gaussian && settings_.self_intersection == SelfIntersection::FixedOffset) {
+    r.o = from.p + wi * settings_.fixed_offset;
+    if (std::isfinite(max_distance)) r.tmax = std::max(0.0f, max_distance - settings_.fixed_offset);
+  }
+  return r;
+}
+
+bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, uint64_t path_key, uint32_t bounce,
+                           uint32_t light) const {
+  // Stop short of a light surface so it does not occlude itself.
+  float max_t = std::isfinite(distance) ? distance * (1.0f - 1e-4f) : distance;
+  Ray r = spawn_ray(from, wi, max_t);
+  const uint64_t key = hash_combine(hash_combine(hash_combine(path_key, bounce), kStreamShadow), light);
+  bool blocked = false;
+  // Each Gaussian occludes with probability alpha, decided by a hash of its id.
+  WalkEnd end = accel_.walk(r, [&](const GaussianHit& h) {
+    if (is_self_hit(from, wi, h)) return true;
+    if (to_unit_float(hash_combine(key, h.id)) < h.alpha) {
+      blocked = true;
+      return false;
+    }
+    return true;
+  });
+  return !blocked && !end.mesh.valid;
+}
+
+Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, Vec3 wo, const DisneyParams& brdf,
+                             uint64_t path_key, uint32_t bounce, PathStats* stats) const {
+  Vec3 Ld(0.0f);
+  const auto& emitters = scene_.emitters;
+  // Emitters: light sample, MIS against the BRDF density (delta lights: weight 1).
+  for (uint32_t l = 0; l < emitters.size(); ++l) {
+    Rng rng(path_key, bounce, kStreamLight + l);
+    LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
+    if (!ls.valid()) continue;
+    Vec3 wi_local = frame.to_local(ls.wi);
+    Vec3 f = disney_eval(brdf, wo, wi_local);
+    if (max_component(f) <= 0.0f) continue;
+    if (stats) stats->shadow_rays++;
+    if (!unoccluded(from, ls.wi, ls.distance, path_key, bounce, l)) continue;
+    float w = ls.delta ? 1.0f : power_heuristic(1, ls.pdf, 1, disney_pdf(brdf, wo, wi_local));
+    Ld += f * ls.Li * (w / ls.pdf);
+  }
+  // Environment: importance-sampled direction, MIS against the BRDF density.
+  const SceneEnvironment& env = scene_.environment;
+  if (env.present()) {
+    const uint32_t l = uint32_t(emitters.size());
+    Rng rng(path_key, bounce, kStreamLight + l);
+    Vec3 wi, Li;
+    float pdf = 0.0f;
+    if (env.latlong) {
+      EnvSample es = env.latlong->sample(rng.at(0), rng.at(1));
+      wi = es.wi, Li = es.Li, pdf = es.pdf;
+    } else {
+      SgSample ss = env.sg->sample(rng.at(0), rng.at(1), rng.at(2));
+      wi = ss.wi, Li = ss.Li, pdf = ss.pdf;
+    }
+    if (pdf > 0.0f) {
+      Vec3 wi_local = frame.to_local(wi);
+      Vec3 f = disney_eval(brdf, wo, wi_local);
+      if (max_component(f) > 0.0f) {
+        if (stats) stats->shadow_rays++;
+        if (unoccluded(from, wi, INFINITY, path_key, bounce, l)) {
+          float w = power_heuristic(1, pdf, 1, disney_pdf(brdf, wo, wi_local));
+          Ld += f * Li * (w / pdf);
+        }
+      }
+    }
+  }
+  return Ld;
+}
+
+}  // namespace ptir

@@ -1,0 +1,90 @@
+// The pieces of a path vertex shared by the forward path tracer and the
+// gradient replay: finding the next event along a ray (Gaussian interaction with
+// the chi_geom / chi_pass rules, mesh, escape), spawning rays with the
+// self-intersection rule, stochastic-transmittance shadow rays, and next-event
+// estimation of every light with MIS.
+//
+// Random-number streams: every decision draws from Rng(path_key, bounce, stream)
+// (below), and a shadow ray's Gaussian occlusion tests from a hash of
+// (path_key, bounce, light, Gaussian id), so a replay makes the same decisions.
+#pragma once
+
+#include <cstdint>
+
+#include "ptir/accel/scene_accel.h"
+#include "ptir/material/disney_brdf.h"
+#include "ptir/math/rng.h"
+#include "ptir/scene/scene.h"
+#include "ptir/transport/interaction.h"
+
+namespace ptir {
+
+struct PathStats;
+
+// Random streams of one bounce.
+constexpr uint64_t kStreamPass = 1;      // chi_pass: xi < T_ray
+constexpr uint64_t kStreamPick = 2;      // discrete interaction pick
+constexpr uint64_t kStreamBrdf = 3;      // BRDF sample (3 dimensions)
+constexpr uint64_t kStreamLight = 16;    // + light index: light sample (2 dimensions)
+constexpr uint64_t kStreamShadow = 1024; // + light index: shadow-ray occlusion hashes
+
+// What a ray meets next.
+struct NextEvent {
+  enum Kind { Gaussian, Mesh, Escape, Absorbed } kind = Escape;
+  float t = std::numeric_limits<float>::infinity();  // ray parameter of the event (inf: escape)
+  Vec3 p;           // position
+  Vec3 n;           // unit shading normal facing the incoming ray
+  Vec3 albedo;
+  float roughness = 0.5f, metallic = 0.0f;
+  Vec3 emission;    // mesh emission toward the ray (zero for Gaussians)
+  float size = 0.0f;  // Gaussian interaction: w-weighted largest scale of its Gaussians
+  SurfaceInteraction si;  // Gaussian interaction details (weights are replayed from it)
+  MeshHit mesh;           // mesh details
+};
+
+// Where a spawned ray starts and which hits it must not see again.
+struct SpawnContext {
+  enum Kind { Camera, Gaussian, Mesh } kind = Camera;
+  Vec3 p;
+  Vec3 ng;                 // mesh: geometric normal (either side)
+  float self_range = 0.0f; // Gaussian, backface-aware: skip range (inf: the paper's rule)
+};
+
+class Scatterer {
+ public:
+  // mesh_epsilon: offset of rays leaving a mesh (scaled to the scene's size).
+  Scatterer(const Scene& scene, const SceneAccel& accel, const IntegratorSettings& settings, float mesh_epsilon);
+
+  // Walks `ray` and classifies what it meets (METHOD §3–4): a valid Gaussian
+  // interaction; else, with probability T_ray, what lies behind (mesh or escape);
+  // else the path is absorbed.
+  NextEvent next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce) const;
+
+  SpawnContext spawn_context(const NextEvent& ev, const Ray& incoming) const;
+  // The ray leaving `from` along unit direction wi (offsets applied).
+  Ray spawn_ray(const SpawnContext& from, Vec3 wi, float max_distance = std::numeric_limits<float>::infinity()) const;
+
+  // Stochastic transmittance along the shadow ray from `from` toward wi up to
+  // `distance`: true when nothing occludes. Meshes occlude fully; Gaussian i
+  // occludes when hash(path_key, bounce, light, i) < alpha_i.
+  bool unoccluded(const SpawnContext& from, Vec3 wi, float distance, uint64_t path_key, uint32_t bounce,
+                  uint32_t light) const;
+
+  // One light sample of every emitter and of the environment, each MIS-weighted
+  // against BRDF sampling; returns the sum of f~ Li w / pdf (beta not applied).
+  Vec3 direct_light(const SpawnContext& from, const Frame& frame, Vec3 wo, const DisneyParams& brdf, uint64_t path_key,
+                    uint32_t bounce, PathStats* stats) const;
+
+  // Whether hit h (t_peak, Gaussian) on a ray spawned from `from` along d is the
+  // surface just left, to be skipped.
+  bool is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const;
+
+ private:
+  const Scene& scene_;
+  const SceneAccel& accel_;
+  const GaussianField& field_;
+  IntegratorSettings settings_;
+  float mesh_epsilon_;  // offset of rays leaving a mesh, scaled to the scene
+};
+
+}  // namespace ptir
