@@ -17,6 +17,13 @@
 //
 // Analytic derivatives of f~ with respect to albedo, roughness and metallic
 // (paper appendix B) are in disney_eval_grad (disney_brdf.cpp).
+//
+// Note: f is reciprocal, but the dielectric part is not energy conserving at
+// grazing wo (the diffuse lobe is weighted by 1 - F(wo.h), not by what the
+// specular lobe actually takes): with albedo 1 the directional albedo reaches
+// 1.35 at 80 deg and 1.73 at 89 deg for roughness 0.05 (<= 1 up to ~45 deg).
+// Metals (F = 1) stay <= 1. This is the published model, kept as is; see the
+// white-furnace table printed by tests/native/test_brdf.cpp.
 #pragma once
 
 #include <algorithm>
@@ -53,7 +60,7 @@ struct DisneyParams {
 struct DisneySample {
   Vec3 wi;          // sampled incident direction (local frame)
   Vec3 weight;      // f~(wo, wi) / pdf (cosine included); zero when !valid
-  float pdf = 0;    // mixture density of wi (solid angle), == disney_pdf(wo, wi)
+  float pdf = 0;    // mixture density of wi (solid angle), = disney_pdf(wo, wi)
   bool valid = false;
 };
 
@@ -112,15 +119,10 @@ inline Vec3 half_vector(Vec3 wo, Vec3 wi) {
   return normalize(Vec3(s.x / m, s.y / m, s.z / m));
 }
 
-}  // namespace disney_detail
-
-// Cosine-weighted BRDF f~ = f(wo, wi) max(n.wi, 0); zero unless n.wo > 0 and n.wi > 0.
-inline Vec3 disney_eval(const DisneyParams& p, Vec3 wo, Vec3 wi) {
+// f~ for upper-hemisphere wo, wi with half vector h (see disney_eval).
+inline Vec3 eval_with_half_vector(const DisneyParams& p, float alpha, Vec3 wo, Vec3 wi, Vec3 h) {
+  if (!(h.z > 0.0f)) return Vec3(0.0f);  // degenerate sum (underflow): nothing to reflect
   float cos_o = wo.z, cos_i = wi.z;
-  if (!(cos_o > 0.0f) || !(cos_i > 0.0f)) return Vec3(0.0f);
-  Vec3 h = disney_detail::half_vector(wo, wi);
-  if (!(h.z > 0.0f)) return Vec3(0.0f);
-  float alpha = disney_alpha(p.roughness);
   float k = 0.5f * alpha;
   Vec3 F0 = disney_F0(p);
   float c = schlick_weight(dot(wo, h));
@@ -133,6 +135,15 @@ inline Vec3 disney_eval(const DisneyParams& p, Vec3 wo, Vec3 wi) {
   return diffuse + spec * F;
 }
 
+}  // namespace disney_detail
+
+// Cosine-weighted BRDF f~ = f(wo, wi) max(n.wi, 0); zero unless n.wo > 0 and n.wi > 0.
+inline Vec3 disney_eval(const DisneyParams& p, Vec3 wo, Vec3 wi) {
+  if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return Vec3(0.0f);
+  Vec3 h = disney_detail::half_vector(wo, wi);
+  return disney_detail::eval_with_half_vector(p, disney_alpha(p.roughness), wo, wi, h);
+}
+
 // Mixture density of disney_sample over wi (solid angle); zero unless both are above.
 inline float disney_pdf(const DisneyParams& p, Vec3 wo, Vec3 wi) {
   if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return 0.0f;
@@ -140,8 +151,15 @@ inline float disney_pdf(const DisneyParams& p, Vec3 wo, Vec3 wi) {
   return disney_detail::mixture_pdf(disney_alpha(p.roughness), wo, wi, h);
 }
 
+// Both at once (one half vector): what next-event estimation needs for MIS.
 inline DisneyEvalPdf disney_eval_pdf(const DisneyParams& p, Vec3 wo, Vec3 wi) {
-  return {disney_eval(p, wo, wi), disney_pdf(p, wo, wi)};
+  DisneyEvalPdf r;
+  if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return r;
+  Vec3 h = disney_detail::half_vector(wo, wi);
+  float alpha = disney_alpha(p.roughness);
+  r.f = disney_detail::eval_with_half_vector(p, alpha, wo, wi, h);
+  r.pdf = disney_detail::mixture_pdf(alpha, wo, wi, h);
+  return r;
 }
 
 // Draws wi: u1 picks the lobe (u1 < kSpecularLobeProb: GGX specular, else diffuse),
@@ -160,12 +178,12 @@ inline DisneySample disney_sample(const DisneyParams& p, Vec3 wo, float u1, floa
     wi = square_to_cosine_hemisphere(u2, u3);
   }
   if (!(wi.z > 0.0f)) return s;
-  float pdf = disney_pdf(p, wo, wi);
+  DisneyEvalPdf ep = disney_eval_pdf(p, wo, wi);
+  const float pdf = ep.pdf;
   if (!(pdf > 0.0f) || !std::isfinite(pdf)) return s;
   s.wi = wi;
   s.pdf = pdf;
-  Vec3 f = disney_eval(p, wo, wi);
-  s.weight = Vec3(f.x / pdf, f.y / pdf, f.z / pdf);  // true divisions: 1/pdf may overflow
+  s.weight = Vec3(ep.f.x / pdf, ep.f.y / pdf, ep.f.z / pdf);  // true divisions: 1/pdf may overflow
   s.valid = true;
   return s;
 }

@@ -124,7 +124,7 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
     TraceStats local;
     for (int y = r.rows().begin(); y < r.rows().end(); ++y) {
       for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
-        uint64_t pixel = uint64_t(y) * uint64_t(camera.width) + uint64_t(x);
+        uint64_t pixel = camera.full_pixel_index(x, y);
         float acc[4] = {0, 0, 0, 0};
         float coverage = 0.0f;
         for (int s = 0; s < spp; ++s) {

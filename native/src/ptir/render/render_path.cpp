@@ -3,6 +3,8 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
+#include <tbb/task_arena.h>
+
 #include <atomic>
 #include <mutex>
 
@@ -10,6 +12,19 @@
 #include "ptir/math/rng.h"
 
 namespace ptir {
+
+namespace {
+
+// The camera ray of sample s of pixel (x, y): jittered in the pixel with numbers
+// keyed on (seed, full-image pixel, sample), like the path itself; so a crop, the
+// forward render and the replay all draw the same ray.
+Ray camera_sample(const Camera& camera, uint64_t seed, int x, int y, int s, uint64_t* pixel) {
+  *pixel = camera.full_pixel_index(x, y);
+  Rng jitter(hash_combine(hash_combine(seed, *pixel), uint64_t(s)), 0, 0);
+  return camera.generate_ray(float(x) + jitter.at(0), float(y) + jitter.at(1));
+}
+
+}  // namespace
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control, PathStats* stats) {
@@ -26,13 +41,11 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
     PathStats local;
     for (int y = r.rows().begin(); y < r.rows().end(); ++y)
       for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
-        const uint64_t pixel = uint64_t(y) * uint64_t(camera.width) + uint64_t(x);
         Vec3 sum(0.0f);
         float covered = 0.0f;
         for (int s = 0; s < settings.spp; ++s) {
-          // Jitter within the pixel, keyed on (seed, pixel, sample) like the path itself.
-          Rng jitter(hash_combine(hash_combine(settings.seed, pixel), uint64_t(s)), 0, 0);
-          Ray ray = camera.generate_ray(float(x) + jitter.at(0), float(y) + jitter.at(1));
+          uint64_t pixel;
+          Ray ray = camera_sample(camera, settings.seed, x, y, s, &pixel);
           float c = 0.0f;
           sum += tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
           covered += c;
@@ -59,6 +72,45 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
     stats->shadow_rays += shadow_rays;
   }
   return image;
+}
+
+void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
+                          const Image& d_image, SceneGradients& grads, const RenderControl& control) {
+  if (d_image.width != camera.width || d_image.height != camera.height || d_image.channels < 3)
+    throw Error("image adjoint must be " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
+                " with at least 3 channels");
+  const int chunks = std::max(1, tbb::this_task_arena::max_concurrency());
+  std::vector<SceneGradients> partial(size_t(chunks), grads);
+  for (auto& g : partial) g.set_zero();
+  std::atomic<int> rows_done{0};
+  std::mutex progress_mutex;
+  const float inv_spp = 1.0f / float(settings.spp);
+
+  tbb::parallel_for(0, chunks, [&](int chunk) {
+    SceneGradients& g = partial[size_t(chunk)];
+    // Interleaved rows balance the chunks without making the result depend on scheduling.
+    for (int y = chunk; y < camera.height; y += chunks) {
+      if (control.cancel && control.cancel->load()) return;
+      for (int x = 0; x < camera.width; ++x) {
+        Vec3 dI(d_image.at(x, y, 0), d_image.at(x, y, 1), d_image.at(x, y, 2));
+        if (dI.x == 0.0f && dI.y == 0.0f && dI.z == 0.0f) continue;
+        for (int s = 0; s < settings.spp; ++s) {
+          uint64_t pixel;
+          Ray ray = camera_sample(camera, settings.seed, x, y, s, &pixel);
+          // Primal radiance of this sample, then its replay (pixel = mean of samples).
+          PathAdjoint adjoint{tracer.sample_radiance(ray, pixel, uint32_t(s), settings), dI * inv_spp, &g};
+          tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint);
+        }
+      }
+      int done = ++rows_done;
+      if (control.progress) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        control.progress(float(done) / float(camera.height));
+      }
+    }
+  });
+  if (control.cancel && control.cancel->load()) throw Cancelled();
+  for (const SceneGradients& g : partial) grads.add(g);
 }
 
 }  // namespace ptir

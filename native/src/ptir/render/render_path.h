@@ -4,6 +4,7 @@
 
 #include "ptir/core/render_control.h"
 #include "ptir/io/image.h"
+#include "ptir/transport/gradients.h"
 #include "ptir/transport/path_tracer.h"
 
 namespace ptir {
@@ -11,5 +12,16 @@ namespace ptir {
 // RGBA, linear radiance; A = fraction of samples whose camera ray found a surface.
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control = {}, PathStats* stats = nullptr);
+
+// Path replay backpropagation of a whole image: d_image (same size as the image,
+// >= 3 channels: the adjoint dLoss/dI of each pixel's RGB) is pushed through every
+// sample of every pixel with a non-zero adjoint, with the same random numbers as
+// render_path; parameter adjoints are ADDED to `grads` (sized by zeros_like).
+// Each sample's primal radiance is recomputed just before its replay, so nothing
+// per sample or per vertex is stored. Rows are dealt to a fixed number of chunks
+// (one per worker thread), each with its own buffers, summed in chunk order: the
+// result is deterministic for a given seed and thread count.
+void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
+                          const Image& d_image, SceneGradients& grads, const RenderControl& control = {});
 
 }  // namespace ptir

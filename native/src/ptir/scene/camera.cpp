@@ -14,14 +14,33 @@ namespace ptir {
 namespace fs = std::filesystem;
 
 Ray Camera::generate_ray(float px, float py) const {
-  // Image plane at z = -1 in camera space; x spans [-tan(fov_x/2), tan(fov_x/2)].
+  // Image plane at z = -1 in camera space; x spans [-tan(fov_x/2), tan(fov_x/2)] over the full image.
+  float fw = float(full_width > 0 ? full_width : width), fh = float(full_height > 0 ? full_height : height);
+  px += float(crop_x);
+  py += float(crop_y);
   float tan_half = std::tan(0.5f * fov_x);
-  float x = (2.0f * px / float(width) - 1.0f) * tan_half;
-  float y = (1.0f - 2.0f * py / float(height)) * tan_half * float(height) / float(width);
+  float x = (2.0f * px / fw - 1.0f) * tan_half;
+  float y = (1.0f - 2.0f * py / fh) * tan_half * fh / fw;
   Ray ray;
   ray.o = cam_to_world.translation;
   ray.d = normalize(cam_to_world.vector(Vec3(x, y, -1.0f)));
   return ray;
+}
+
+Camera Camera::crop(int x0, int y0, int w, int h) const {
+  int fw = full_width > 0 ? full_width : width, fh = full_height > 0 ? full_height : height;
+  int ax = crop_x + x0, ay = crop_y + y0;
+  if (w <= 0 || h <= 0 || x0 < 0 || y0 < 0 || x0 + w > width || y0 + h > height)
+    throw Error(name, "crop window " + std::to_string(w) + "x" + std::to_string(h) + "+" + std::to_string(x0) + "+" +
+                          std::to_string(y0) + " is outside the " + std::to_string(width) + "x" + std::to_string(height) + " image");
+  Camera c = *this;
+  c.crop_x = ax;
+  c.crop_y = ay;
+  c.full_width = fw;
+  c.full_height = fh;
+  c.width = w;
+  c.height = h;
+  return c;
 }
 
 Camera make_camera(const float m[16], float fov_x, int width, int height, const std::string& name) {

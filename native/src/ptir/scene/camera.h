@@ -6,6 +6,7 @@
 // Pixel (0, 0) is the top-left corner of the image.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -21,7 +22,20 @@ struct Camera {
   float fov_x = 0.6911112f;  // radians
   int width = 0, height = 0;
 
+  // Sub-window of the image: pixels [x0, x0+w) x [y0, y0+h) of the full image.
+  int crop_x = 0, crop_y = 0;
+  int full_width = 0, full_height = 0;  // 0: no crop (the image is width x height)
+
   Vec3 centre() const { return cam_to_world.translation; }
+  // The same camera restricted to a window of its image (rays unchanged). Throws
+  // ptir::Error when the window is empty or outside the image.
+  Camera crop(int x0, int y0, int w, int h) const;
+  // Index of pixel (x, y) of this (possibly cropped) image in the full image, so a
+  // crop draws the same random numbers as the full render.
+  uint64_t full_pixel_index(int x, int y) const {
+    int fw = full_width > 0 ? full_width : width;
+    return uint64_t(y + crop_y) * uint64_t(fw) + uint64_t(x + crop_x);
+  }
   // Primary ray through image position (px, py) in pixels (px in [0, width)).
   Ray generate_ray(float px, float py) const;
 };

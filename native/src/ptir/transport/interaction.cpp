@@ -6,6 +6,7 @@ bool InteractionBuilder::add(const GaussianHit& hit) {
   float w = T_ * hit.alpha;
   O_ += w;
   hits_++;
+  if (record_) record_->push_back({hit.id, w});
   if (settings_.mode == InteractionMode::Aggregate) {
     // Running weighted sums; normalised by O in finish().
     sum_t_ += w * hit.t;

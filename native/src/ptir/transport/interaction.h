@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "ptir/accel/scene_accel.h"
 #include "ptir/math/ray.h"
@@ -33,13 +34,20 @@ struct SurfaceInteraction {
   uint32_t picked = 0;         // discrete mode: the Gaussian chosen
 };
 
+// One composited hit and its unnormalised weight T_i alpha_i (for gradient replay).
+struct WeightedHit {
+  uint32_t id;
+  float weight;
+};
+
 // Accumulates hits front to back; use as the visitor of SceneAccel::walk.
 class InteractionBuilder {
  public:
-  // pick_key seeds the per-hit uniforms of the discrete pick (replayable).
+  // pick_key seeds the per-hit uniforms of the discrete pick (replayable). When
+  // `record` is given, every composited hit is appended to it with its weight.
   InteractionBuilder(const GaussianField& field, const InteractionSettings& settings, float min_transmittance,
-                     uint64_t pick_key = 0)
-      : field_(field), settings_(settings), min_transmittance_(min_transmittance), pick_rng_(pick_key) {}
+                     uint64_t pick_key = 0, std::vector<WeightedHit>* record = nullptr)
+      : field_(field), settings_(settings), min_transmittance_(min_transmittance), pick_rng_(pick_key), record_(record) {}
 
   // Composites one hit; returns false once the ray is opaque (T < min_transmittance).
   bool add(const GaussianHit& hit);
@@ -54,6 +62,7 @@ class InteractionBuilder {
   InteractionSettings settings_;
   float min_transmittance_;
   Rng pick_rng_;
+  std::vector<WeightedHit>* record_;
   float T_ = 1.0f;
   float O_ = 0.0f;
   uint32_t hits_ = 0;

@@ -7,6 +7,7 @@
 #include "ptir/material/disney_brdf.h"
 #include "ptir/math/rng.h"
 #include "ptir/math/sampling.h"
+#include "ptir/transport/gradients.h"
 #include "ptir/transport/interaction.h"
 #include "ptir/transport/scattering.h"
 
@@ -23,8 +24,6 @@ PathTracer::PathTracer(const Scene& scene, const AccelSettings& accel_settings) 
 }
 
 namespace {
-
-constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // Radiance of the environment seen along d (black when the scene has none).
 Vec3 environment_radiance(const SceneEnvironment& env, Vec3 d) {
@@ -56,31 +55,76 @@ bool closest_light_hit(const std::vector<Emitter>& emitters, const Ray& ray, flo
   return found;
 }
 
+// Hands the adjoint of a vertex's BRDF parameters to what defined them: the
+// Gaussians composited into the interaction (normalised weights w_i / O, or the
+// picked one in discrete mode), or the mesh's material.
+void scatter_vertex_adjoint(const NextEvent& ev, const std::vector<WeightedHit>& hits, const DisneyGrad& g,
+                            InteractionMode mode, SceneGradients& grads) {
+  if (ev.kind == NextEvent::Mesh) {
+    grads.mesh_base_colour[ev.mesh.mesh] += g.d_albedo;
+    grads.mesh_roughness[ev.mesh.mesh] += g.d_roughness;
+    grads.mesh_metallic[ev.mesh.mesh] += g.d_metallic;
+    return;
+  }
+  if (mode == InteractionMode::Discrete) {
+    grads.gaussian_albedo[ev.si.picked] += g.d_albedo;
+    grads.gaussian_roughness[ev.si.picked] += g.d_roughness;
+    grads.gaussian_metallic[ev.si.picked] += g.d_metallic;
+    return;
+  }
+  const float inv_O = 1.0f / ev.si.opacity;
+  for (const WeightedHit& h : hits) {
+    float w = h.weight * inv_O;
+    grads.gaussian_albedo[h.id] += w * g.d_albedo;
+    grads.gaussian_roughness[h.id] += w * g.d_roughness;
+    grads.gaussian_metallic[h.id] += w * g.d_metallic;
+  }
+}
+
 }  // namespace
 
 Vec3 PathTracer::sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                                  float* coverage, PathStats* stats) const {
+  return trace(camera_ray, pixel, sample, settings, nullptr, coverage, stats);
+}
+
+void PathTracer::sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
+                                const PathAdjoint& adjoint) const {
+  trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr);
+}
+
+Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
+                       const PathAdjoint* adj, float* coverage, PathStats* stats) const {
   const Scene& scene = scene_;
   const uint64_t path_key = hash_combine(hash_combine(settings.seed, pixel), sample);
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
 
-  Vec3 L(0.0f), beta(1.0f);
+  // Primal: L accumulates. Replay: L_rem starts at the primal L and loses every
+  // contribution as it is passed; what is left is what later vertices bring.
+  Vec3 L(0.0f), L_rem = adj ? adj->L : Vec3(0.0f), beta(1.0f);
+  auto add = [&](Vec3 contribution) {
+    if (adj) L_rem -= contribution;
+    else L += contribution;
+  };
+  thread_local std::vector<WeightedHit> vertex_hits;  // the current vertex's Gaussians (replay only)
+
   Ray ray = camera_ray;
-  SpawnContext spawn;  // the camera ray leaves no surface
+  SpawnContext spawn;          // the camera ray leaves no surface
   float prev_brdf_pdf = 0.0f;  // density of the BRDF sample that produced `ray` (0: camera ray)
   if (coverage) *coverage = 0.0f;
   if (stats) stats->paths++;
 
   for (int bounce = 0;; ++bounce) {
     // Next event along the ray: a Gaussian interaction, a mesh, or an escape.
-    NextEvent ev = scatterer.next_event(ray, spawn, path_key, uint32_t(bounce));
+    vertex_hits.clear();
+    NextEvent ev = scatterer.next_event(ray, spawn, path_key, uint32_t(bounce), adj ? &vertex_hits : nullptr);
     if (bounce == 0 && coverage) *coverage = (ev.kind == NextEvent::Gaussian || ev.kind == NextEvent::Mesh) ? 1.0f : 0.0f;
 
     // Lights in front of the event (hit by the BRDF sample or the camera ray), MIS-weighted.
     LightHit lh;
     if (closest_light_hit(scene.emitters, ray, ev.t, &lh)) {
       float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, lh.pdf) : 1.0f;
-      L += beta * lh.Le * w;
+      add(beta * lh.Le * w);
       break;
     }
     if (ev.kind == NextEvent::Absorbed) break;
@@ -88,11 +132,12 @@ Vec3 PathTracer::sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t
     if (ev.kind == NextEvent::Escape) {
       Vec3 Le = environment_radiance(scene.environment, ray.d);
       float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, environment_pdf(scene.environment, ray.d)) : 1.0f;
-      L += beta * Le * w;
+      add(beta * Le * w);
+      if (adj && adj->grads) scatterer.environment_adjoint(ray.d, adj->dL * beta * w, *adj->grads);
       break;
     }
     // Emissive meshes are reached by BRDF sampling only (no MIS partner).
-    if (ev.kind == NextEvent::Mesh) L += beta * ev.emission;
+    if (ev.kind == NextEvent::Mesh) add(beta * ev.emission);
     if (bounce > settings.max_bounces) break;
 
     // Shade the interaction in its local frame.
@@ -101,13 +146,24 @@ Vec3 PathTracer::sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t
     Vec3 wo = frame.to_local(-ray.d);
     DisneyParams brdf{ev.albedo, ev.roughness, ev.metallic};
     SpawnContext here = scatterer.spawn_context(ev, ray);
+    DisneyGrad vertex_grad;
 
     // Next-event estimation: one sample of every light and of the environment.
-    L += beta * scatterer.direct_light(here, frame, wo, brdf, path_key, uint32_t(bounce), stats);
+    DirectAdjoint direct_adj{beta, adj ? adj->dL : Vec3(0.0f), &vertex_grad, adj ? adj->grads : nullptr};
+    add(beta * scatterer.direct_light(here, frame, wo, brdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr));
 
     // Continue with a BRDF sample.
     Rng rng(path_key, uint64_t(bounce), kStreamBrdf);
     DisneySample bs = disney_sample(brdf, wo, rng.at(0), rng.at(1), rng.at(2));
+    if (adj && bs.valid) {
+      // Everything still remaining arrives through this BRDF value:
+      // d L_rem / d f~ = L_rem / f~ (the L f / detach(f) trick), channel by channel.
+      Vec3 f = bs.weight * bs.pdf;
+      Vec3 d_f;
+      for (int c = 0; c < 3; ++c) d_f[c] = f[c] > 0.0f ? adj->dL[c] * L_rem[c] / f[c] : 0.0f;
+      disney_eval_grad(brdf, wo, bs.wi, d_f, vertex_grad);
+    }
+    if (adj && adj->grads) scatter_vertex_adjoint(ev, vertex_hits, vertex_grad, settings.interaction.mode, *adj->grads);
     if (!bs.valid) break;
     beta *= bs.weight;
     if (max_component(beta) < settings.min_throughput) break;

@@ -16,6 +16,16 @@
 
 namespace ptir {
 
+struct SceneGradients;
+
+// Inputs of the adjoint (replay) mode of one sample: the sample's primal
+// radiance L and the adjoint dL of the loss with respect to it.
+struct PathAdjoint {
+  Vec3 L;
+  Vec3 dL;
+  SceneGradients* grads = nullptr;  // receives the parameter adjoints
+};
+
 struct PathStats {
   uint64_t paths = 0;
   uint64_t vertices = 0;     // surface interactions shaded
@@ -32,10 +42,26 @@ class PathTracer {
   Vec3 sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                        float* coverage = nullptr, PathStats* stats = nullptr) const;
 
+  // Path replay backpropagation of one sample (METHOD §6): replays the path with
+  // the same random numbers, starting from the primal radiance adjoint.L and
+  // subtracting every contribution as it is passed, and accumulates the adjoints
+  // of the materials met (redistributed to the contributing Gaussians with their
+  // normalised weights, or to the picked one) and of the environment. Memory does
+  // not grow with the bounce count. Held fixed: sampling densities, MIS weights,
+  // visibility and validity decisions, and the sampled directions (no
+  // reparameterisation term for roughness).
+  void sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
+                      const PathAdjoint& adjoint) const;
+
   const Scene& scene() const { return scene_; }
   const SceneAccel& accel() const { return *accel_; }
 
  private:
+  // The path in either mode: primal (adjoint == nullptr) returns L; replay
+  // accumulates gradients (one routine, so the two can never disagree).
+  Vec3 trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
+             const PathAdjoint* adjoint, float* coverage, PathStats* stats) const;
+
   const Scene& scene_;
   std::unique_ptr<SceneAccel> accel_;
   float mesh_epsilon_ = 1e-4f;  // offset of rays leaving a mesh, relative to the scene's size

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "ptir/math/sampling.h"
+#include "ptir/transport/gradients.h"
 #include "ptir/transport/path_tracer.h"
 
 namespace ptir {
@@ -31,11 +32,12 @@ bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit&
   return h.t <= settings_.fixed_range && d_dot_n > kFixedBackfaceCos;
 }
 
-NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce) const {
+NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
+                                std::vector<WeightedHit>* record) const {
   InteractionSettings isettings = settings_.interaction;
   if (!settings_.geometric_criterion) isettings.tau_g = 0.0f;  // ablation: any response forms an interaction
   uint64_t pick_key = hash_combine(hash_combine(path_key, bounce), kStreamPick);
-  InteractionBuilder builder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key);
+  InteractionBuilder builder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record);
 
   // Composite the Gaussians front to back, skipping the surface the ray leaves.
   WalkEnd end;
@@ -133,8 +135,21 @@ bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, ui
   return !blocked && !end.mesh.valid;
 }
 
+void Scatterer::environment_adjoint(Vec3 d, Vec3 d_Le, SceneGradients& grads) const {
+  const SceneEnvironment& env = scene_.environment;
+  if (env.latlong && !grads.env_texels.empty()) {
+    // Le = strength * texel(d) (nearest lookup): one texel receives it all.
+    int texel = env.latlong->texel_index(d);
+    if (texel >= 0) grads.env_texels[size_t(texel)] += d_Le * env.latlong->strength();
+  } else if (env.sg && !grads.sg_raw.empty()) {
+    thread_local std::vector<Vec3> d_raw;
+    env.sg->d_eval_d_raw(d, d_raw);
+    for (size_t i = 0; i < d_raw.size(); ++i) grads.sg_raw[i] += d_Le * d_raw[i];
+  }
+}
+
 Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, Vec3 wo, const DisneyParams& brdf,
-                             uint64_t path_key, uint32_t bounce, PathStats* stats) const {
+                             uint64_t path_key, uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint) const {
   Vec3 Ld(0.0f);
   const auto& emitters = scene_.emitters;
   // Emitters: light sample, MIS against the BRDF density (delta lights: weight 1).
@@ -149,6 +164,8 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, Vec3 
     if (!unoccluded(from, ls.wi, ls.distance, path_key, bounce, l)) continue;
     float w = ls.delta ? 1.0f : power_heuristic(1, ls.pdf, 1, disney_pdf(brdf, wo, wi_local));
     Ld += f * ls.Li * (w / ls.pdf);
+    // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
+    if (adjoint) disney_eval_grad(brdf, wo, wi_local, adjoint->dL * adjoint->beta * ls.Li * (w / ls.pdf), *adjoint->brdf);
   }
   // Environment: importance-sampled direction, MIS against the BRDF density.
   const SceneEnvironment& env = scene_.environment;
@@ -172,6 +189,12 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, Vec3 
         if (unoccluded(from, wi, INFINITY, path_key, bounce, l)) {
           float w = power_heuristic(1, pdf, 1, disney_pdf(brdf, wo, wi_local));
           Ld += f * Li * (w / pdf);
+          // Adjoint: into the BRDF (through f~) and into the environment (through Li).
+          if (adjoint) {
+            Vec3 scale = adjoint->dL * adjoint->beta * (w / pdf);
+            disney_eval_grad(brdf, wo, wi_local, scale * Li, *adjoint->brdf);
+            if (adjoint->grads) environment_adjoint(wi, scale * f, *adjoint->grads);
+          }
         }
       }
     }

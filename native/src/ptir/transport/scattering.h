@@ -20,6 +20,17 @@
 namespace ptir {
 
 struct PathStats;
+struct SceneGradients;
+
+// Adjoint inputs of direct_light during gradient replay (METHOD §6): the path
+// throughput beta and the adjoint dL of the sample's radiance. Light sampling
+// densities and MIS weights are held fixed.
+struct DirectAdjoint {
+  Vec3 beta;
+  Vec3 dL;
+  DisneyGrad* brdf = nullptr;        // += adjoint of the vertex's BRDF parameters
+  SceneGradients* grads = nullptr;   // += adjoint of environment texels / SG amplitudes
+};
 
 // Random streams of one bounce.
 constexpr uint64_t kStreamPass = 1;      // chi_pass: xi < T_ray
@@ -58,7 +69,9 @@ class Scatterer {
   // Walks `ray` and classifies what it meets (METHOD §3–4): a valid Gaussian
   // interaction; else, with probability T_ray, what lies behind (mesh or escape);
   // else the path is absorbed.
-  NextEvent next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce) const;
+  // With `record`, the Gaussians composited are appended with their weights.
+  NextEvent next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
+                       std::vector<WeightedHit>* record = nullptr) const;
 
   SpawnContext spawn_context(const NextEvent& ev, const Ray& incoming) const;
   // The ray leaving `from` along unit direction wi (offsets applied).
@@ -73,7 +86,10 @@ class Scatterer {
   // One light sample of every emitter and of the environment, each MIS-weighted
   // against BRDF sampling; returns the sum of f~ Li w / pdf (beta not applied).
   Vec3 direct_light(const SpawnContext& from, const Frame& frame, Vec3 wo, const DisneyParams& brdf, uint64_t path_key,
-                    uint32_t bounce, PathStats* stats) const;
+                    uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr) const;
+
+  // Adds to `grads` the adjoint d_Le of the environment radiance seen along d.
+  void environment_adjoint(Vec3 d, Vec3 d_Le, SceneGradients& grads) const;
 
   // Whether hit h (t_peak, Gaussian) on a ray spawned from `from` along d is the
   // surface just left, to be skipped.

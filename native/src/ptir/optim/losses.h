@@ -1,0 +1,39 @@
+// Image objectives of the inversion (METHOD §6), each returning its value and,
+// when asked, its gradient with respect to the prediction. Images are float RGB(A)
+// (only the first three channels are compared); `mask` (optional, 1 channel, or
+// the target's alpha) weights pixels, so only the object counts.
+#pragma once
+
+#include "ptir/io/image.h"
+
+namespace ptir {
+
+struct ImageLossSettings {
+  float lambda_ssim = 0.2f;     // loss = (1 - lambda) L1 + lambda (1 - SSIM)
+  bool binomial_filter = true;  // 3x3 normalised binomial blur of the prediction first (noise suppression)
+};
+
+// (1 - lambda) * masked mean |blur(pred) - target| + lambda * (1 - masked mean SSIM(blur(pred), target)).
+// SSIM: 11x11 Gaussian window (sigma 1.5), C1 = 0.01^2, C2 = 0.03^2, data range 1
+// (the 3DGS convention; equal to scikit-image's structural_similarity with
+// gaussian_weights=True, sigma=1.5, use_sample_covariance=False, data_range=1).
+// d_pred (if not null) gets dLoss/dpred, same size as pred, 3 channels.
+double image_loss(const Image& pred, const Image& target, const Image* mask, const ImageLossSettings& settings,
+                  Image* d_pred);
+
+// Mean SSIM over channels and (masked) pixels, as above.
+double ssim(const Image& a, const Image& b, const Image* mask = nullptr);
+
+// 3x3 normalised binomial filter ([1 2 1]^T [1 2 1] / 16, edges clamped) and its adjoint.
+Image binomial_filter(const Image& image);
+Image binomial_filter_adjoint(const Image& d_filtered);
+
+// Edge-aware total variation of a primary-hit material map (METHOD §6):
+// sum over neighbouring pixel pairs of |map_p - map_q|^2 * exp(-|guide_p - guide_q|)
+// (guide: the ground-truth RGB image), averaged over masked pairs. d_map gets the gradient.
+double edge_aware_tv(const Image& map, const Image& guide, const Image* mask, Image* d_map);
+
+// Masked mean squared difference to a prior map; d_map gets the gradient.
+double prior_l2(const Image& map, const Image& prior, const Image* mask, Image* d_map);
+
+}  // namespace ptir

@@ -1,0 +1,64 @@
+#include "ptir/render/aov_backward.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "ptir/core/error.h"
+
+namespace ptir {
+
+namespace {
+
+void check_size(const Image* img, const Camera& camera, int channels, const char* what) {
+  if (img && (img->width != camera.width || img->height != camera.height || img->channels < channels))
+    throw Error(std::string(what) + " adjoint must be " + std::to_string(camera.width) + "x" +
+                std::to_string(camera.height) + " with at least " + std::to_string(channels) + " channel(s)");
+}
+
+}  // namespace
+
+void render_aov_backward(const SceneAccel& accel, const Camera& camera, const AovSettings& settings,
+                         const Image* d_albedo, const Image* d_roughness, SceneGradients& grads) {
+  check_size(d_albedo, camera, 3, "albedo");
+  check_size(d_roughness, camera, 1, "roughness");
+  const GaussianField& field = accel.field();
+  const int chunks = std::max(1, tbb::this_task_arena::max_concurrency());
+  std::vector<SceneGradients> partial(size_t(chunks), grads);
+  for (auto& g : partial) g.set_zero();
+
+  tbb::parallel_for(0, chunks, [&](int chunk) {
+    SceneGradients& g = partial[size_t(chunk)];
+    std::vector<WeightedHit> hits;
+    for (int y = chunk; y < camera.height; y += chunks)
+      for (int x = 0; x < camera.width; ++x) {
+        Vec3 dA = d_albedo ? Vec3(d_albedo->at(x, y, 0), d_albedo->at(x, y, 1), d_albedo->at(x, y, 2)) : Vec3(0.0f);
+        float dR = d_roughness ? d_roughness->at(x, y, 0) : 0.0f;
+        if (dA.x == 0.0f && dA.y == 0.0f && dA.z == 0.0f && dR == 0.0f) continue;
+        // The same primary ray and interaction as render_aov with one sample.
+        Ray ray = camera.generate_ray(float(x) + 0.5f, float(y) + 0.5f);
+        Rng rng(settings.seed, camera.full_pixel_index(x, y), 0);
+        hits.clear();
+        InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, rng.key(), &hits);
+        WalkEnd end = accel.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, true);
+        SurfaceInteraction si = builder.finish(ray);
+        if (si.valid) {
+          if (settings.interaction.mode == InteractionMode::Discrete) {
+            g.gaussian_albedo[si.picked] += dA;
+            g.gaussian_roughness[si.picked] += dR;
+            continue;
+          }
+          for (const WeightedHit& h : hits) {
+            float w = h.weight / si.opacity;
+            g.gaussian_albedo[h.id] += w * dA;
+            g.gaussian_roughness[h.id] += w * dR;
+          }
+        } else if (!end.stopped && end.mesh.valid) {
+          g.mesh_base_colour[end.mesh.mesh] += dA;
+          g.mesh_roughness[end.mesh.mesh] += dR;
+        }
+      }
+  });
+  for (const SceneGradients& g : partial) grads.add(g);
+}
+
+}  // namespace ptir
