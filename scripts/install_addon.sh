@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the PTIR add-on into the user's Blender: addon/ptir_blender plus the
-# native module built in BUILD_DIR (build/python/ptir*.so) copied inside it.
+# native module built in BUILD_DIR (build/python/ptir*.so) and the engine's
+# command-line tool (build/bin/ptir, which the render engine and the optimiser
+# run as a child process) copied inside it (ptir_blender/bin/ptir).
 #   scripts/install_addon.sh [BUILD_DIR]      (default: build)
 # Idempotent. The new copy is staged in a temp folder next to the old one and
 # renamed into place, so a Blender starting meanwhile never sees a half-copied
@@ -35,12 +37,18 @@ cleanup() { rm -rf "$STAGE" "$OLD"; }
 trap cleanup EXIT
 
 cp -R "$ROOT/addon/ptir_blender/." "$STAGE/"
-rm -rf "$STAGE/__pycache__"
+find "$STAGE" -name __pycache__ -prune -exec rm -rf {} +
 cp "${modules[0]}" "$STAGE/"
+if [ -x "$BUILD/bin/ptir" ]; then
+  mkdir -p "$STAGE/bin"
+  cp "$BUILD/bin/ptir" "$STAGE/bin/ptir"
+else
+  echo "install_addon: warning: no $BUILD/bin/ptir: F12 renders and optimisation need the CLI (run 'make build')" >&2
+fi
 chmod 755 "$STAGE"
 
 # Swap: move the old copy aside, rename the new one in, then drop the old one.
 if [ -e "$DEST" ]; then mv "$DEST" "$OLD"; fi
 mv "$STAGE" "$DEST"
 
-echo "install_addon: installed $DEST ($(basename "${modules[0]}"))"
+echo "install_addon: installed $DEST ($(basename "${modules[0]}")$([ -x "$DEST/bin/ptir" ] && echo ", bin/ptir"))"

@@ -1,8 +1,19 @@
 """PTIR for Blender: relight captured 3D Gaussian splats with recovered materials.
 
-The heavy lifting is the native engine (`ptir`, a pybind11 module built by the
-project's CMake and copied next to this file by scripts/install_addon.sh).
-Operators and panels register through `classes`; they are added as they land.
+The heavy lifting is the native engine. Long jobs (F12 renders, optimisation)
+run its command-line tool `ptir` as a child process (io/cli.py), so a native
+crash never takes Blender down; the Python module `ptir` (native(), loaded
+lazily) is optional and only used by scripts and tests. scripts/install_addon.sh
+copies both next to this file (ptir*.so and bin/ptir).
+
+Layout:
+    io/          pure Python + numpy, no bpy (unit-testable): splat PLY read/write, scene file,
+                 mesh PLY, the CLI child-process runner
+    blender/     Blender data <-> engine data (bpy): splat objects, scene export, write-back
+    operators/   import/export, material editing, optimisation; the PTIR render engine
+    ui/          panels and menu entries
+    properties   PropertyGroups (scene.ptir_render / ptir_optimize / ptir_edit, object.ptir_splat,
+                 material.ptir) and the add-on preferences
 """
 
 import os
@@ -11,16 +22,31 @@ import sys
 bl_info = {
     "name": "PTIR",
     "author": "PTIR contributors",
-    "version": (0, 1, 0),
+    "version": (0, 2, 0),
     "blender": (3, 4, 0),
-    "description": "Path-traced inverse rendering of 3D Gaussian splats",
+    "location": "File > Import/Export > Gaussian Splats (.ply); Render Engine 'PTIR'; View3D > Sidebar > PTIR",
+    "description": "Path-traced inverse rendering of 3D Gaussian splats: import/export splats, render them "
+                   "with meshes and lights, recover and edit their materials",
     "category": "Import-Export",
 }
 
-# Registered in order, unregistered in reverse (Blender convention).
-classes = ()
-
 _ADDON_DIR = os.path.dirname(os.path.abspath(__file__))
+
+try:  # the io/ package is usable from plain Python (tests); everything else needs Blender
+    import bpy  # noqa: F401
+except ImportError:  # pragma: no cover - outside Blender
+    bpy = None
+
+if bpy is not None:
+    from . import properties
+    from .operators import io_ops, material_ops, optimize_ops, render_engine
+    from .ui import panels
+
+    # Registered in order, unregistered in reverse (Blender convention).
+    classes = (properties.classes + io_ops.classes + material_ops.classes + optimize_ops.classes
+               + render_engine.classes + panels.classes)
+else:
+    classes = ()
 
 
 def native():
@@ -49,9 +75,18 @@ def register():
     import bpy
     for cls in classes:
         bpy.utils.register_class(cls)
+    properties.register_pointers()
+    bpy.types.TOPBAR_MT_file_import.append(io_ops.menu_import)
+    bpy.types.TOPBAR_MT_file_export.append(io_ops.menu_export)
+    render_engine.register_compat_panels()
 
 
 def unregister():
     import bpy
+    render_engine.unregister_compat_panels()
+    bpy.types.TOPBAR_MT_file_export.remove(io_ops.menu_export)
+    bpy.types.TOPBAR_MT_file_import.remove(io_ops.menu_import)
+    optimize_ops.stop_all_jobs()
+    properties.unregister_pointers()
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

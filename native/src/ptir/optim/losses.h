@@ -2,6 +2,25 @@
 // when asked, its gradient with respect to the prediction. Images are float RGB(A)
 // (only the first three channels are compared); `mask` (optional, 1 channel, or
 // the target's alpha) weights pixels, so only the object counts.
+//
+// Exact definitions (losses.cpp):
+//  - Mask weight w_p: the mask's channel 0 if it has 1 channel, channel 3 (alpha)
+//    if it has >= 4, clamped to [0, 1] (2 or 3 channels: ptir::Error); w_p = 1
+//    without mask. Same width/height as the images.
+//  - Compared channels: the first min(3, channels of both images).
+//  - L1 = sum_p w_p sum_c |x - y| / (nc sum_p w_p), over every pixel.
+//  - SSIM map per channel on the whole image (Gaussian window with scipy's
+//    'reflect' boundary), then mean SSIM = (1/nc) sum_c sum_p v_p SSIM_c(p),
+//    v_p = w_p k_p / sum w k, k_p = 0 in the 5-pixel border skimage crops, else 1
+//    (an axis shorter than 11 pixels is not cropped).
+//  - edge_aware_tv: pairs are each pixel's right and lower neighbour; |map_p - map_q|^2
+//    sums over all of the map's channels; |guide_p - guide_q| is the mean absolute
+//    difference over the guide's first min(3, channels); pair weight w_p w_q;
+//    value = sum weight * term / sum weight.
+//  - prior_l2 = sum_p w_p sum_c (map - prior)^2 / (nc sum_p w_p), nc = min(channels);
+//    d_map has the map's channels (zero beyond nc).
+//  - A zero weight sum gives L1 = 0, SSIM = 1, TV = prior = 0, zero gradients.
+//  - Gradients are written (not accumulated) into the output images.
 #pragma once
 
 #include "ptir/io/image.h"

@@ -1,0 +1,327 @@
+"""Optimisation jobs, Blender side: the inputs of `ptir optimize` from the scene, and writing its
+recovered materials back.
+
+prepare(context, settings, job_dir) writes
+    job_dir/splats.ply            the splat object in world space (transform folded in)
+    job_dir/scene/scene.json      the other visible meshes and lights (when there are any)
+    job_dir/views/transforms_<split>.json   the training views in world space (scene cameras with
+                                  images, or the dataset's views moved with the splat object; the
+                                  dataset folder itself when the object has the identity transform)
+and returns an OptimizeJob with the command line. The dataset's cameras are in the frame of the
+splat PLY the object was imported from, i.e. the object's local frame.
+
+load_results(job) reads and checks everything the optimiser wrote (nothing in Blender changes);
+apply_results(results) then writes it into the scene in one go: the splat attributes
+(ptir_albedo, ptir_roughness, ptir_metallic, ptir_normal), the Principled BSDF values of the ticked
+mesh materials, and the world's Environment Texture. A failed or cancelled run never reaches
+apply_results, so it leaves the scene unchanged.
+"""
+
+import json
+import os
+
+import bpy
+import numpy as np
+
+from ..io import dataset_file, scene_file, splat_ply
+from . import scene_bridge, scene_export, splat_object
+
+ENV_NODE = "PTIR Environment"
+
+
+class OptimizeError(RuntimeError):
+    """Inputs that cannot be prepared or outputs that cannot be used; the message says what."""
+
+
+class OptimizeJob:
+    def __init__(self):
+        self.args = []
+        self.job_dir = ""
+        self.out_dir = ""
+        self.object_name = ""
+        self.count = 0
+        self.matrix = None
+        self.mesh_entries = []      # scene "meshes" entries: name + material name
+        self.materials = []         # names of the materials to write back
+        self.write_environment = True
+        self.warnings = []
+
+
+def _camera_image(cam_obj):
+    """The training image of a camera: custom property 'ptir_image' (object or camera data), else the
+    camera's first background image."""
+    for holder in (cam_obj, cam_obj.data):
+        if "ptir_image" in holder:
+            return bpy.path.abspath(str(holder["ptir_image"]))
+    for bg in getattr(cam_obj.data, "background_images", []):
+        if bg.image is not None and bg.image.source == "FILE":
+            return bpy.path.abspath(bg.image.filepath)
+    return None
+
+
+def _image_size(path):
+    """(width, height) of an image file, read through a temporary image block (removed again: preparing a
+    job must not add data to the file)."""
+    try:
+        img = bpy.data.images.load(path, check_existing=False)
+    except RuntimeError:
+        return 0, 0
+    try:
+        return tuple(img.size)
+    finally:
+        bpy.data.images.remove(img)
+
+
+def _camera_views(scene, warnings):
+    views = []
+    for obj in sorted((o for o in scene.objects if o.type == "CAMERA"), key=lambda o: o.name):
+        image = _camera_image(obj)
+        if image is None:
+            continue
+        if obj.data.type != "PERSP":
+            warnings.append("camera '%s' is not perspective (skipped)" % obj.name)
+            continue
+        width, height = _image_size(image)
+        if width == 0 or height == 0:
+            raise OptimizeError("camera '%s': cannot read image '%s'" % (obj.name, image))
+        cam = obj.data
+        fov = scene_file.horizontal_fov(cam.lens, cam.sensor_width, cam.sensor_height, cam.sensor_fit, width, height)
+        views.append({"name": obj.name, "matrix": np.array(obj.matrix_world, np.float64), "fov_x": fov,
+                      "image": image})
+    if not views:
+        raise OptimizeError("no scene camera has a training image: set a camera's custom property 'ptir_image' "
+                            "to the photo's path, or give it a background image")
+    return views
+
+
+def _target_object(context, settings):
+    obj = settings.splat_object
+    if obj is None:
+        active = context.view_layer.objects.active
+        obj = active if splat_object.is_splat_object(active) else None
+    if obj is None:
+        candidates = [o for o in context.scene.objects if splat_object.is_splat_object(o)]
+        if len(candidates) == 1:
+            obj = candidates[0]
+    if obj is None:
+        raise OptimizeError("choose the splat object to optimise (panel: Splats)")
+    if not splat_object.is_splat_object(obj):
+        raise OptimizeError("object '%s' is not a splat object" % obj.name)
+    return obj
+
+
+def prepare(context, settings, job_dir, cli_exe, out_dir=None):
+    """Writes the inputs and returns an OptimizeJob (raises OptimizeError and the io errors)."""
+    job = OptimizeJob()
+    job.job_dir = job_dir
+    job.out_dir = out_dir or os.path.join(job_dir, "out")
+    obj = _target_object(context, settings)
+    job.object_name = obj.name
+    job.count = len(obj.data.vertices)
+    job.matrix = np.array(obj.matrix_world, np.float64)
+    job.write_environment = bool(settings.write_environment)
+
+    # Splats in world space.
+    d = splat_object.world_data(obj)
+    splats = os.path.join(job_dir, "splats.ply")
+    splat_ply.write_splat_ply(splats, d, comment="PTIR optimisation input: Blender object %s" % obj.name)
+
+    # Views.
+    split = settings.split.strip() or "train"
+    views_dir = os.path.join(job_dir, "views")
+    if settings.source == "DATASET":
+        src_dir = bpy.path.abspath(settings.dataset_dir)
+        if not src_dir or not os.path.isdir(src_dir):
+            raise OptimizeError("dataset folder '%s' does not exist" % settings.dataset_dir)
+        transforms = os.path.join(src_dir, "transforms_%s.json" % split)
+        if not os.path.isfile(transforms):
+            raise OptimizeError("dataset folder '%s' has no transforms_%s.json" % (src_dir, split))
+        if np.allclose(job.matrix, np.eye(4), atol=0.0, rtol=0.0):
+            dataset_dir = src_dir
+        else:
+            dataset_file.transform_dataset(transforms, os.path.join(views_dir, "transforms_%s.json" % split),
+                                           job.matrix)
+            a = job.matrix[:3, :3]
+            g = a.T @ a
+            if np.max(np.abs(g - np.trace(g) / 3 * np.eye(3))) > 1e-6 * np.trace(g):
+                job.warnings.append("object '%s' has a non-uniform scale: the dataset's views no longer match it "
+                                    "exactly" % obj.name)
+            dataset_dir = views_dir
+    else:
+        dataset_file.write_views(os.path.join(views_dir, "transforms_%s.json" % split),
+                                 _camera_views(context.scene, job.warnings))
+        dataset_dir = views_dir
+
+    # Meshes and lights of the scene (without the splats; the environment is what gets recovered).
+    scene_json = None
+    want_meshes = bool(settings.optimize_meshes)
+    try:
+        scene_json, info = scene_bridge.export_engine_scene(
+            context, os.path.join(job_dir, "scene"), include_splats=False, include_environment=False,
+            warnings=job.warnings, allow_empty=True, include_cameras=False)
+        job.mesh_entries = info["meshes"]
+        with open(scene_json) as f:
+            doc = json.load(f)
+        if not doc.get("meshes") and not doc.get("lights"):
+            scene_json = None
+    except scene_export.ExportError as e:
+        raise OptimizeError("scene export: %s" % e)
+    if want_meshes:
+        names = {e["material"].get("name") for e in job.mesh_entries}
+        job.materials = sorted(m.name for m in bpy.data.materials
+                               if m.name in names and getattr(m, "ptir", None) is not None and m.ptir.optimize)
+        if not job.materials:
+            raise OptimizeError("Mesh Materials is on but no material of a visible mesh is ticked")
+        if scene_json is None:
+            raise OptimizeError("Mesh Materials is on but the scene has no meshes")
+
+    args = [cli_exe, "optimize", "--dataset", dataset_dir, "--split", split, "--gaussians", splats,
+            "--out", job.out_dir, "--iters", settings.iterations, "--spp", settings.spp,
+            "--bounces", settings.bounces, "--env", settings.env,
+            "--env-size", "%dx%d" % (settings.env_width, settings.env_height), "--seed", settings.seed,
+            "--views-per-iter", settings.views_per_iter, "--crop", settings.crop]
+    if scene_json:
+        args += ["--scene", scene_json]
+    if want_meshes:
+        args.append("--optimize-meshes")
+    if settings.optimize_metallic:
+        args.append("--optimize-metallic")
+    if settings.threads > 0:
+        args += ["--threads", settings.threads]
+    job.args = [str(a) for a in args]
+    return job
+
+
+class Results:
+    def __init__(self):
+        self.object_name = ""
+        self.albedo = self.roughness = self.metallic = self.normal = None
+        self.materials = {}   # material name -> {base_color, roughness, metallic}
+        self.environment = None  # path of env.exr
+        self.pack_environment = False
+
+
+def _to_local_normals(normal, matrix):
+    """World-space normals -> object space (normals map with the inverse transpose; back with its inverse)."""
+    a = np.asarray(matrix, np.float64)[:3, :3]
+    nrm = normal.astype(np.float64) @ a  # (A^T n)^T = n^T A
+    length = np.linalg.norm(nrm, axis=1, keepdims=True)
+    zero = length[:, 0] <= 0
+    nrm = nrm / np.where(length > 0, length, 1.0)
+    nrm[zero] = 0.0
+    return nrm.astype(np.float32)
+
+
+def load_results(job, pack_environment):
+    """Reads and checks the optimiser's outputs; changes nothing in Blender."""
+    r = Results()
+    r.object_name = job.object_name
+    ply = os.path.join(job.out_dir, "gaussians.ply")
+    if not os.path.isfile(ply):
+        raise OptimizeError("the optimiser wrote no %s" % ply)
+    d = splat_ply.read_splat_ply(ply)
+    if len(d) != job.count:
+        raise OptimizeError("the optimiser returned %d splats for the object's %d" % (len(d), job.count))
+    r.albedo = np.clip(d.albedo, 0.0, 1.0)
+    r.roughness = np.clip(d.roughness, 0.0, 1.0)
+    r.metallic = np.clip(d.metallic, 0.0, 1.0)
+    r.normal = _to_local_normals(d.normal, job.matrix)
+    if job.materials:
+        recovered = dataset_file.read_mesh_materials(os.path.join(job.out_dir, "mesh_materials.json"))
+        per_material = {}
+        for entry in job.mesh_entries:
+            mat = entry["material"].get("name")
+            if mat in job.materials and entry["name"] in recovered:
+                per_material.setdefault(mat, []).append(recovered[entry["name"]])
+        for mat, values in per_material.items():
+            r.materials[mat] = {k: (np.mean([v[k] for v in values], axis=0).tolist() if k == "base_color"
+                                    else float(np.mean([v[k] for v in values])))
+                                for k in ("base_color", "roughness", "metallic")}
+    if job.write_environment:
+        env = os.path.join(job.out_dir, "env.exr")
+        if not os.path.isfile(env):
+            raise OptimizeError("the optimiser wrote no %s" % env)
+        r.environment = env
+        r.pack_environment = pack_environment
+    return r
+
+
+def _principled(material):
+    if not material.use_nodes or material.node_tree is None:
+        material.use_nodes = True
+    nodes = material.node_tree.nodes
+    node = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if node is None:
+        out = next((n for n in nodes if n.type == "OUTPUT_MATERIAL"), None) or nodes.new("ShaderNodeOutputMaterial")
+        node = nodes.new("ShaderNodeBsdfPrincipled")
+        node.location = (out.location.x - 300, out.location.y)
+        material.node_tree.links.new(node.outputs[0], out.inputs["Surface"])
+    return node
+
+
+def set_world_environment(scene, image_path, pack):
+    """The world's Background colour from an Environment Texture of image_path (strength 1, no rotation)."""
+    world = scene.world
+    if world is None:
+        world = bpy.data.worlds.new("World")
+        scene.world = world
+    world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    out = next((n for n in nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None) \
+        or next((n for n in nodes if n.type == "OUTPUT_WORLD"), None) or nodes.new("ShaderNodeOutputWorld")
+    bg = None
+    if out.inputs["Surface"].is_linked and out.inputs["Surface"].links[0].from_node.type == "BACKGROUND":
+        bg = out.inputs["Surface"].links[0].from_node
+    if bg is None:
+        bg = nodes.new("ShaderNodeBackground")
+        bg.location = (out.location.x - 250, out.location.y)
+        links.new(bg.outputs[0], out.inputs["Surface"])
+    bg.inputs["Strength"].default_value = 1.0
+    tex = nodes.get(ENV_NODE)
+    if tex is None or tex.type != "TEX_ENVIRONMENT":
+        tex = nodes.new("ShaderNodeTexEnvironment")
+        tex.name = tex.label = ENV_NODE
+        tex.location = (bg.location.x - 350, bg.location.y)
+    image = bpy.data.images.load(image_path, check_existing=False)
+    image.name = "PTIR recovered environment"
+    if pack:
+        image.pack()
+    tex.image = image
+    tex.projection = "EQUIRECTANGULAR"
+    for l in list(tex.inputs["Vector"].links):
+        links.remove(l)  # the optimiser's environment is in Blender's orientation, unrotated
+    links.new(tex.outputs["Color"], bg.inputs["Color"])
+    return image
+
+
+def apply_results(context, r):
+    """Writes the results into the scene; returns a one-line summary."""
+    obj = bpy.data.objects.get(r.object_name)
+    if obj is None or not splat_object.is_splat_object(obj) or len(obj.data.vertices) != len(r.albedo):
+        raise OptimizeError("the splat object '%s' changed during the optimisation; results not applied"
+                            % r.object_name)
+    was_edit = obj.mode == "EDIT"
+    if was_edit:
+        bpy.ops.object.mode_set(mode="OBJECT")
+    splat_object.write_material_attributes(obj.data, r.albedo, r.roughness, r.metallic, r.normal)
+    obj.data.update()
+    if was_edit:
+        bpy.ops.object.mode_set(mode="EDIT")
+    parts = ["%d splats" % len(r.albedo)]
+    for name, p in r.materials.items():
+        mat = bpy.data.materials.get(name)
+        if mat is None:
+            continue
+        node = _principled(mat)
+        node.inputs["Base Color"].default_value = (*p["base_color"][:3], 1.0)
+        node.inputs["Roughness"].default_value = p["roughness"]
+        node.inputs["Metallic"].default_value = p["metallic"]
+        for key in ("ptir_base_color", "ptir_roughness", "ptir_metallic"):
+            if key in mat:  # explicit overrides would hide the recovered values from the exporter
+                del mat[key]
+    if r.materials:
+        parts.append("%d materials" % len(r.materials))
+    if r.environment:
+        set_world_environment(context.scene, r.environment, r.pack_environment)
+        parts.append("environment")
+    return ", ".join(parts)

@@ -1,0 +1,224 @@
+"""The engine's command-line tool as a child process, without bpy.
+
+Long jobs (final renders, optimisations) run in `ptir` child processes so that a
+crash in the native engine can never take Blender (and the artist's unsaved
+work) down. A ChildJob starts the command, reads its stderr on a thread and
+parses progress lines into a small state object that the caller (a modal
+operator's timer, a render engine loop, or a blocking loop in blender -b) polls:
+
+    job = ChildJob([cli, "render", "scene.json", "-o", "out.exr"], parse=parse_render_progress)
+    while job.poll() is None:
+        print(job.progress.fraction, job.progress.text)
+        time.sleep(0.1)
+
+Progress formats (native/cli):
+    render:   "\\rrender rgb [#####     ]  45.0%  1.2s  ETA 1.5s"  (carriage-return redraws)
+    optimize: "iter 12/800  loss 0.04321 (image ... )  0.85 s/iter  ETA 11m10s  [r_3]"
+"""
+
+import os
+import re
+import shutil
+import signal
+import subprocess
+import threading
+import time
+
+_ADDON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+class JobError(RuntimeError):
+    """A job that cannot start or that failed; the message says why (with the tool's own error line)."""
+
+
+def find_cli(preferred=""):
+    """The `ptir` executable: the preference, the copy inside the add-on (bin/ptir), $PTIR_CLI, PATH."""
+    candidates = []
+    if preferred:
+        candidates.append(("the add-on preference", os.path.expanduser(preferred)))
+    candidates.append(("the add-on folder", os.path.join(_ADDON_DIR, "bin", "ptir")))
+    if os.environ.get("PTIR_CLI"):
+        candidates.append(("$PTIR_CLI", os.environ["PTIR_CLI"]))
+    on_path = shutil.which("ptir")
+    if on_path:
+        candidates.append(("PATH", on_path))
+    for _, path in candidates:
+        if path and os.path.isfile(path) and os.access(path, os.X_OK):
+            return os.path.abspath(path)
+    if preferred:
+        raise JobError("the ptir command '%s' (add-on preference) is not an executable file" % preferred)
+    raise JobError("cannot find the engine's command-line tool 'ptir': not in %s, $PTIR_CLI or PATH "
+                   "(run scripts/install_addon.sh, or set it in the add-on preferences)"
+                   % os.path.join(_ADDON_DIR, "bin"))
+
+
+class Progress:
+    """What the job reported last: fraction in [0, 1], a one-line text, and parsed numbers."""
+
+    def __init__(self):
+        self.fraction = 0.0
+        self.text = ""
+        self.iteration = None
+        self.iterations = None
+        self.loss = None
+        self.seconds_per_iteration = None
+        self.eta = ""
+
+
+_RENDER_RE = re.compile(r"\]\s*([0-9.]+)%\s+([0-9.]+)s\s+ETA\s+([0-9.]+)s")
+_OPT_RE = re.compile(r"^iter\s+(\d+)/(\d+)\s+loss\s+([-+0-9.eEinfa]+).*?([0-9.]+)\s*s/iter\s+ETA\s+(\S+)")
+
+
+def parse_render_progress(line, progress):
+    """Updates progress from one render progress redraw; returns True when it was one."""
+    m = _RENDER_RE.search(line)
+    if not m:
+        return False
+    progress.fraction = min(1.0, float(m.group(1)) / 100.0)
+    progress.eta = m.group(3) + " s"
+    progress.text = "%.0f%%, %s s elapsed, ETA %s s" % (float(m.group(1)), m.group(2), m.group(3))
+    return True
+
+
+def parse_optimize_progress(line, progress):
+    """Updates progress from one `ptir optimize` iteration line; returns True when it was one."""
+    m = _OPT_RE.search(line.strip())
+    if not m:
+        return False
+    it, total = int(m.group(1)), int(m.group(2))
+    progress.iteration, progress.iterations = it, total
+    try:
+        progress.loss = float(m.group(3))
+    except ValueError:
+        progress.loss = float("nan")
+    progress.seconds_per_iteration = float(m.group(4))
+    progress.eta = m.group(5)
+    progress.fraction = min(1.0, it / max(1, total))
+    progress.text = "iteration %d/%d, loss %.5f, %.2f s/iter, ETA %s" % (it, total, progress.loss,
+                                                                       progress.seconds_per_iteration, progress.eta)
+    return True
+
+
+class ChildJob:
+    """A `ptir` child process with its stderr read on a thread.
+
+    poll(): None while running, else the exit status. cancel(): asks it to stop
+    (SIGINT: the optimiser finishes its iteration and exits 130; other commands
+    end at once), then kills it after `grace` seconds. Lines are kept (the last
+    200) for error messages; `echo` prints each progress/log line as it comes
+    (blender -b shows the progress on its console).
+    """
+
+    def __init__(self, args, parse=None, cwd=None, echo=False, log_path=None, env=None):
+        self.args = [str(a) for a in args]
+        self.progress = Progress()
+        self.lines = []
+        self.cancelled = False
+        self._parse = parse
+        self._echo = echo
+        self._lock = threading.Lock()
+        self._log = open(log_path, "w") if log_path else None
+        try:
+            self.proc = subprocess.Popen(self.args, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                         stderr=subprocess.STDOUT, env=env)
+        except OSError as e:
+            if self._log:
+                self._log.close()
+            raise JobError("cannot start %s: %s" % (self.args[0], e.strerror or e))
+        self.started = time.monotonic()
+        self._reader = threading.Thread(target=self._read, name="ptir-job-reader", daemon=True)
+        self._reader.start()
+
+    def _read(self):
+        buf = b""
+        stream = self.proc.stdout
+        while True:
+            chunk = stream.read1(4096) if hasattr(stream, "read1") else stream.read(1)
+            if not chunk:
+                break
+            buf += chunk
+            while True:
+                cut = [i for i in (buf.find(b"\n"), buf.find(b"\r")) if i >= 0]
+                if not cut:
+                    break
+                i = min(cut)
+                line, buf = buf[:i], buf[i + 1:]
+                self._line(line.decode("utf-8", errors="replace"))
+        if buf:
+            self._line(buf.decode("utf-8", errors="replace"))
+
+    def _line(self, line):
+        if not line.strip():
+            return
+        with self._lock:
+            is_progress = self._parse(line, self.progress) if self._parse else False
+            if not is_progress or not self.lines or not self._parse(self.lines[-1], Progress()):
+                self.lines.append(line)
+            else:
+                self.lines[-1] = line  # keep one line per redrawn progress bar
+            del self.lines[:-200]
+        if self._log:
+            self._log.write(line + "\n")
+            self._log.flush()
+        if self._echo:
+            print("ptir: " + line, flush=True)
+
+    def poll(self):
+        rc = self.proc.poll()
+        if rc is not None:
+            self._reader.join(timeout=5)
+            if self._log and not self._log.closed:
+                self._log.close()
+        return rc
+
+    def wait(self, timeout=None):
+        try:
+            self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return None
+        return self.poll()
+
+    def cancel(self, grace=10.0):
+        """Stops the job: SIGINT, then SIGKILL after `grace` seconds; returns the exit status."""
+        self.cancelled = True
+        if self.proc.poll() is None:
+            try:
+                self.proc.send_signal(signal.SIGINT)
+            except OSError:
+                pass
+            try:
+                self.proc.wait(timeout=grace)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        return self.poll()
+
+    def error_message(self):
+        """The tool's own error line ("ptir: error: ...") or the last lines it printed."""
+        with self._lock:
+            lines = list(self.lines)
+        errors = [l for l in lines if "error" in l.lower()]
+        if errors:
+            return errors[-1].strip()
+        tail = " | ".join(l.strip() for l in lines[-3:])
+        rc = self.proc.returncode
+        if rc is not None and rc < 0:
+            try:
+                name = signal.Signals(-rc).name
+            except ValueError:
+                name = "signal %d" % -rc
+            return "the engine process died (%s)%s" % (name, (": " + tail) if tail else "")
+        return tail or "exit status %s" % rc
+
+    def run_blocking(self, on_progress=None, interval=0.5, should_cancel=None):
+        """Waits for the end, calling on_progress(progress) every `interval` seconds; returns the exit status."""
+        last = None
+        while True:
+            rc = self.wait(timeout=interval)
+            if rc is not None:
+                return rc
+            if should_cancel is not None and should_cancel():
+                return self.cancel()
+            if on_progress is not None and self.progress.text != last:
+                last = self.progress.text
+                on_progress(self.progress)

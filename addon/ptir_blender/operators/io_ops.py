@@ -1,0 +1,176 @@
+"""File > Import / Export > Gaussian Splats (.ply).
+
+    bpy.ops.import_scene.gaussian_splat_ply(filepath="capture.ply")
+    bpy.ops.export_scene.gaussian_splat_ply(filepath="out.ply")
+
+Import reads the PLY with numpy (io/splat_ply.py: every variant the engine
+reads, including SuperSplat compressed files) and builds a vertex-only mesh
+object with the splat attributes (blender/splat_object.py) in bulk. A file that
+cannot be read is reported with the property or problem named, and the scene is
+left as it was. Export writes the active splat object (or, with "Selection
+Only", every selected splat object merged) in the standard 3DGS layout plus
+PTIR's material properties, with the object transforms folded in.
+"""
+
+import os
+import time
+
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, CollectionProperty, FloatProperty, IntProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper, ImportHelper
+
+from ..blender import splat_object
+from ..io import splat_ply
+
+
+class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
+    """Import 3D Gaussian splats from a .ply file (3DGS, SuperSplat compressed), with PTIR materials"""
+    bl_idname = "import_scene.gaussian_splat_ply"
+    bl_label = "Gaussian Splats (.ply)"
+    bl_options = {"REGISTER", "UNDO", "PRESET"}
+
+    filename_ext = ".ply"
+    filter_glob: StringProperty(default="*.ply", options={"HIDDEN"})
+    files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
+    directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
+    display: BoolProperty(name="Viewport Display", default=True,
+                          description="Show the splats as ellipsoids in the viewport (Geometry Nodes)")
+    display_limit: IntProperty(name="Display Limit", default=splat_object.DEFAULT_DISPLAY_LIMIT, min=0,
+                               description="Show at most this many splats (a random subset; 0 = all)")
+    display_size: FloatProperty(name="Splat Size", default=splat_object.DEFAULT_DISPLAY_SIZE, min=0.0,
+                                description="Ellipsoid radii in standard deviations")
+
+    def execute(self, context):
+        paths = [os.path.join(self.directory, f.name) for f in self.files if f.name] if self.files else []
+        if not paths:
+            paths = [self.filepath]
+        # Read everything first: a bad file leaves the scene unchanged.
+        read = []
+        for p in paths:
+            try:
+                t0 = time.perf_counter()
+                read.append((p, splat_ply.read_splat_ply(p), time.perf_counter() - t0))
+            except splat_ply.SplatPlyError as e:
+                self.report({"ERROR"}, str(e))
+                return {"CANCELLED"}
+        if context.object is not None and context.object.mode != "OBJECT":
+            bpy.ops.object.mode_set(mode="OBJECT")
+        created = []
+        for p, d, t_read in read:
+            t0 = time.perf_counter()
+            name = os.path.splitext(os.path.basename(p))[0] or "Splats"
+            try:
+                obj = splat_object.create_splat_object(context, d, name, display=self.display,
+                                                       display_limit=self.display_limit,
+                                                       display_size=self.display_size)
+            except splat_object.SplatObjectError as e:
+                for o in created:
+                    bpy.data.objects.remove(o)
+                self.report({"ERROR"}, str(e))
+                return {"CANCELLED"}
+            obj["ptir_source"] = os.path.abspath(p)
+            obj.ptir_splat.display_limit = int(self.display_limit)  # (updates the display modifier too)
+            obj.ptir_splat.display_size = float(self.display_size)
+            created.append(obj)
+            print("ptir import: %s: %d splats (SH degree %d) read in %.2f s, object built in %.2f s"
+                  % (p, len(d), d.sh_degree, t_read, time.perf_counter() - t0))
+        for o in context.view_layer.objects:
+            o.select_set(False)
+        for o in created:
+            o.select_set(True)
+        context.view_layer.objects.active = created[-1]
+        self.report({"INFO"}, "Imported %d splats" % sum(len(o.data.vertices) for o in created))
+        return {"FINISHED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "display")
+        col = layout.column()
+        col.enabled = self.display
+        col.prop(self, "display_limit")
+        col.prop(self, "display_size")
+
+
+def export_objects(objects, filepath, apply_transform=True):
+    """Writes the splat objects (merged, world space when apply_transform) to filepath; returns the count."""
+    parts = []
+    for obj in objects:
+        parts.append(splat_object.world_data(obj) if apply_transform else splat_object.read_data_from_object(obj))
+    if not parts:
+        raise splat_object.SplatObjectError("no splat object to export")
+    d = parts[0] if len(parts) == 1 else _merge(parts)
+    splat_ply.write_splat_ply(filepath, d)
+    return len(d)
+
+
+def _merge(parts):
+    k = max(p.sh_rest.shape[0] for p in parts)
+    out = splat_ply.SplatData()
+    for field in splat_ply.SplatData.FIELDS:
+        if field == "sh_rest":  # (K, n, 3): pad lower degrees with zero coefficients
+            arrays = [np.concatenate([p.sh_rest, np.zeros((k - p.sh_rest.shape[0], len(p), 3), np.float32)], axis=0)
+                      for p in parts]
+            setattr(out, field, np.concatenate(arrays, axis=1))
+        else:
+            setattr(out, field, np.concatenate([getattr(p, field) for p in parts], axis=0))
+    names = set.intersection(*(set(p.extra) for p in parts))
+    out.extra = {n: np.concatenate([p.extra[n] for p in parts]) for n in sorted(names)}
+    return out
+
+
+class EXPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ExportHelper):
+    """Export splat objects as a 3DGS .ply with PTIR's material properties (transforms folded in)"""
+    bl_idname = "export_scene.gaussian_splat_ply"
+    bl_label = "Gaussian Splats (.ply)"
+    bl_options = {"REGISTER", "PRESET"}
+
+    filename_ext = ".ply"
+    filter_glob: StringProperty(default="*.ply", options={"HIDDEN"})
+    use_selection: BoolProperty(name="Selection Only", default=False,
+                                description="Export every selected splat object, merged into one file "
+                                            "(default: the active splat object)")
+    apply_transform: BoolProperty(name="Apply Transform", default=True,
+                                  description="Fold the object transform into positions, scales and rotations")
+
+    @classmethod
+    def poll(cls, context):
+        return any(splat_object.is_splat_object(o) for o in context.scene.objects)
+
+    def _objects(self, context):
+        if self.use_selection:
+            return [o for o in context.selected_objects if splat_object.is_splat_object(o)]
+        active = context.view_layer.objects.active
+        if splat_object.is_splat_object(active):
+            return [active]
+        selected = [o for o in context.selected_objects if splat_object.is_splat_object(o)]
+        if len(selected) == 1:
+            return selected
+        candidates = [o for o in context.scene.objects if splat_object.is_splat_object(o)]
+        return candidates if len(candidates) == 1 else []
+
+    def execute(self, context):
+        objects = self._objects(context)
+        if not objects:
+            self.report({"ERROR"}, "No selected splat object to export" if self.use_selection
+                        else "Make the splat object to export active (or use Selection Only)")
+            return {"CANCELLED"}
+        try:
+            n = export_objects(objects, self.filepath, self.apply_transform)
+        except (splat_object.SplatObjectError, splat_ply.SplatPlyError) as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, "Exported %d splats to %s" % (n, self.filepath))
+        return {"FINISHED"}
+
+
+def menu_import(self, context):
+    self.layout.operator(IMPORT_SCENE_OT_gaussian_splat_ply.bl_idname, text="Gaussian Splats (.ply)")
+
+
+def menu_export(self, context):
+    self.layout.operator(EXPORT_SCENE_OT_gaussian_splat_ply.bl_idname, text="Gaussian Splats (.ply)")
+
+
+classes = (IMPORT_SCENE_OT_gaussian_splat_ply, EXPORT_SCENE_OT_gaussian_splat_ply)

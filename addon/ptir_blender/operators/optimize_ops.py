@@ -1,0 +1,219 @@
+"""Optimise: recover the splats' (and chosen mesh) materials and the environment from photos.
+
+    bpy.ops.ptir.optimize()          settings in scene.ptir_optimize (the PTIR sidebar panel)
+
+Runs `ptir optimize` as a child process (a native crash cannot take Blender
+down). In the UI (INVOKE) it is modal: a timer polls the job, the panel, the
+status bar and the window's progress indicator show iteration, loss and ETA;
+Esc (or the panel's Cancel button) stops it. From a script / blender -b
+(EXEC) it blocks until the end and prints the optimiser's progress lines.
+Only a run that finishes writes anything back (blender/optimize_job.py); a
+failed or cancelled run leaves the scene as it was.
+"""
+
+import os
+import shutil
+import tempfile
+
+import bpy
+
+from ..blender import optimize_job, scene_export, splat_object
+from ..io import cli, dataset_file, scene_file, splat_ply
+from . import render_engine
+
+_ERRORS = (optimize_job.OptimizeError, cli.JobError, dataset_file.DatasetError, scene_export.ExportError,
+           splat_object.SplatObjectError, splat_ply.SplatPlyError, scene_file.SceneFileError)
+
+_state = {"job": None, "cancel": False}
+
+
+def request_cancel():
+    """Asks the running optimisation (modal or blocking) to stop."""
+    _state["cancel"] = True
+
+
+def stop_all_jobs():
+    job = _state.get("job")
+    if job is not None and job.poll() is None:
+        job.cancel(grace=2.0)
+    _state["job"] = None
+
+
+def _redraw(context):
+    wm = context.window_manager
+    for window in wm.windows:
+        for area in window.screen.areas:
+            if area.type in ("VIEW_3D", "PROPERTIES"):
+                area.tag_redraw()
+
+
+class PTIR_OT_optimize(bpy.types.Operator):
+    """Recover materials and lighting from the photos with the PTIR optimiser (runs in a child process; Esc cancels)"""
+    bl_idname = "ptir.optimize"
+    bl_label = "Optimise Materials"
+    bl_options = {"REGISTER", "UNDO"}
+
+    _timer = None
+    _child = None
+    _prepared = None
+    _job_dir = None
+
+    @classmethod
+    def poll(cls, context):
+        return _state.get("job") is None
+
+    # -------------------------------------------------------------- shared
+
+    def _start(self, context, echo):
+        settings = context.scene.ptir_optimize
+        self._job_dir = tempfile.mkdtemp(prefix="ptir_optimize_")
+        out_dir = bpy.path.abspath(settings.output_dir) if settings.output_dir else None
+        self._pack = out_dir is None and not render_engine.keep_files()
+        exe = render_engine.cli_path()
+        self._prepared = optimize_job.prepare(context, settings, self._job_dir, exe, out_dir)
+        for w in self._prepared.warnings:
+            self.report({"WARNING"}, w)
+        if echo:
+            print("ptir optimize: " + " ".join(self._prepared.args), flush=True)
+        self._child = cli.ChildJob(self._prepared.args, parse=cli.parse_optimize_progress, echo=echo,
+                                   log_path=os.path.join(self._job_dir, "optimize.log"))
+        _state["job"] = self._child
+        _state["cancel"] = False
+        settings.running = True
+        settings.progress = 0.0
+        settings.status = "starting"
+
+    def _finish(self, context, rc):
+        """Applies the results after a successful run; returns the operator result."""
+        settings = context.scene.ptir_optimize
+        child, prepared = self._child, self._prepared
+        try:
+            if child.cancelled or rc == 130:
+                self.report({"WARNING"}, "Optimisation cancelled; nothing was changed")
+                settings.status = "cancelled"
+                return {"CANCELLED"}
+            if rc != 0:
+                msg = child.error_message()
+                self.report({"ERROR"}, "Optimisation failed: %s" % msg)
+                settings.status = "failed: %s" % msg
+                return {"CANCELLED"}
+            try:
+                results = optimize_job.load_results(prepared, pack_environment=self._pack)
+                summary = optimize_job.apply_results(context, results)
+            except _ERRORS as e:
+                self.report({"ERROR"}, "Optimisation results not applied: %s" % e)
+                settings.status = "failed: %s" % e
+                return {"CANCELLED"}
+            settings.status = "done: %s" % summary
+            settings.progress = 1.0
+            self.report({"INFO"}, "Optimised: %s" % summary)
+            return {"FINISHED"}
+        finally:
+            settings.running = False
+            _state["job"] = None
+            _state["cancel"] = False
+            if render_engine.keep_files():
+                print("ptir optimize: job files kept in %s" % self._job_dir)
+            else:
+                shutil.rmtree(self._job_dir, ignore_errors=True)
+
+    def _abort_start(self, context, e):
+        context.scene.ptir_optimize.running = False
+        _state["job"] = None
+        if self._job_dir:
+            shutil.rmtree(self._job_dir, ignore_errors=True)
+        self.report({"ERROR"}, str(e))
+        return {"CANCELLED"}
+
+    # -------------------------------------------------------------- blocking (scripts, blender -b)
+
+    def execute(self, context):
+        try:
+            self._start(context, echo=True)
+        except _ERRORS as e:
+            return self._abort_start(context, e)
+        settings = context.scene.ptir_optimize
+
+        def on_progress(p):
+            settings.progress = p.fraction
+            settings.status = p.text
+
+        try:
+            rc = self._child.run_blocking(on_progress=on_progress, interval=0.25,
+                                          should_cancel=lambda: _state["cancel"])
+        except KeyboardInterrupt:
+            rc = self._child.cancel()
+        return self._finish(context, rc)
+
+    # -------------------------------------------------------------- modal (UI)
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        try:
+            self._start(context, echo=False)
+        except _ERRORS as e:
+            return self._abort_start(context, e)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.25, window=context.window)
+        wm.progress_begin(0.0, 1.0)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _end_modal(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+
+    def modal(self, context, event):
+        settings = context.scene.ptir_optimize
+        if event.type == "ESC" or _state["cancel"]:
+            settings.status = "cancelling"
+            rc = self._child.cancel()
+            self._end_modal(context)
+            _redraw(context)
+            return self._finish(context, rc)
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        rc = self._child.poll()
+        p = self._child.progress
+        settings.progress = p.fraction
+        settings.status = p.text or "starting"
+        context.window_manager.progress_update(p.fraction)
+        if context.workspace is not None:
+            context.workspace.status_text_set("PTIR optimise: %s  (Esc: cancel)" % settings.status)
+        _redraw(context)
+        if rc is None:
+            return {"PASS_THROUGH"}
+        self._end_modal(context)
+        result = self._finish(context, rc)
+        _redraw(context)
+        return result
+
+    def cancel(self, context):  # Blender ends the operator (file load, quit)
+        if self._child is not None and self._child.poll() is None:
+            self._child.cancel(grace=2.0)
+        self._end_modal(context)
+        _state["job"] = None
+        context.scene.ptir_optimize.running = False
+
+
+class PTIR_OT_optimize_cancel(bpy.types.Operator):
+    """Stop the running optimisation (nothing is written back)"""
+    bl_idname = "ptir.optimize_cancel"
+    bl_label = "Cancel Optimisation"
+
+    @classmethod
+    def poll(cls, context):
+        return _state.get("job") is not None
+
+    def execute(self, context):
+        request_cancel()
+        return {"FINISHED"}
+
+
+classes = (PTIR_OT_optimize, PTIR_OT_optimize_cancel)

@@ -1,0 +1,1 @@
+"""Panels and menu entries of the add-on (bpy)."""

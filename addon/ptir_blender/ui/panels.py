@@ -1,0 +1,159 @@
+"""Panels: the render engine's settings (Render Properties) and the PTIR tab of the 3D viewport sidebar
+(Splats, Material Editing, Optimise)."""
+
+import bpy
+
+from ..blender import splat_object
+
+
+class RENDER_PT_ptir_sampling(bpy.types.Panel):
+    bl_label = "PTIR Path Tracing"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {"PTIR"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        s = context.scene.ptir_render
+        col = layout.column()
+        col.prop(s, "spp")
+        col.prop(s, "bounces")
+        col.prop(s, "interaction")
+        col.prop(s, "tau_g")
+        col.prop(s, "seed")
+        col.prop(s, "threads")
+
+
+class _SidebarPanel:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "PTIR"
+
+
+class VIEW3D_PT_ptir_splats(_SidebarPanel, bpy.types.Panel):
+    bl_label = "Splats"
+
+    def draw(self, context):
+        layout = self.layout
+        row = layout.row(align=True)
+        row.operator("import_scene.gaussian_splat_ply", text="Import", icon="IMPORT")
+        row.operator("export_scene.gaussian_splat_ply", text="Export", icon="EXPORT")
+        obj = context.active_object
+        if not splat_object.is_splat_object(obj):
+            layout.label(text="Active object: not a splat object", icon="INFO")
+            return
+        mesh = obj.data
+        sh = 0
+        for k, deg in ((15, 3), (8, 2), (3, 1)):
+            if mesh.attributes.get("radiance:sh_%d" % (k - 1)) is not None:
+                sh = deg
+                break
+        box = layout.box()
+        box.label(text=obj.name, icon="OUTLINER_OB_POINTCLOUD")
+        box.label(text="%s splats, SH degree %d" % (format(len(mesh.vertices), ","), sh))
+        s = obj.ptir_splat
+        col = layout.column()
+        col.use_property_split = True
+        col.use_property_decorate = False
+        col.prop(s, "display")
+        col.prop(s, "display_size")
+        col.prop(s, "display_limit")
+
+
+class VIEW3D_PT_ptir_materials(_SidebarPanel, bpy.types.Panel):
+    bl_label = "Material Editing"
+
+    @classmethod
+    def poll(cls, context):
+        return splat_object.is_splat_object(context.active_object)
+
+    def draw(self, context):
+        layout = self.layout
+        obj = context.active_object
+        s = context.scene.ptir_edit
+        col = layout.column()
+        col.use_property_split = True
+        col.use_property_decorate = False
+        col.prop(s, "channel")
+        col.prop(s, "operation")
+        if s.channel == "ALBEDO" and s.operation in ("SET", "TINT"):
+            col.prop(s, "color")
+        else:
+            col.prop(s, "value")
+        col.prop_search(s, "vertex_group", obj, "vertex_groups", text="Vertex Group")
+        if s.vertex_group:
+            target = "group '%s'" % s.vertex_group
+        elif obj.mode == "EDIT":
+            target = "selected splats"
+        else:
+            target = "all splats"
+        layout.label(text="Applies to " + target, icon="RESTRICT_SELECT_OFF")
+        op = layout.operator("ptir.edit_material", text="Apply", icon="BRUSH_DATA")
+        op.channel, op.operation, op.color, op.value, op.vertex_group = (s.channel, s.operation, s.color, s.value,
+                                                                         s.vertex_group)
+
+
+class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
+    bl_label = "Optimise"
+
+    def draw(self, context):
+        layout = self.layout
+        s = context.scene.ptir_optimize
+        if s.running:
+            row = layout.row()
+            if hasattr(row, "progress"):  # Blender 4.0+
+                row.progress(factor=s.progress, type="BAR", text="%.0f%%" % (100 * s.progress))
+            else:
+                row.prop(s, "progress", text="Progress", slider=True)
+            box = layout.box()
+            for part in (s.status or "starting").split(", "):
+                box.label(text=part)
+            layout.operator("ptir.optimize_cancel", text="Cancel (Esc)", icon="CANCEL")
+        else:
+            layout.operator("ptir.optimize", text="Optimise", icon="PLAY")
+            if s.status:
+                layout.label(text=s.status, icon="INFO")
+        col = layout.column()
+        col.use_property_split = True
+        col.use_property_decorate = False
+        col.enabled = not s.running
+        col.prop(s, "source")
+        if s.source == "DATASET":
+            col.prop(s, "dataset_dir")
+        col.prop(s, "split")
+        col.prop_search(s, "splat_object", context.scene, "objects", text="Splats")
+        col.prop(s, "env")
+        if s.env == "latlong":
+            row = col.row(align=True)
+            row.prop(s, "env_width", text="Size")
+            row.prop(s, "env_height", text="")
+        col.prop(s, "write_environment")
+        col.prop(s, "optimize_metallic")
+        col.prop(s, "optimize_meshes")
+        if s.optimize_meshes:
+            mats = sorted({slot.material for o in context.scene.objects if o.type == "MESH" and not o.hide_render
+                           and not splat_object.is_splat_object(o) for slot in o.material_slots
+                           if slot.material is not None}, key=lambda m: m.name)
+            box = col.box()
+            if not mats:
+                box.label(text="No mesh materials in the scene")
+            for m in mats:
+                box.prop(m.ptir, "optimize", text=m.name)
+        col.separator()
+        col.prop(s, "iterations")
+        col.prop(s, "spp")
+        col.prop(s, "bounces")
+        col.prop(s, "views_per_iter")
+        col.prop(s, "crop")
+        col.prop(s, "seed")
+        col.prop(s, "output_dir")
+
+
+classes = (RENDER_PT_ptir_sampling, VIEW3D_PT_ptir_splats, VIEW3D_PT_ptir_materials, VIEW3D_PT_ptir_optimize)

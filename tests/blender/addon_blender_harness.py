@@ -1,0 +1,70 @@
+"""Blender side of the add-on tests: enable the add-on from the repository and run a check.
+
+    import addon_blender_harness as h
+    h.enable_addon()
+    h.run(main)          # prints "ADDON_CHECK: OK", or the traceback and exits 1
+
+`blender -b` exits 0 after an uncaught exception in a -P script unless
+--python-exit-code is given; run() exits 1 explicitly either way.
+"""
+
+import os
+import sys
+import traceback
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.environ.get("PTIR_TEST_REPO") or os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(REPO, "addon"))
+
+
+def argv():
+    return sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+
+
+def enable_addon():
+    """Enables ptir_blender from <repo>/addon (not an installed copy) with its preferences."""
+    import addon_utils
+    import bpy
+    for name in [m for m in sys.modules if m == "ptir_blender" or m.startswith("ptir_blender.")]:
+        mod = sys.modules[name]
+        if not os.path.abspath(getattr(mod, "__file__", "") or "").startswith(os.path.join(REPO, "addon")):
+            del sys.modules[name]
+    mod = addon_utils.enable("ptir_blender", default_set=True, handle_error=None)
+    if mod is None:
+        raise RuntimeError("could not enable ptir_blender from %s" % os.path.join(REPO, "addon"))
+    where = os.path.dirname(os.path.abspath(mod.__file__))
+    if not where.startswith(os.path.join(REPO, "addon")):
+        raise RuntimeError("enabled ptir_blender from %s, not from the repository" % where)
+    assert bpy.context.preferences.addons.get("ptir_blender") is not None
+    return mod
+
+
+def native_module():
+    """The native module from the build folder (PTIR_TEST_MODULE_DIR), or None."""
+    d = os.environ.get("PTIR_TEST_MODULE_DIR")
+    if d and d not in sys.path:
+        sys.path.insert(0, d)
+    try:
+        import ptir
+        return ptir
+    except ImportError:
+        return None
+
+
+def check(cond, what):
+    if not cond:
+        raise AssertionError(what)
+
+
+def run(main):
+    try:
+        main()
+    except SystemExit:
+        raise
+    except BaseException:
+        traceback.print_exc()
+        sys.stderr.write("ADDON_CHECK: FAILED\n")
+        sys.stderr.flush()
+        sys.exit(1)
+    print("ADDON_CHECK: OK", flush=True)

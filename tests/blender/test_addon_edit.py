@@ -1,0 +1,15 @@
+"""Material editing on splats in blender -b (checks in addon_edit_check.py); the effect of an edit
+on a render, indirect light included, is checked in test_addon_render.py."""
+
+import pytest
+
+import addon_common as ac
+
+pytestmark = pytest.mark.skipif(not ac.have_blender(), reason="blender not installed")
+
+
+def test_edit_material_on_selection_group_and_all(tmp_path):
+    raw = ac.random_raw(300, material=True, seed=21)
+    ply = ac.write_ply(tmp_path / "s.ply", raw)
+    r = ac.run_blender("addon_edit_check.py", ply)
+    assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
