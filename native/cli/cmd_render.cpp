@@ -1,10 +1,25 @@
-// `ptir render`: AOV images of a Gaussian field (plus meshes) from a camera.
+// `ptir render`: path-traced colour or AOV images.
+//
+//   ptir render scene.json -o out.exr [--spp N] [--bounces N] [--camera NAME] [--seed S] [--threads N]
+//       the scene file (docs/scene_format.md); path-traced colour by default.
+//   ptir render --gaussians g.ply [--mesh m.ply ...] (--cameras t.json [--frame I] | --c2w ... --fov-x F)
+//       [--aov preview|opacity|depth|normal|albedo|roughness|metallic|rgb] [--env map.exr ...] -o out.png
+//       the flag form: AOVs of the primary hit, or (--aov rgb) path-traced colour under --env.
+//
+// Integrator switches (both forms; in the scene form they override the file):
+// --spp, --bounces, --seed, --interaction aggregate|discrete, --tau-g,
+// --no-geometric-criterion, --self-intersection backface|fixed. --threads N limits
+// TBB: the image does not depend on it (random numbers are keyed per pixel/sample).
+#include <tbb/global_control.h>
+
 #include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -13,10 +28,14 @@
 #include "ptir/accel/scene_accel.h"
 #include "ptir/core/error.h"
 #include "ptir/render/aov.h"
+#include "ptir/render/render_path.h"
 #include "ptir/scene/camera.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/mesh.h"
+#include "ptir/scene/scene.h"
+#include "ptir/scene/scene_json.h"
 #include "ptir/transport/orient_normals.h"
+#include "ptir/transport/path_tracer.h"
 #include "progress.h"
 
 namespace ptir::cli {
@@ -24,6 +43,8 @@ namespace ptir::cli {
 namespace {
 
 struct RenderOptions {
+  std::string scene;  // positional scene file
+  std::string camera_name;
   std::string gaussians;
   std::vector<std::string> meshes;
   std::string cameras;
@@ -31,15 +52,26 @@ struct RenderOptions {
   std::string c2w;
   float fov_x = 0.0f;
   int width = 0, height = 0;
-  std::string aov = "preview";
+  std::string aov;  // default: "rgb" with a scene file, "preview" in the flag form
   std::string output;
   int spp = 1;
+  int bounces = 2;
   uint64_t seed = 0;
   std::string interaction = "aggregate";
   float tau_g = 0.5f;
+  bool no_geometric_criterion = false;
+  std::string self_intersection = "backface";
+  std::string env;
+  float env_strength = 1.0f;
+  float env_rotation = 0.0f;
   int k = 16;
+  int threads = 0;
+  std::string stats_json;
   bool quiet = false;
 };
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 std::vector<float> parse_matrix(const std::string& text) {
   std::string s = text;
@@ -53,7 +85,7 @@ std::vector<float> parse_matrix(const std::string& text) {
   return m;
 }
 
-Camera pick_camera(const RenderOptions& o) {
+Camera pick_flag_camera(const RenderOptions& o) {
   if (!o.c2w.empty()) {
     if (o.width <= 0 || o.height <= 0) throw Error("--c2w needs --width and --height");
     if (!(o.fov_x > 0)) throw Error("--c2w needs --fov-x (horizontal field of view, radians)");
@@ -67,53 +99,180 @@ Camera pick_camera(const RenderOptions& o) {
   return cams[o.frame];
 }
 
-int run_render(const RenderOptions& o) {
-  auto t0 = std::chrono::steady_clock::now();
-  Aov aov = parse_aov(o.aov);
-  Camera camera = pick_camera(o);
+// A scene camera by name, or by index when no camera has that name.
+const Camera& pick_scene_camera(const Scene& scene, const std::string& name) {
+  if (!name.empty() && !scene.cameras.empty() &&
+      std::all_of(name.begin(), name.end(), [](unsigned char c) { return std::isdigit(c); })) {
+    bool named = std::any_of(scene.cameras.begin(), scene.cameras.end(), [&](const Camera& c) { return c.name == name; });
+    if (!named) {
+      size_t i = std::stoul(name);
+      if (i >= scene.cameras.size())
+        throw Error(scene.source_path, "camera index " + name + " out of range (" + std::to_string(scene.cameras.size()) +
+                                           " cameras)");
+      return scene.cameras[i];
+    }
+  }
+  return scene.camera(name);
+}
 
-  GaussianField field;
-  if (!o.gaussians.empty()) field = load_gaussians(o.gaussians);
-  std::vector<TriangleMesh> meshes;
-  for (const auto& m : o.meshes) meshes.push_back(load_mesh(m));
-  if (field.size() == 0 && meshes.empty()) throw Error("nothing to render: give --gaussians and/or --mesh");
+// Command-line switches override the settings (the scene file's, or the defaults).
+void apply_integrator_flags(const RenderOptions& o, const CLI::App& cmd, IntegratorSettings& s) {
+  if (cmd.count("--spp")) s.spp = o.spp;
+  if (cmd.count("--bounces")) s.max_bounces = o.bounces;
+  if (cmd.count("--seed")) s.seed = o.seed;
+  if (cmd.count("--interaction")) {
+    if (o.interaction == "discrete") s.interaction.mode = InteractionMode::Discrete;
+    else if (o.interaction == "aggregate") s.interaction.mode = InteractionMode::Aggregate;
+    else throw Error("--interaction must be 'aggregate' or 'discrete', got '" + o.interaction + "'");
+  }
+  if (cmd.count("--tau-g")) s.interaction.tau_g = o.tau_g;
+  if (o.no_geometric_criterion) s.geometric_criterion = false;
+  if (cmd.count("--self-intersection")) {
+    if (o.self_intersection == "backface") s.self_intersection = SelfIntersection::BackfaceAware;
+    else if (o.self_intersection == "fixed") s.self_intersection = SelfIntersection::FixedOffset;
+    else throw Error("--self-intersection must be 'backface' or 'fixed', got '" + o.self_intersection + "'");
+  }
+  if (s.spp < 1) throw Error("--spp must be at least 1");
+  if (s.max_bounces < 0) throw Error("--bounces must be at least 0");
+}
 
+std::string lower_ext(const std::string& path) {
+  auto dot = path.find_last_of('.');
+  std::string ext = dot == std::string::npos ? "" : path.substr(dot);
+  for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  return ext;
+}
+
+size_t triangle_count(const Scene& s) {
+  size_t n = 0;
+  for (const TriangleMesh& m : s.meshes) n += m.triangles.size();
+  return n;
+}
+
+int run_render(const RenderOptions& o, const CLI::App& cmd) {
+  const auto t0 = Clock::now();
+  std::optional<tbb::global_control> limit;
+  if (o.threads < 0) throw Error("--threads must be positive");
+  if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+
+  const bool scene_mode = !o.scene.empty();
+  const std::string aov_text = o.aov.empty() ? (scene_mode ? "rgb" : "preview") : o.aov;
+  const bool rgb = aov_text == "rgb";
+  std::optional<Aov> aov;
+  if (!rgb) aov = parse_aov(aov_text);  // throws listing the names
+
+  Scene scene;
+  Camera camera;
+  if (scene_mode) {
+    for (const char* flag : {"--gaussians", "--mesh", "--cameras", "--frame", "--c2w", "--fov-x", "--env", "--env-strength",
+                             "--env-rotation"})
+      if (cmd.count(flag))
+        throw Error(std::string(flag) + " belongs to the flag form; with a scene file, put it in the file (" + o.scene + ")");
+    scene = load_scene_json(o.scene);
+    camera = pick_scene_camera(scene, o.camera_name);
+    if (o.width > 0 || o.height > 0) {
+      // Resize keeping the horizontal field of view (and the aspect ratio when only one is given).
+      int w = o.width > 0 ? o.width : int(std::lround(double(o.height) * camera.width / camera.height));
+      int h = o.height > 0 ? o.height : int(std::lround(double(o.width) * camera.height / camera.width));
+      camera.width = std::max(1, w);
+      camera.height = std::max(1, h);
+    }
+  } else {
+    if (cmd.count("--camera")) throw Error("--camera picks a camera of a scene file; in the flag form use --cameras/--frame or --c2w");
+    camera = pick_flag_camera(o);
+    if (!o.gaussians.empty()) *scene.gaussians = load_gaussians(o.gaussians);
+    for (const auto& m : o.meshes) scene.meshes.push_back(load_mesh(m));
+    if (scene.gaussians->size() == 0 && scene.meshes.empty()) throw Error("nothing to render: give --gaussians and/or --mesh");
+    if (!o.env.empty()) scene.environment.latlong = Environment::load(o.env, o.env_strength, o.env_rotation);
+    else if (cmd.count("--env-strength") || cmd.count("--env-rotation")) throw Error("--env-strength/--env-rotation need --env");
+    scene.cameras.push_back(camera);
+    scene.source_path = "command line";
+  }
+  if (!rgb && (cmd.count("--bounces") || o.no_geometric_criterion || cmd.count("--self-intersection")))
+    throw Error("--bounces, --no-geometric-criterion and --self-intersection apply to --aov rgb (path tracing) only");
+
+  IntegratorSettings settings = scene.integrator;
+  apply_integrator_flags(o, cmd, settings);
+  if (!rgb && !cmd.count("--spp")) settings.spp = 1;  // AOVs: pixel centres unless asked
+  const double load_s = seconds_since(t0);
+
+  const auto t1 = Clock::now();
   AccelSettings accel_settings;
   accel_settings.k = o.k;
-  SceneAccel accel(field, meshes, accel_settings);
-  // Trainer PLYs carry no normals: face the shortest axes toward the dataset's cameras.
-  if (!field.normals_from_file && field.size() > 0) {
-    std::vector<Camera> all = o.cameras.empty() ? std::vector<Camera>{camera} : load_transforms_json(o.cameras, camera.width, camera.height);
-    // About 256K orientation rays in all, however many cameras the file has.
+  PathTracer tracer(scene, accel_settings);
+  // Flag form: trainer PLYs carry no normals, so face the shortest axes toward the
+  // dataset's cameras (the scene form did this while loading).
+  GaussianField& field = *scene.gaussians;
+  if (!scene_mode && !field.normals_from_file && field.size() > 0) {
+    std::vector<Camera> all =
+        o.cameras.empty() ? std::vector<Camera>{camera} : load_transforms_json(o.cameras, camera.width, camera.height);
     int rays_per_camera = std::max(4096, int(262144 / std::max<size_t>(1, all.size())));
-    orient_normals_to_cameras(field, accel, all, rays_per_camera);
+    orient_normals_to_cameras(field, tracer.accel(), all, rays_per_camera);
   }
+  const double build_s = seconds_since(t1);
 
-  AovSettings settings;
-  settings.spp = o.spp;
-  settings.seed = o.seed;
-  settings.interaction.tau_g = o.tau_g;
-  if (o.interaction == "discrete") settings.interaction.mode = InteractionMode::Discrete;
-  else if (o.interaction != "aggregate") throw Error("--interaction must be 'aggregate' or 'discrete'");
-
-  ProgressBar bar("render " + std::string(aov_name(aov)), o.quiet);
+  ProgressBar bar("render " + aov_text, o.quiet);
   RenderControl control;
   control.progress = [&](float f) { bar.update(f); };
-  TraceStats stats;
-  Image image = render_aov(accel, camera, aov, settings, control, &stats);
+  const auto t2 = Clock::now();
+  Image image;
+  PathStats pstats;
+  TraceStats tstats;
+  if (rgb) {
+    image = render_path(tracer, camera, settings, control, &pstats);
+  } else {
+    AovSettings as;
+    as.spp = settings.spp;
+    as.seed = settings.seed;
+    as.interaction = settings.interaction;
+    image = render_aov(tracer.accel(), camera, *aov, as, control, &tstats);
+  }
+  const double render_s = seconds_since(t2);
   bar.finish();
-  // 8-bit files get normals as 0.5 + 0.5 n and depth divided by its maximum.
-  std::string ext = o.output.size() >= 4 ? o.output.substr(o.output.size() - 4) : "";
-  for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
-  bool eight_bit = ext != ".exr" && ext != ".hdr" && ext != ".pfm";
-  float depth_max = 0.0f;
-  write_image(o.output, eight_bit ? aov_for_8bit(aov, image, &depth_max) : image, aov_encoding(aov));
-  if (eight_bit && aov == Aov::Depth && !o.quiet) std::fprintf(stderr, "depth PNG: 1.0 = %.4g\n", depth_max);
-  double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (!o.quiet)
-    std::fprintf(stderr, "wrote %s (%dx%d, %s, %zu Gaussians, %.2f hits/ray, %.2f s)\n", o.output.c_str(), camera.width,
-                 camera.height, aov_name(aov), field.size(),
-                 double(stats.hits) / std::max(1.0, double(camera.width) * camera.height * o.spp), secs);
+
+  // 8-bit files get sRGB colour; AOV data is mapped (normals 0.5 + 0.5 n, depth / max).
+  const std::string ext = lower_ext(o.output);
+  const bool eight_bit = ext != ".exr" && ext != ".hdr" && ext != ".pfm";
+  if (rgb && eight_bit) {
+    // The environment is part of a path-traced picture: 8-bit files get RGB only (an
+    // alpha channel would make the sky transparent, and PNG alpha is unassociated).
+    Image rgb_only(image.width, image.height, {"R", "G", "B"});
+    for (size_t i = 0, n = size_t(image.width) * image.height; i < n; ++i)
+      for (int c = 0; c < 3; ++c) rgb_only.pixels[i * 3 + c] = image.pixels[i * 4 + c];
+    write_image(o.output, rgb_only, Encoding::Colour);
+  } else if (rgb) {
+    write_image(o.output, image, Encoding::Colour);  // EXR: linear RGB + coverage alpha
+  } else {
+    float depth_max = 0.0f;
+    write_image(o.output, eight_bit ? aov_for_8bit(*aov, image, &depth_max) : image, aov_encoding(*aov));
+    if (eight_bit && *aov == Aov::Depth && !o.quiet) std::fprintf(stderr, "depth PNG: 1.0 = %.4g\n", depth_max);
+  }
+  const double total_s = seconds_since(t0);
+
+  const double samples = double(camera.width) * camera.height * settings.spp;
+  if (!o.quiet) {
+    if (rgb)
+      std::fprintf(stderr,
+                   "wrote %s (%dx%d, rgb, %d spp, %d bounces, %zu Gaussians, %zu triangles, %zu lights; render %.2f s, "
+                   "%.3g path samples/s, %.2f vertices/path; total %.2f s)\n",
+                   o.output.c_str(), camera.width, camera.height, settings.spp, settings.max_bounces, field.size(),
+                   triangle_count(scene), scene.emitters.size(), render_s, samples / std::max(render_s, 1e-9),
+                   double(pstats.vertices) / std::max(1.0, double(pstats.paths)), total_s);
+    else
+      std::fprintf(stderr, "wrote %s (%dx%d, %s, %zu Gaussians, %.2f hits/ray, %.2f s)\n", o.output.c_str(), camera.width,
+                   camera.height, aov_name(*aov), field.size(), double(tstats.hits) / std::max(1.0, samples), total_s);
+  }
+  if (!o.stats_json.empty()) {
+    std::ofstream js(o.stats_json);
+    if (!js) throw Error(o.stats_json, "cannot write stats file");
+    js << "{\"width\": " << camera.width << ", \"height\": " << camera.height << ", \"spp\": " << settings.spp
+       << ", \"bounces\": " << settings.max_bounces << ", \"aov\": \"" << aov_text << "\", \"gaussians\": " << field.size()
+       << ", \"triangles\": " << triangle_count(scene) << ", \"lights\": " << scene.emitters.size()
+       << ", \"threads\": " << o.threads << ", \"load_s\": " << load_s << ", \"build_s\": " << build_s
+       << ", \"render_s\": " << render_s << ", \"total_s\": " << total_s << ", \"path_samples\": " << samples
+       << ", \"paths\": " << pstats.paths << ", \"vertices\": " << pstats.vertices
+       << ", \"shadow_rays\": " << pstats.shadow_rays << "}\n";
+  }
   return 0;
 }
 
@@ -121,24 +280,38 @@ int run_render(const RenderOptions& o) {
 
 Runner add_render_command(CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
-  CLI::App* cmd = app.add_subcommand("render", "Render an image of Gaussians and meshes");
+  CLI::App* cmd = app.add_subcommand("render", "Render an image: path-traced colour or AOVs, from a scene file or flags");
+  cmd->add_option("scene", o->scene, "scene file (.json, see docs/scene_format.md); path-traced colour by default");
+  cmd->add_option("--camera", o->camera_name, "scene form: camera name (or index); default: the first");
   cmd->add_option("--gaussians", o->gaussians, "3DGS .ply file");
   cmd->add_option("--mesh", o->meshes, "triangle mesh .ply/.obj (repeatable)");
   cmd->add_option("--cameras", o->cameras, "NeRF-synthetic transforms_*.json");
   cmd->add_option("--frame", o->frame, "frame index in --cameras")->capture_default_str();
   cmd->add_option("--c2w", o->c2w, "explicit camera: 16 numbers, row-major camera-to-world (camera looks down -z)");
   cmd->add_option("--fov-x", o->fov_x, "horizontal field of view in radians (with --c2w)");
-  cmd->add_option("--width", o->width, "image width (default: from the cameras file or its images)");
+  cmd->add_option("--width", o->width, "image width (flag form: default from the cameras file; scene form: resize)");
   cmd->add_option("--height", o->height, "image height");
-  cmd->add_option("--aov", o->aov, "opacity, depth, normal, albedo, roughness, metallic or preview")->capture_default_str();
+  cmd->add_option("--aov", o->aov,
+                  "rgb (path-traced colour), opacity, depth, normal, albedo, roughness, metallic or preview "
+                  "(default: rgb with a scene file, preview otherwise)");
   cmd->add_option("-o,--output", o->output, "output image (.exr linear float, .png sRGB)")->required();
-  cmd->add_option("--spp", o->spp, "samples per pixel (1: pixel centres)")->capture_default_str();
-  cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
-  cmd->add_option("--interaction", o->interaction, "aggregate or discrete")->capture_default_str();
-  cmd->add_option("--tau-g", o->tau_g, "validity threshold on accumulated opacity")->capture_default_str();
+  cmd->add_option("--spp", o->spp, "samples per pixel (default: the scene's, 32; AOVs: 1 = pixel centres)");
+  cmd->add_option("--bounces", o->bounces, "indirect bounces (0: direct light only; default: the scene's, 2)");
+  cmd->add_option("--seed", o->seed, "random seed (same seed, same image, on any thread count)");
+  cmd->add_option("--interaction", o->interaction, "Gaussian interaction: aggregate or discrete");
+  cmd->add_option("--tau-g", o->tau_g, "validity threshold on accumulated opacity");
+  cmd->add_flag("--no-geometric-criterion", o->no_geometric_criterion,
+                "ablation: every Gaussian hit with O > 0 is an interaction (no chi_geom gate)");
+  cmd->add_option("--self-intersection", o->self_intersection,
+                  "backface (backface-aware rejection) or fixed (PTIR code's fixed offset)");
+  cmd->add_option("--env", o->env, "flag form: lat-long environment map (.exr/.hdr, Blender orientation)");
+  cmd->add_option("--env-strength", o->env_strength, "environment strength (Background node Strength)");
+  cmd->add_option("--env-rotation", o->env_rotation, "environment Z rotation in radians (Mapping node)");
   cmd->add_option("--k", o->k, "hits per traversal round (k-buffer size)")->capture_default_str();
+  cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
+  cmd->add_option("--stats-json", o->stats_json, "write timings and counts to this JSON file");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
-  return [o] { return run_render(*o); };
+  return [o, cmd] { return run_render(*o, *cmd); };
 }
 
 }  // namespace ptir::cli

@@ -11,5 +11,8 @@ namespace ptir::cli {
 using Runner = std::function<int()>;
 
 Runner add_render_command(CLI::App& app);
+Runner add_optimize_command(CLI::App& app);
+Runner add_eval_command(CLI::App& app);
+Runner add_relight_command(CLI::App& app);
 
 }  // namespace ptir::cli

@@ -11,6 +11,9 @@ int main(int argc, char** argv) {
   CLI::App app{"PTIR: path-traced inverse rendering of 3D Gaussian splats"};
   app.require_subcommand(1);
   ptir::cli::Runner render = ptir::cli::add_render_command(app);
+  ptir::cli::Runner optimize = ptir::cli::add_optimize_command(app);
+  ptir::cli::Runner eval = ptir::cli::add_eval_command(app);
+  ptir::cli::Runner relight = ptir::cli::add_relight_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -18,6 +21,9 @@ int main(int argc, char** argv) {
   }
   try {
     if (app.got_subcommand("render")) return render();
+    if (app.got_subcommand("optimize")) return optimize();
+    if (app.got_subcommand("eval")) return eval();
+    if (app.got_subcommand("relight")) return relight();
   } catch (const ptir::Cancelled&) {
     std::fprintf(stderr, "ptir: cancelled\n");
     return 130;

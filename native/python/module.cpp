@@ -5,15 +5,24 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <tbb/global_control.h>
+
+#include <chrono>
+#include <limits>
 #include <memory>
+#include <optional>
 
 #include "ptir/accel/scene_accel.h"
 #include "ptir/core/error.h"
 #include "ptir/render/aov.h"
+#include "ptir/render/render_path.h"
 #include "ptir/scene/camera.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/mesh.h"
+#include "ptir/scene/scene.h"
+#include "ptir/scene/scene_json.h"
 #include "ptir/transport/orient_normals.h"
+#include "ptir/transport/path_tracer.h"
 
 namespace py = pybind11;
 using namespace ptir;
@@ -56,13 +65,66 @@ FloatArray image_array(const Image& img) {
   return a;
 }
 
-// A scene: the field and meshes it was built from are owned here, so the
-// acceleration structure never outlives them.
+// A scene: Gaussians, meshes, lights, environment, cameras and integrator
+// settings, owned here with the path tracer (and its acceleration structure)
+// built over them, so the tracer never outlives its data. Built from arrays
+// (Scene(gaussians, meshes)), a scene file (load_scene) or JSON text/dicts.
 struct PyScene {
-  std::shared_ptr<GaussianField> field;
-  std::vector<TriangleMesh> meshes;
-  std::unique_ptr<SceneAccel> accel;
+  Scene scene;
+  std::unique_ptr<PathTracer> tracer;
+  PathStats last_stats;
+  double last_seconds = 0.0;
+
+  GaussianField& field() { return *scene.gaussians; }
+  const SceneAccel& accel() const { return tracer->accel(); }
+  void build(int k) {
+    AccelSettings settings;
+    settings.k = k;
+    tracer = std::make_unique<PathTracer>(scene, settings);
+  }
 };
+
+std::unique_ptr<PyScene> make_pyscene(Scene&& scene, int k = 16) {
+  auto s = std::make_unique<PyScene>();
+  s->scene = std::move(scene);
+  s->build(k);
+  return s;
+}
+
+const char* mode_name(InteractionMode m) { return m == InteractionMode::Discrete ? "discrete" : "aggregate"; }
+
+py::dict integrator_dict(const IntegratorSettings& s) {
+  py::dict d;
+  d["spp"] = s.spp;
+  d["bounces"] = s.max_bounces;
+  d["seed"] = s.seed;
+  d["interaction"] = mode_name(s.interaction.mode);
+  d["tau_g"] = s.interaction.tau_g;
+  d["geometric_criterion"] = s.geometric_criterion;
+  d["self_intersection"] = s.self_intersection == SelfIntersection::FixedOffset ? "fixed" : "backface";
+  d["self_range_scale"] = s.self_range_scale;
+  d["fixed_offset"] = s.fixed_offset;
+  d["fixed_range"] = s.fixed_range;
+  d["min_throughput"] = s.min_throughput;
+  return d;
+}
+
+// Picks a camera: None (the first), a name, an index or a Camera.
+Camera pick_camera(const PyScene& s, const py::object& cam) {
+  if (cam.is_none()) return s.scene.camera("");
+  if (py::isinstance<Camera>(cam)) return cam.cast<Camera>();
+  if (py::isinstance<py::str>(cam)) return s.scene.camera(cam.cast<std::string>());
+  if (py::isinstance<py::int_>(cam)) {
+    long long i = cam.cast<long long>();
+    long long n = (long long)s.scene.cameras.size();
+    if (i < 0) i += n;
+    if (i < 0 || i >= n)
+      throw Error("camera index " + std::to_string(cam.cast<long long>()) + " out of range (" + std::to_string(n) +
+                  " cameras)");
+    return s.scene.cameras[size_t(i)];
+  }
+  throw Error("camera must be None, a name, an index or a ptir.Camera");
+}
 
 InteractionMode parse_mode(const std::string& mode) {
   if (mode == "aggregate") return InteractionMode::Aggregate;
@@ -71,6 +133,10 @@ InteractionMode parse_mode(const std::string& mode) {
 }
 
 }  // namespace
+
+void bind_losses(pybind11::module_& m);
+void bind_optimize(pybind11::module_& m);
+void bind_eval(pybind11::module_& m);
 
 PYBIND11_MODULE(ptir, m) {
   m.doc() = "PTIR: path-traced inverse rendering of 3D Gaussian splats";
@@ -141,19 +207,17 @@ PYBIND11_MODULE(ptir, m) {
   py::class_<PyScene>(m, "Scene")
       .def(py::init([](std::shared_ptr<GaussianField> field, std::vector<TriangleMesh> meshes, int k) {
              auto s = std::make_unique<PyScene>();
-             s->field = field ? field : std::make_shared<GaussianField>();
-             s->meshes = std::move(meshes);
-             AccelSettings settings;
-             settings.k = k;
+             s->scene.gaussians = field ? field : std::make_shared<GaussianField>();
+             s->scene.meshes = std::move(meshes);
              py::gil_scoped_release release;
-             s->accel = std::make_unique<SceneAccel>(*s->field, s->meshes, settings);
+             s->build(k);
              return s;
            }),
            py::arg("gaussians"), py::arg("meshes") = std::vector<TriangleMesh>{}, py::arg("k") = 16)
       .def("orient_normals",
            [](PyScene& s, const std::vector<Camera>& cams) {
              py::gil_scoped_release release;
-             OrientStats st = orient_normals_to_cameras(*s.field, *s.accel, cams);
+             OrientStats st = orient_normals_to_cameras(s.field(), s.accel(), cams);
              return std::make_pair(st.flipped, st.unseen);
            },
            py::arg("cameras"), "Face shortest-axis normals toward the cameras; returns (flipped, unseen).")
@@ -169,7 +233,7 @@ PYBIND11_MODULE(ptir, m) {
              Image img;
              {
                py::gil_scoped_release release;
-               img = render_aov(*s.accel, cam, which, settings);
+               img = render_aov(s.accel(), cam, which, settings);
              }
              return image_array(img);
            },
@@ -184,7 +248,7 @@ PYBIND11_MODULE(ptir, m) {
              ray.tmin = tmin;
              ray.tmax = tmax;
              std::vector<std::tuple<float, float, uint32_t>> hits;
-             WalkEnd end = s.accel->walk(ray, [&](const GaussianHit& h) {
+             WalkEnd end = s.accel().walk(ray, [&](const GaussianHit& h) {
                hits.emplace_back(h.t, h.alpha, h.id);
                return true;
              });
@@ -193,5 +257,123 @@ PYBIND11_MODULE(ptir, m) {
            },
            py::arg("origin"), py::arg("direction"), py::arg("tmin") = 0.0f,
            py::arg("tmax") = std::numeric_limits<float>::infinity(),
-           "All Gaussian hits (t_peak, alpha, id) in order, and the distance of the mesh that ended the walk (or None).");
+           "All Gaussian hits (t_peak, alpha, id) in order, and the distance of the mesh that ended the walk (or None).")
+      .def("render",
+           [](PyScene& s, py::object camera, std::optional<int> spp, std::optional<int> bounces,
+              std::optional<uint64_t> seed, std::optional<std::string> interaction,
+              std::optional<bool> geometric_criterion, std::optional<std::string> self_intersection,
+              std::optional<int> threads) {
+             Camera cam = pick_camera(s, camera);
+             IntegratorSettings settings = s.scene.integrator;
+             if (spp) settings.spp = *spp;
+             if (bounces) settings.max_bounces = *bounces;
+             if (seed) settings.seed = *seed;
+             if (interaction) settings.interaction.mode = parse_mode(*interaction);
+             if (geometric_criterion) settings.geometric_criterion = *geometric_criterion;
+             if (self_intersection) {
+               if (*self_intersection == "backface") settings.self_intersection = SelfIntersection::BackfaceAware;
+               else if (*self_intersection == "fixed") settings.self_intersection = SelfIntersection::FixedOffset;
+               else throw Error("self_intersection must be 'backface' or 'fixed', got '" + *self_intersection + "'");
+             }
+             if (threads && *threads < 1) throw Error("threads must be at least 1");
+             Image img;
+             {
+               py::gil_scoped_release release;
+               std::optional<tbb::global_control> limit;
+               if (threads) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(*threads));
+               PathStats stats;
+               auto t0 = std::chrono::steady_clock::now();
+               img = render_path(*s.tracer, cam, settings, {}, &stats);
+               s.last_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+               s.last_stats = stats;
+             }
+             return image_array(img);
+           },
+           py::arg("camera") = py::none(), py::arg("spp") = py::none(), py::arg("bounces") = py::none(),
+           py::arg("seed") = py::none(), py::arg("interaction") = py::none(),
+           py::arg("geometric_criterion") = py::none(), py::arg("self_intersection") = py::none(),
+           py::arg("threads") = py::none(),
+           "Path-trace an image: float32 (height, width, 4), linear RGB + coverage. camera: None (the first), a "
+           "name, an index or a ptir.Camera; other arguments override the scene's integrator settings.")
+      .def_property_readonly("cameras", [](const PyScene& s) { return s.scene.cameras; })
+      .def_property_readonly("camera_names", [](const PyScene& s) {
+        std::vector<std::string> names;
+        for (const Camera& c : s.scene.cameras) names.push_back(c.name);
+        return names;
+      })
+      .def_property_readonly("gaussians", [](const PyScene& s) { return s.scene.gaussians; })
+      .def_property_readonly("meshes", [](const PyScene& s) { return s.scene.meshes; })
+      .def_property_readonly("light_count", [](const PyScene& s) { return s.scene.emitters.size(); })
+      .def_property_readonly("environment", [](const PyScene& s) -> py::object {
+        if (s.scene.environment.latlong) return py::str("latlong");
+        if (s.scene.environment.sg) return py::str("sg");
+        return py::none();
+      })
+      .def_property_readonly("source_path", [](const PyScene& s) { return s.scene.source_path; })
+      .def_property_readonly("integrator", [](const PyScene& s) { return integrator_dict(s.scene.integrator); },
+                             "The scene's integrator settings (a copy, as a dict).")
+      .def_property_readonly("last_render_stats", [](const PyScene& s) {
+        py::dict d;
+        d["paths"] = s.last_stats.paths;
+        d["vertices"] = s.last_stats.vertices;
+        d["shadow_rays"] = s.last_stats.shadow_rays;
+        d["seconds"] = s.last_seconds;
+        return d;
+      });
+
+  m.def("read_image",
+        [](const std::string& path, bool linear) {
+          Image img;
+          {
+            py::gil_scoped_release release;
+            img = read_image(path, linear ? Encoding::Colour : Encoding::Data);
+          }
+          return image_array(img);
+        },
+        py::arg("path"), py::arg("linear") = true,
+        "Read an image as float32 (height, width, channels); 8-bit colour files are decoded from sRGB when "
+        "linear is true, EXR/HDR are returned as stored.");
+  m.def("write_image",
+        [](const std::string& path, FloatArray a, bool colour) {
+          if (a.ndim() != 2 && a.ndim() != 3) throw Error(path, "image must have shape (h, w) or (h, w, c)");
+          int h = int(a.shape(0)), w = int(a.shape(1)), c = a.ndim() == 3 ? int(a.shape(2)) : 1;
+          static const char* names4[] = {"R", "G", "B", "A"};
+          std::vector<std::string> names;
+          if (c == 1) names = {"Y"};
+          else if (c <= 4) for (int i = 0; i < c; ++i) names.push_back(names4[i]);
+          else for (int i = 0; i < c; ++i) names.push_back("C" + std::to_string(i));
+          Image img(w, h, names);
+          std::copy(a.data(), a.data() + img.pixels.size(), img.pixels.begin());
+          py::gil_scoped_release release;
+          write_image(path, img, colour ? Encoding::Colour : Encoding::Data);
+        },
+        py::arg("path"), py::arg("image"), py::arg("colour") = true,
+        "Write float (h, w[, c]) linear values: EXR/HDR as is, 8-bit formats sRGB-encoded when colour is true.");
+  m.def("load_scene",
+        [](const std::string& path, int k) {
+          Scene scene = load_scene_json(path);
+          return make_pyscene(std::move(scene), k);
+        },
+        py::arg("path"), py::arg("k") = 16, py::call_guard<py::gil_scoped_release>(),
+        "Read a scene file (docs/scene_format.md) and build its path tracer.");
+  m.def("scene_from_json_string",
+        [](const std::string& text, const std::string& base_dir, const std::string& name, int k) {
+          Scene scene = scene_from_json_string(text, base_dir, name);
+          return make_pyscene(std::move(scene), k);
+        },
+        py::arg("text"), py::arg("base_dir") = "", py::arg("name") = "scene", py::arg("k") = 16,
+        py::call_guard<py::gil_scoped_release>(),
+        "A scene from JSON text (the scene-file schema); relative paths resolve against base_dir.");
+  m.def("scene_from_dict",
+        [](py::object obj, const std::string& base_dir, const std::string& name, int k) {
+          std::string text = py::module_::import("json").attr("dumps")(obj).cast<std::string>();
+          py::gil_scoped_release release;
+          Scene scene = scene_from_json_string(text, base_dir, name);
+          return make_pyscene(std::move(scene), k);
+        },
+        py::arg("scene"), py::arg("base_dir") = "", py::arg("name") = "scene", py::arg("k") = 16,
+        "A scene from a dict with the scene-file schema (numpy arrays: call .tolist() first).");
+  bind_losses(m);
+  bind_optimize(m);
+  bind_eval(m);
 }

@@ -233,6 +233,19 @@ TEST(Gradients, SgAmplitudesMatchFiniteDifferencesInExpectation) {
   EXPECT_GT(std::fabs(fd), 1e-2);
 }
 
+TEST(Gradients, StoredSampleRadianceGivesTheSameGradients) {
+  GradientScene gs = make_scene(false);
+  IntegratorSettings settings = settings_with(3);
+  PathTracer tracer(gs.scene);
+  std::vector<Vec3> stored;
+  render_path(tracer, gs.camera, settings, {}, nullptr, &stored);
+  SceneGradients a = SceneGradients::zeros_like(gs.scene), b = a;
+  render_path_backward(tracer, gs.camera, settings, gs.weights, a, {}, &stored);
+  render_path_backward(tracer, gs.camera, settings, gs.weights, b);
+  for (size_t i = 0; i < a.gaussian_albedo.size(); ++i) ASSERT_EQ(a.gaussian_albedo[i].x, b.gaussian_albedo[i].x);
+  for (size_t i = 0; i < a.env_texels.size(); ++i) ASSERT_EQ(a.env_texels[i].z, b.env_texels[i].z);
+}
+
 TEST(Gradients, DeterministicForAFixedSeed) {
   GradientScene gs = make_scene(false);
   IntegratorSettings settings = settings_with(2);

@@ -258,9 +258,8 @@ def light_entry(obj, warnings):
         return None
     if light.use_nodes:
         warnings.append("light '%s': light node trees are ignored" % obj.name)
-    if not getattr(obj, "visible_camera", True) and light.type == "AREA":
-        warnings.append("light '%s' is hidden from camera rays in Blender (Ray Visibility > Camera off, 3.4's "
-                        "default); the engine shows area lights to camera rays" % obj.name)
+    # Ray Visibility > Camera (off by default in Blender 3.4): the engine honours it.
+    entry["visible_camera"] = bool(getattr(obj, "visible_camera", False))
     return entry
 
 

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
 #include "ptir/math/vec.h"
 
@@ -37,28 +38,87 @@ struct PeakResponse {
   float response;  // rho = exp(-d2 / 2)
 };
 
-// The ray in a Gaussian's unit space.
-struct UnitRay {
-  Vec3 ou, du;
-  float dd;  // |du|^2
-};
-
-inline UnitRay to_unit_ray(const GaussianTraceData& g, Vec3 o, Vec3 d) {
-  UnitRay u;
-  u.ou = g.to_unit * (o - g.mu);
-  u.du = g.to_unit * d;
-  u.dd = dot(u.du, u.du);
-  return u;
+// t_peak and D^2 of Gaussian g along the ray o + t d, in two steps: the origin
+// in unit space, o' = S^-1 R^T (o - mu), then the peak along d.
+//
+// Written once for F = float (single rays, the reference) and for F = a GCC
+// vector of floats holding one ray per lane (packets; O = float when the lanes
+// share their origin, as camera rays do): every caller runs the same IEEE
+// operations in the same order, so the traversal and the reference agree bit for
+// bit. (No FMA contraction: ptir_core is compiled with -ffp-contract=off.)
+template <class F>
+inline void unit_origin(const GaussianTraceData& g, F ox, F oy, F oz, F& oux, F& ouy, F& ouz) {
+  const auto& m = g.to_unit.m;
+  F px = ox - g.mu.x, py = oy - g.mu.y, pz = oz - g.mu.z;
+  oux = m[0][0] * px + m[0][1] * py + m[0][2] * pz;
+  ouy = m[1][0] * px + m[1][1] * py + m[1][2] * pz;
+  ouz = m[2][0] * px + m[2][1] * py + m[2][2] * pz;
 }
-inline float peak_t(const UnitRay& u) { return -dot(u.ou, u.du) / u.dd; }
-inline float peak_d2(const UnitRay& u) { return length_sq(cross(u.du, u.ou)) / u.dd; }
+
+template <class F, class O>
+inline void peak_from_unit_origin(const GaussianTraceData& g, O oux, O ouy, O ouz, F dx, F dy, F dz, F& t, F& d2) {
+  const auto& m = g.to_unit.m;
+  // d' = S^-1 R^T d.
+  F dux = m[0][0] * dx + m[0][1] * dy + m[0][2] * dz;
+  F duy = m[1][0] * dx + m[1][1] * dy + m[1][2] * dz;
+  F duz = m[2][0] * dx + m[2][1] * dy + m[2][2] * dz;
+  // t_peak = -o'.d' / |d'|^2; D^2 = |d' x o'|^2 / |d'|^2 (one division).
+  F inv_dd = 1.0f / (dux * dux + duy * duy + duz * duz);
+  t = -(dux * oux + duy * ouy + duz * ouz) * inv_dd;
+  F cx = duy * ouz - duz * ouy, cy = duz * oux - dux * ouz, cz = dux * ouy - duy * oux;
+  d2 = (cx * cx + cy * cy + cz * cz) * inv_dd;
+}
+
+template <class F>
+inline void peak_t_d2(const GaussianTraceData& g, F ox, F oy, F oz, F dx, F dy, F dz, F& t, F& d2) {
+  F oux, ouy, ouz;
+  unit_origin(g, ox, oy, oz, oux, ouy, ouz);
+  peak_from_unit_origin(g, oux, ouy, ouz, dx, dy, dz, t, d2);
+}
+
+// The few non-arithmetic steps of exp_nonpositive, for a float and for a GCC
+// vector of floats (for which x < x is the matching vector of ints).
+inline float max_with(float x, float lo) { return x > lo ? x : lo; }
+inline float min_with(float x, float hi) { return x < hi ? x : hi; }
+inline float floor_positive(float x) { return float(int32_t(x)); }
+inline float pow2_neg(float m) {  // 2^-m, m an integer in [0, 126]
+  int32_t bits = (127 - int32_t(m)) << 23;
+  float s;
+  std::memcpy(&s, &bits, sizeof s);
+  return s;
+}
+template <class F>
+inline F max_with(F x, float lo) { return x > lo ? x : F{} + lo; }
+template <class F>
+inline F min_with(F x, float hi) { return x < hi ? x : F{} + hi; }
+template <class F>
+inline F floor_positive(F x) { return __builtin_convertvector(__builtin_convertvector(x, decltype(x < x)), F); }
+template <class F>
+inline F pow2_neg(F m) { return (F)((127 - __builtin_convertvector(m, decltype(m < m))) << 23); }
+
+// exp(x) for x <= 0 within 1.5 ulp (Cephes' expf scheme), written once for floats
+// and GCC vectors: the traversal evaluates it for whole packets, and every caller
+// gets the same bits. Below -87 it returns exp(-87) (~1.6e-38).
+template <class F>
+inline F exp_nonpositive(F x) {
+  x = max_with(x, -87.0f);
+  // x = -m ln2 + r with |r| <= ln2/2; ln2 in two parts so that r is exact.
+  F m = floor_positive(0.5f - x * 1.44269504f);
+  F r = x + m * 0.693359375f + m * -2.12194440e-4f;
+  // exp(r) by a minimax polynomial, then times 2^-m.
+  F p = r * 1.9875691500e-4f + 1.3981999507e-3f;
+  p = p * r + 8.3334519073e-3f;
+  p = p * r + 4.1665795894e-2f;
+  p = p * r + 1.6666665459e-1f;
+  p = p * r + 5.0000001201e-1f;
+  p = p * r * r + r + 1.0f;
+  return p * pow2_neg(m);
+}
 
 inline PeakResponse peak_response(const GaussianTraceData& g, Vec3 o, Vec3 d) {
-  UnitRay u = to_unit_ray(g, o, d);
   PeakResponse p;
-  p.t = peak_t(u);
-  p.d2 = peak_d2(u);
-  p.response = std::exp(-0.5f * p.d2);
+  peak_t_d2(g, o.x, o.y, o.z, d.x, d.y, d.z, p.t, p.d2);
+  p.response = exp_nonpositive(-0.5f * p.d2);
   return p;
 }
 
@@ -77,12 +137,19 @@ inline float accept_radius_sq(float sigma, const CullSettings& cull) {
   return std::min(r_response, r_alpha);
 }
 
+// Alpha sigma * rho of an accepted hit at squared distance d2, clamped to max_alpha
+// (for a float or a GCC vector of lanes).
+template <class F>
+inline F accepted_alpha(F d2, float sigma, const CullSettings& cull) {
+  return min_with(sigma * exp_nonpositive(-0.5f * d2), cull.max_alpha);
+}
+
 // Alpha of a hit at squared distance d2, or 0 when culled. The test on D^2 is the
 // cull rule (rho >= min_response and sigma rho >= min_alpha) in closed form, and
 // lets the traversal reject a candidate before evaluating exp.
 inline float hit_alpha(float d2, float sigma, float accept_d2, const CullSettings& cull) {
   if (!(d2 <= accept_d2)) return 0.0f;
-  return std::min(cull.max_alpha, sigma * std::exp(-0.5f * d2));
+  return accepted_alpha(d2, sigma, cull);
 }
 
 inline float hit_alpha(const PeakResponse& p, float sigma, const CullSettings& cull) {

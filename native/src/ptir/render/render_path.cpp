@@ -27,11 +27,12 @@ Ray camera_sample(const Camera& camera, uint64_t seed, int x, int y, int s, uint
 }  // namespace
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
-                  const RenderControl& control, PathStats* stats) {
+                  const RenderControl& control, PathStats* stats, std::vector<Vec3>* sample_radiance) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
   if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
   Image image(camera.width, camera.height, {"R", "G", "B", "A"});
   const size_t pixels = size_t(camera.width) * size_t(camera.height);
+  if (sample_radiance) sample_radiance->assign(pixels * size_t(settings.spp), Vec3(0.0f));
   std::atomic<size_t> done{0};
   std::atomic<uint64_t> paths{0}, vertices{0}, shadow_rays{0};
   std::mutex progress_mutex;
@@ -47,7 +48,9 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
           uint64_t pixel;
           Ray ray = camera_sample(camera, settings.seed, x, y, s, &pixel);
           float c = 0.0f;
-          sum += tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
+          Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
+          if (sample_radiance) (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s] = L;
+          sum += L;
           covered += c;
         }
         float inv = 1.0f / float(settings.spp);
@@ -75,10 +78,13 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
 }
 
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
-                          const Image& d_image, SceneGradients& grads, const RenderControl& control) {
+                          const Image& d_image, SceneGradients& grads, const RenderControl& control,
+                          const std::vector<Vec3>* sample_radiance) {
   if (d_image.width != camera.width || d_image.height != camera.height || d_image.channels < 3)
     throw Error("image adjoint must be " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
                 " with at least 3 channels");
+  if (sample_radiance && sample_radiance->size() != size_t(camera.width) * camera.height * settings.spp)
+    throw Error("stored sample radiance does not match the camera and sample count");
   const int chunks = std::max(1, tbb::this_task_arena::max_concurrency());
   std::vector<SceneGradients> partial(size_t(chunks), grads);
   for (auto& g : partial) g.set_zero();
@@ -97,8 +103,10 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
         for (int s = 0; s < settings.spp; ++s) {
           uint64_t pixel;
           Ray ray = camera_sample(camera, settings.seed, x, y, s, &pixel);
-          // Primal radiance of this sample, then its replay (pixel = mean of samples).
-          PathAdjoint adjoint{tracer.sample_radiance(ray, pixel, uint32_t(s), settings), dI * inv_spp, &g};
+          // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
+          Vec3 L = sample_radiance ? (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s]
+                                   : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);
+          PathAdjoint adjoint{L, dI * inv_spp, &g};
           tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint);
         }
       }

@@ -2,6 +2,8 @@
 // (seed, pixel, sample)), averaged; TBB over tiles.
 #pragma once
 
+#include <vector>
+
 #include "ptir/core/render_control.h"
 #include "ptir/io/image.h"
 #include "ptir/transport/gradients.h"
@@ -10,18 +12,24 @@
 namespace ptir {
 
 // RGBA, linear radiance; A = fraction of samples whose camera ray found a surface.
+// When sample_radiance is given, it receives every sample's radiance
+// (width * height * spp, index (y * width + x) * spp + s) for a later
+// render_path_backward, which then skips recomputing them.
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
-                  const RenderControl& control = {}, PathStats* stats = nullptr);
+                  const RenderControl& control = {}, PathStats* stats = nullptr,
+                  std::vector<Vec3>* sample_radiance = nullptr);
 
 // Path replay backpropagation of a whole image: d_image (same size as the image,
 // >= 3 channels: the adjoint dLoss/dI of each pixel's RGB) is pushed through every
 // sample of every pixel with a non-zero adjoint, with the same random numbers as
 // render_path; parameter adjoints are ADDED to `grads` (sized by zeros_like).
-// Each sample's primal radiance is recomputed just before its replay, so nothing
-// per sample or per vertex is stored. Rows are dealt to a fixed number of chunks
+// Each sample's primal radiance is taken from `sample_radiance` (filled by
+// render_path with the same camera and settings) or recomputed just before its
+// replay; nothing per vertex is stored, so memory does not grow with bounces. Rows are dealt to a fixed number of chunks
 // (one per worker thread), each with its own buffers, summed in chunk order: the
 // result is deterministic for a given seed and thread count.
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
-                          const Image& d_image, SceneGradients& grads, const RenderControl& control = {});
+                          const Image& d_image, SceneGradients& grads, const RenderControl& control = {},
+                          const std::vector<Vec3>* sample_radiance = nullptr);
 
 }  // namespace ptir

@@ -29,10 +29,15 @@ struct Scene {
   std::shared_ptr<GaussianField> gaussians = std::make_shared<GaussianField>();
   std::vector<TriangleMesh> meshes;
   std::vector<Emitter> emitters;
+  // Per emitter: whether camera rays see its surface (Blender's Ray Visibility >
+  // Camera). Missing entries mean visible.
+  std::vector<uint8_t> emitter_visible_camera;
   SceneEnvironment environment;
   std::vector<Camera> cameras;
   IntegratorSettings integrator;
   std::string source_path;  // the scene file, for messages
+
+  bool emitter_visible_to_camera(size_t i) const { return i >= emitter_visible_camera.size() || emitter_visible_camera[i]; }
 
   // Camera by name (throws ptir::Error listing the names when missing); "" = the first.
   const Camera& camera(const std::string& name) const;

@@ -39,20 +39,24 @@ float environment_pdf(const SceneEnvironment& env, Vec3 d) {
   return 0.0f;
 }
 
-// The closest light surface a ray meets before max_t (area lights, finite point
-// lights, suns with an angle; none are in the Embree scene).
-bool closest_light_hit(const std::vector<Emitter>& emitters, const Ray& ray, float max_t, LightHit* hit) {
-  bool found = false;
-  for (const Emitter& e : emitters) {
+// Emission of every light surface the ray crosses before max_t (area lights,
+// finite point lights, suns with an angle; none are in the Embree scene and, as in
+// Cycles, rays pass through them), MIS-weighted against the light sampling that
+// next-event estimation did at the previous vertex (weight 1 for camera rays, which
+// see only lights visible to the camera).
+Vec3 lights_crossed(const Scene& scene, const Ray& ray, float max_t, float prev_brdf_pdf) {
+  Vec3 sum(0.0f);
+  const bool camera_ray = !(prev_brdf_pdf > 0.0f);
+  for (size_t i = 0; i < scene.emitters.size(); ++i) {
+    if (camera_ray && !scene.emitter_visible_to_camera(i)) continue;
     LightHit h;
     Ray r = ray;
     r.tmax = max_t;
-    if (light_hit(e, r, &h) && h.t < max_t && (!found || h.t < hit->t)) {
-      *hit = h;
-      found = true;
-    }
+    if (!light_hit(scene.emitters[i], r, &h) || !(h.t < max_t)) continue;
+    float w = camera_ray ? 1.0f : power_heuristic(1, prev_brdf_pdf, 1, h.pdf);
+    sum += h.Le * w;
   }
-  return found;
+  return sum;
 }
 
 // Hands the adjoint of a vertex's BRDF parameters to what defined them: the
@@ -120,13 +124,8 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     NextEvent ev = scatterer.next_event(ray, spawn, path_key, uint32_t(bounce), adj ? &vertex_hits : nullptr);
     if (bounce == 0 && coverage) *coverage = (ev.kind == NextEvent::Gaussian || ev.kind == NextEvent::Mesh) ? 1.0f : 0.0f;
 
-    // Lights in front of the event (hit by the BRDF sample or the camera ray), MIS-weighted.
-    LightHit lh;
-    if (closest_light_hit(scene.emitters, ray, ev.t, &lh)) {
-      float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, lh.pdf) : 1.0f;
-      add(beta * lh.Le * w);
-      break;
-    }
+    // Lights the ray crosses before the event (it goes on through them).
+    add(beta * lights_crossed(scene, ray, ev.t, prev_brdf_pdf));
     if (ev.kind == NextEvent::Absorbed) break;
     // Escape: the environment, MIS-weighted against its own sampling.
     if (ev.kind == NextEvent::Escape) {

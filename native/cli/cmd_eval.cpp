@@ -1,0 +1,86 @@
+// `ptir eval`: renders every test view of a dataset with the recovered materials
+// and environment, and scores them against the ground truth (METHOD §7;
+// src/ptir/eval/evaluate.h has the exact protocol).
+//
+//   ptir eval --dataset DIR --result OUT [--relight NAME=env.exr ...] [--spp N]
+//       [--bounces N] [--aov-spp N] [--split test] [--scene scene.json] [--seed S]
+//       [--sheet-views N] [--threads N] [-q]
+//
+// Writes OUT/eval/test_XXX/{rgba,albedo,roughness,metallic,normal}.exr and
+// rgba_NAME.exr, OUT/eval/metrics.json, OUT/eval/metrics.md and the contact
+// sheets OUT/eval/sheet_*.png; prints the metric table on stdout.
+#include <tbb/global_control.h>
+
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "ptir/core/error.h"
+#include "ptir/eval/evaluate.h"
+
+namespace ptir::cli {
+
+namespace {
+
+struct EvalOptions {
+  std::string dataset, result, split = "test", scene;
+  std::vector<std::string> relight;
+  int spp = 64, bounces = 4, aov_spp = 16;
+  uint64_t seed = 0;
+  int sheet_views = 8;
+  int threads = 0;
+  bool quiet = false;
+};
+
+int run_eval(const EvalOptions& o) {
+  std::optional<tbb::global_control> limit;
+  if (o.threads < 0) throw Error("--threads must be positive");
+  if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  if (o.spp < 1 || o.aov_spp < 1) throw Error("--spp and --aov-spp must be at least 1");
+  if (o.bounces < 0) throw Error("--bounces must be at least 0");
+  eval::EvalSettings s;
+  s.dataset = o.dataset;
+  s.result = o.result;
+  s.split = o.split;
+  s.scene = o.scene;
+  for (const std::string& r : o.relight) s.relight.push_back(eval::parse_relight(r));
+  s.spp = o.spp;
+  s.bounces = o.bounces;
+  s.aov_spp = o.aov_spp;
+  s.seed = o.seed;
+  s.sheet_views = o.sheet_views;
+  if (!o.quiet) s.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  eval::EvalReport r = eval::evaluate(s);
+  std::printf("%s", eval::metrics_markdown(r.metrics).c_str());
+  if (!o.quiet)
+    std::fprintf(stderr, "wrote %s/metrics.json, metrics.md, %zu contact sheets and the renders (%.1f s)\n",
+                 r.out_dir.c_str(), r.metrics["sheets"].size(), r.metrics["seconds"]["total"].get<double>());
+  return 0;
+}
+
+}  // namespace
+
+Runner add_eval_command(CLI::App& app) {
+  auto o = std::make_shared<EvalOptions>();
+  CLI::App* cmd = app.add_subcommand("eval", "Render the test views with the recovered asset and score them against the ground truth");
+  cmd->add_option("--dataset", o->dataset, "dataset folder (transforms_test.json, test_XXX/ with ground truth)")->required();
+  cmd->add_option("--result", o->result, "result folder of `ptir optimize` (gaussians.ply, env.exr); writes RESULT/eval/")
+      ->required();
+  cmd->add_option("--relight", o->relight, "NAME=env.exr: also relight under this environment (repeatable); "
+                                           "compared with test_XXX/rgba_NAME.png when present");
+  cmd->add_option("--spp", o->spp, "samples per pixel of the path-traced renders")->capture_default_str();
+  cmd->add_option("--bounces", o->bounces, "indirect bounces")->capture_default_str();
+  cmd->add_option("--aov-spp", o->aov_spp, "jittered samples per pixel of the material AOVs")->capture_default_str();
+  cmd->add_option("--split", o->split, "dataset split to evaluate (transforms_<split>.json)")->capture_default_str();
+  cmd->add_option("--scene", o->scene, "scene file whose meshes and lights join the asset (as in optimize --scene)");
+  cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
+  cmd->add_option("--sheet-views", o->sheet_views, "views shown in the contact sheets (0: no sheets)")->capture_default_str();
+  cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
+  cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
+  return [o] { return run_eval(*o); };
+}
+
+}  // namespace ptir::cli

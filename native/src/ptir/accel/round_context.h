@@ -1,0 +1,79 @@
+// What the Embree intersect callback of the Gaussians sees during one traversal
+// round, of one ray or of a packet of rays (internal to the traversal).
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <vector>
+
+#include "ptir/accel/kbuffer.h"
+#include "ptir/accel/scene_accel.h"
+
+namespace ptir {
+
+// Reached from the callback through the intersect context (which must stay the
+// first member). Lane i of a packet is ray i of the RTCRayHitN given to Embree.
+//
+// The callback only queues the Gaussians Embree reports; they are evaluated in
+// batches (evaluate_pending) when the queue is full and when the traversal ends.
+// A batch runs at the speed of the arithmetic, with its loads prefetched, where
+// one Gaussian per callback would wait on each load and each dependent chain.
+// The k-buffers end the same either way: their content does not depend on the
+// order of the candidates, and tfar only prunes what they would reject.
+struct RoundContext {
+  static constexpr int kQueue = 64;  // Gaussians queued before a batch runs
+
+  RTCIntersectContext context;
+  const GaussianTraceData* data;
+  CullSettings cull;
+  int lanes;            // 1: rtcIntersect1 (RTCRayHit); 4, 8, 16: rtcIntersectN
+  uint32_t active;      // lanes traced this round (bit i: lane i)
+  bool shared_origin;   // every active lane starts at `origin`
+  float origin[3];
+  uint64_t candidates;  // proxy boxes entered, summed over lanes
+  int queued;
+  uint32_t queue[kQueue];  // trace-data slots
+  // Per lane: the round starts after (t_start, id_start) (id_start = -1 admits t == t_start).
+  alignas(64) float t_start[SceneAccel::kMaxPacket];
+  alignas(64) int valid[SceneAccel::kMaxPacket];  // -1 for the lanes in `active`
+  int64_t id_start[SceneAccel::kMaxPacket];
+  KBuffer buffer[SceneAccel::kMaxPacket];
+
+  void init(const std::vector<GaussianTraceData>& trace, const CullSettings& cull_, int lanes_, uint32_t active_) {
+    rtcInitIntersectContext(&context);
+    data = trace.data();
+    cull = cull_;
+    lanes = lanes_;
+    active = active_;
+    shared_origin = false;
+    candidates = 0;
+    queued = 0;
+    for (int l = 0; l < lanes; ++l) valid[l] = (active >> l & 1u) ? -1 : 0;
+  }
+};
+
+// The intersect function of the Gaussians' user geometry (one ray or a packet):
+// it queues the Gaussian. It never reports a hit to Embree.
+void gaussian_intersect(const RTCIntersectFunctionNArguments* args);
+
+// Evaluates the queued Gaussians against the ray or packet `rayhit` (RTCRayHit when
+// lanes == 1): fills the k-buffers and shrinks tfar. Call it once more after the
+// traversal.
+void evaluate_queue(RoundContext* rc, void* rayhit);
+
+// The Embree objects behind a SceneAccel.
+struct SceneAccel::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  RTCScene mesh_scene = nullptr;       // triangles only, for closest_mesh
+  std::vector<unsigned> mesh_of_geom;  // geomID -> mesh index (RTC_INVALID_GEOMETRY_ID for the Gaussians)
+  std::vector<RTCBounds> boxes;        // proxy box per Gaussian (trace-data order)
+
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (mesh_scene) rtcReleaseScene(mesh_scene);
+    if (device) rtcReleaseDevice(device);
+  }
+};
+
+}  // namespace ptir

@@ -1,0 +1,208 @@
+#include "ptir/optim/checkpoint.h"
+
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "ptir/core/error.h"
+
+namespace ptir {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'T', 'I', 'R', 'C', 'K', 'P', 'T'};
+constexpr uint32_t kVersion = 1;
+
+uint64_t fnv1a(const std::string& s) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+struct Writer {
+  std::string buf;
+  template <class T>
+  void pod(const T& v) {
+    buf.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  void str(const std::string& s) {
+    pod(uint64_t(s.size()));
+    buf += s;
+  }
+  template <class T>
+  void vec(const std::vector<T>& v) {
+    pod(uint64_t(v.size()));
+    buf.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+};
+
+struct Reader {
+  const std::string& buf;
+  const std::string& path;
+  size_t pos = 0;
+  void need(size_t n) {
+    if (n > buf.size() - pos) throw Error(path, "checkpoint is truncated or corrupt");
+  }
+  template <class T>
+  T pod() {
+    need(sizeof(T));
+    T v;
+    std::memcpy(&v, buf.data() + pos, sizeof(T));
+    pos += sizeof(T);
+    return v;
+  }
+  std::string str() {
+    uint64_t n = pod<uint64_t>();
+    need(n);
+    std::string s = buf.substr(pos, n);
+    pos += n;
+    return s;
+  }
+  template <class T>
+  std::vector<T> vec() {
+    uint64_t n = pod<uint64_t>();
+    if (n > (buf.size() - pos) / sizeof(T)) throw Error(path, "checkpoint is truncated or corrupt");
+    std::vector<T> v(n);
+    std::memcpy(v.data(), buf.data() + pos, n * sizeof(T));
+    pos += n * sizeof(T);
+    return v;
+  }
+};
+
+void write_bytes_atomic(const std::string& path, const std::string& bytes) {
+  fs::path target(path);
+  fs::path tmp = target.parent_path() / ("." + target.filename().string() + ".tmp" + std::to_string(getpid()));
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(path, "cannot write (temp file " + tmp.string() + ")");
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+    out.flush();
+    if (!out) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw Error(path, "writing failed (disk full?)");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw Error(path, "cannot move the finished file into place: " + ec.message());
+  }
+}
+
+}  // namespace
+
+void write_text_atomic(const std::string& path, const std::string& text) { write_bytes_atomic(path, text); }
+
+void write_checkpoint(const std::string& path, const Checkpoint& c) {
+  Writer w;
+  w.buf.append(kMagic, 8);
+  w.pod(kVersion);
+  w.pod(c.iteration);
+  w.pod(uint64_t(c.fingerprint.size()));
+  for (const auto& kv : c.fingerprint) {
+    w.str(kv.first);
+    w.str(kv.second);
+  }
+  w.pod(uint64_t(c.groups.size()));
+  for (const CheckpointGroup& g : c.groups) {
+    w.pod(uint32_t(g.kind));
+    w.pod(g.lr);
+    w.pod(g.adam_t);
+    w.vec(g.raw);
+    w.vec(g.m);
+    w.vec(g.v);
+  }
+  w.vec(c.normals);
+  w.pod(uint64_t(c.log.size()));
+  for (const IterationLog& l : c.log) {
+    w.pod(int32_t(l.iteration));
+    for (double d : {l.loss, l.image, l.tv, l.prior, l.prior_weight, l.seconds, l.primal_s, l.backward_s, l.regulariser_s,
+                     l.update_s})
+      w.pod(d);
+    w.str(l.views);
+  }
+  w.pod(fnv1a(w.buf));
+  write_bytes_atomic(path, w.buf);
+}
+
+Checkpoint read_checkpoint(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open checkpoint");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  const std::string buf = ss.str();
+  if (buf.size() < 8 + 4 + 8 || std::memcmp(buf.data(), kMagic, 8) != 0) throw Error(path, "not a PTIR checkpoint");
+  uint64_t stored;
+  std::memcpy(&stored, buf.data() + buf.size() - 8, 8);
+  const std::string body = buf.substr(0, buf.size() - 8);
+  if (fnv1a(body) != stored) throw Error(path, "checkpoint is truncated or corrupt (checksum mismatch)");
+  Reader r{body, path, 8};
+  uint32_t version = r.pod<uint32_t>();
+  if (version != kVersion)
+    throw Error(path, "checkpoint version " + std::to_string(version) + " (this build reads " + std::to_string(kVersion) + ")");
+  Checkpoint c;
+  c.iteration = r.pod<uint64_t>();
+  uint64_t nf = r.pod<uint64_t>();
+  for (uint64_t i = 0; i < nf; ++i) {
+    std::string k = r.str();
+    c.fingerprint.emplace_back(k, r.str());
+  }
+  uint64_t ng = r.pod<uint64_t>();
+  for (uint64_t i = 0; i < ng; ++i) {
+    CheckpointGroup g;
+    uint32_t kind = r.pod<uint32_t>();
+    if (kind > uint32_t(ParamKind::MeshMetallic)) throw Error(path, "checkpoint has an unknown parameter group");
+    g.kind = ParamKind(kind);
+    g.lr = r.pod<float>();
+    g.adam_t = r.pod<uint64_t>();
+    g.raw = r.vec<float>();
+    g.m = r.vec<float>();
+    g.v = r.vec<float>();
+    if (g.m.size() != g.raw.size() || g.v.size() != g.raw.size()) throw Error(path, "checkpoint is corrupt (group sizes)");
+    c.groups.push_back(std::move(g));
+  }
+  c.normals = r.vec<Vec3>();
+  uint64_t nl = r.pod<uint64_t>();
+  for (uint64_t i = 0; i < nl; ++i) {
+    IterationLog l;
+    l.iteration = r.pod<int32_t>();
+    for (double* d : {&l.loss, &l.image, &l.tv, &l.prior, &l.prior_weight, &l.seconds, &l.primal_s, &l.backward_s,
+                      &l.regulariser_s, &l.update_s})
+      *d = r.pod<double>();
+    l.views = r.str();
+    c.log.push_back(std::move(l));
+  }
+  if (r.pos != body.size()) throw Error(path, "checkpoint is corrupt (trailing data)");
+  return c;
+}
+
+void check_fingerprint(const std::string& path, const Fingerprint& stored, const Fingerprint& current) {
+  std::string diff;
+  for (const auto& kv : current) {
+    const std::string* old = nullptr;
+    for (const auto& s : stored)
+      if (s.first == kv.first) old = &s.second;
+    if (!old) diff += "\n  " + kv.first + ": not in the checkpoint (now " + kv.second + ")";
+    else if (*old != kv.second) diff += "\n  " + kv.first + ": checkpoint " + *old + ", now " + kv.second;
+  }
+  for (const auto& s : stored) {
+    bool found = false;
+    for (const auto& kv : current) found = found || kv.first == s.first;
+    if (!found) diff += "\n  " + s.first + ": only in the checkpoint (" + s.second + ")";
+  }
+  if (!diff.empty())
+    throw Error(path, "checkpoint was written for a different problem or settings; --resume needs the same inputs and "
+                      "settings (only --iters may change):" + diff);
+}
+
+}  // namespace ptir

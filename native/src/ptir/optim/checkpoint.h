@@ -1,0 +1,61 @@
+// Optimiser checkpoints: everything needed to continue a run bit-exactly.
+//
+// The randomness of an iteration is keyed on (seed, iteration) (views, crops,
+// path samples), so the state is only: the completed iteration count, the raw
+// parameters with their Adam moments and step counts, the (fixed) shading normals
+// the run oriented, and the log so far. A fingerprint of the inputs and
+// settings that affect the result (as key/value text) is stored and compared on
+// resume, so a checkpoint is never applied to a different problem.
+//
+// File: little-endian binary, "PTIRCKPT" + version, ..., FNV-1a 64 checksum of
+// everything before it (truncation and corruption are detected). Written
+// atomically (temp file in the same folder, then rename).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ptir/math/vec.h"
+#include "ptir/optim/parameters.h"
+
+namespace ptir {
+
+// One row of log.csv.
+struct IterationLog {
+  int iteration = 0;  // 1-based: the iteration just completed
+  double loss = 0, image = 0, tv = 0, prior = 0;  // total and terms (weighted)
+  double prior_weight = 0;
+  double seconds = 0;        // wall time of the iteration
+  double primal_s = 0, backward_s = 0, regulariser_s = 0, update_s = 0;  // its parts
+  std::string views;         // names of the views used, '+'-separated
+};
+
+using Fingerprint = std::vector<std::pair<std::string, std::string>>;
+
+struct CheckpointGroup {
+  ParamKind kind;
+  float lr = 0;
+  uint64_t adam_t = 0;
+  std::vector<float> raw, m, v;
+};
+
+struct Checkpoint {
+  uint64_t iteration = 0;
+  Fingerprint fingerprint;
+  std::vector<CheckpointGroup> groups;
+  std::vector<Vec3> normals;
+  std::vector<IterationLog> log;
+};
+
+void write_checkpoint(const std::string& path, const Checkpoint& c);
+Checkpoint read_checkpoint(const std::string& path);
+
+// Throws Error(path, ...) listing every key whose value differs (or is missing).
+void check_fingerprint(const std::string& path, const Fingerprint& stored, const Fingerprint& current);
+
+// Writes a text file atomically (temp file + rename); throws Error naming the file.
+void write_text_atomic(const std::string& path, const std::string& text);
+
+}  // namespace ptir

@@ -1,0 +1,178 @@
+// The inversion loop (METHOD §6): Adam on activated-parameterised materials and
+// environment, gradients by path replay backpropagation.
+//
+// One iteration:
+//   1. views: views_per_iteration slots; slot j = it * k + v takes position j % N
+//      of a permutation of the N views drawn for epoch j / N (every view once per
+//      epoch). Optionally a random crop_size^2 window, centred at a uniformly drawn
+//      pixel of the view's mask bounding box (clamped into the image).
+//   2. render_path at spp, with the path seed hash(seed, it, v).
+//   3. image loss (1 - 0.2) L1 + 0.2 D-SSIM through the 3x3 binomial filter
+//      (losses.h) between the render and the target, both in sRGB space by
+//      default (see below), masked; its gradient through the sRGB curve is pushed
+//      through render_path_backward (same seed: the replay sees the same paths).
+//   4. regularisers on the primary-hit albedo/roughness maps (render_aov, pixel
+//      centres, same seed): edge-aware TV (lambda_tv, guide = target in loss
+//      space) and, when the dataset has prior maps, L2 to them with a weight
+//      decaying linearly from prior_start to prior_end over prior_iterations;
+//      their gradients through render_aov_backward.
+//   5. chain rule into the raw parameters, one Adam step per group, write the
+//      activated values back into the scene (environment sampling rebuilt).
+//
+// Loss space: sRGB by default, as PTIR (its ground truth are sRGB photos, and
+// D-SSIM's constants assume display values in [0, 1]); it weights dark regions
+// more than linear L1 does. The curve used is the sRGB encoding extended above
+// 1 without clamping (1.055 c^(1/2.4) - 0.055), so over-bright predictions keep
+// a gradient; its derivative multiplies the loss gradient. --loss-space linear
+// compares linear radiance instead.
+//
+// Mask: the render shows the environment where camera rays escape; targets with
+// alpha are objects on a transparent background. The loss uses the pixels where
+// the target's alpha AND the render's coverage (fraction of samples that found a
+// surface; fixed: geometry is not optimised) are both >= mask_threshold (0.99),
+// so silhouette pixels -- a blend of object and background whose background
+// half differs between the two -- neither bias the materials nor the
+// environment. Targets without alpha use every pixel (the environment seen
+// directly then supervises the environment too). The regularisers use the pixels
+// whose target alpha >= mask_threshold and whose primary ray found a valid
+// interaction (AOV coverage > tau_g).
+//
+// Determinism: every random choice is keyed on (seed, iteration), parameters
+// change only at the end of an iteration, and the renders/backward passes are
+// deterministic for a fixed thread count; so a run resumed from a checkpoint
+// (checkpoint.h) is bit-identical to an uninterrupted one on the same thread count.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ptir/accel/scene_accel.h"
+#include "ptir/io/dataset.h"
+#include "ptir/optim/adam.h"
+#include "ptir/optim/checkpoint.h"
+#include "ptir/optim/losses.h"
+#include "ptir/optim/parameters.h"
+#include "ptir/scene/scene.h"
+#include "ptir/transport/gradients.h"
+#include "ptir/transport/path_tracer.h"
+
+namespace ptir {
+
+struct OptimizerSettings {
+  int iterations = 800;           // METHOD §6
+  IntegratorSettings integrator;  // spp 32, 2 bounces (its seed is replaced per iteration)
+  uint64_t seed = 0;
+  int views_per_iteration = 1;
+  int crop_size = 0;              // 0: whole images; else square crops of this side
+  ImageLossSettings loss;         // lambda_s 0.2, binomial filter on
+  bool srgb_loss = true;          // compare in sRGB space (false: linear)
+  float mask_threshold = 0.99f;
+  float lambda_tv = 0.095f;
+  float prior_start = 0.5f, prior_end = 0.005f;
+  int prior_iterations = 400;
+  ParameterSettings params;
+  AdamSettings adam;
+  bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
+  AccelSettings accel;
+};
+
+class Optimizer {
+ public:
+  // Takes the scene (Gaussians, optional meshes and lights; its environment is
+  // replaced by the learnable one), builds the tracer, orients normals, and sets
+  // the initial parameters.
+  Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const OptimizerSettings& settings);
+  ~Optimizer();
+
+  int iteration() const { return iteration_; }  // completed iterations
+  const OptimizerSettings& settings() const { return settings_; }
+  // The target iteration count may change (a resumed run can go further).
+  void set_iterations(int n) { settings_.iterations = n; }
+
+  // One iteration. With `cancel` set the renders stop early and Cancelled is
+  // thrown; the state is then that of the last completed iteration.
+  IterationLog step(const std::atomic<bool>* cancel = nullptr);
+
+  // The objective of (0-based) iteration `it` at the current parameters -- the
+  // same views, crops and random numbers step() would use -- without changing
+  // anything but gradients(); with `with_gradients` its adjoints w.r.t. the
+  // activated parameters land in gradients() (raw_gradients() chains them).
+  IterationLog evaluate(int it, bool with_gradients, const std::atomic<bool>* cancel = nullptr);
+  const SceneGradients& gradients() const { return grads_; }
+  // Replaces the raw parameters (same groups and sizes) and applies them.
+  void set_parameters(const Parameters& p);
+
+  // Prior-map weight at (0-based) iteration it.
+  double prior_weight(int it) const;
+
+  Fingerprint fingerprint() const;
+  Checkpoint checkpoint() const;
+  void restore(const Checkpoint& c, const std::string& path_for_messages = "checkpoint");
+  void save_checkpoint(const std::string& path) const { write_checkpoint(path, checkpoint()); }
+  void load_checkpoint(const std::string& path) { restore(read_checkpoint(path), path); }
+
+  // OUT/gaussians.ply, OUT/env.exr, OUT/log.csv (plus OUT/env_sg.json with SGs and
+  // OUT/mesh_materials.json when mesh materials are optimised); each atomic.
+  void write_outputs(const std::string& dir) const;
+  std::string log_csv() const;
+  // The recovered environment as a lat-long RGB image (SGs rasterised at env_width x env_height).
+  Image environment_image() const;
+
+  const Scene& scene() const { return *scene_; }
+  Scene& scene() { return *scene_; }
+  const PathTracer& tracer() const { return *tracer_; }
+  const Dataset& dataset() const { return *dataset_; }
+  std::shared_ptr<const Dataset> dataset_ptr() const { return dataset_; }
+  const Parameters& parameters() const { return params_; }
+  const std::vector<Adam>& adam() const { return adam_; }
+  const std::vector<IterationLog>& log() const { return log_; }
+  size_t nonfinite_gradients() const { return nonfinite_; }
+
+  // The views and crop windows iteration `it` (0-based) uses: (view index, x0, y0, w, h).
+  struct ViewPick {
+    size_t view;
+    int x0, y0, w, h;
+  };
+  std::vector<ViewPick> pick_views(int it) const;
+
+ private:
+  void apply();
+  const std::array<int, 4>& mask_box(size_t view) const;
+
+  OptimizerSettings settings_;
+  std::unique_ptr<Scene> scene_;
+  std::shared_ptr<const Dataset> dataset_;
+  std::unique_ptr<PathTracer> tracer_;
+  Parameters params_;
+  std::vector<Adam> adam_;
+  SceneGradients grads_;
+  std::vector<IterationLog> log_;
+  int iteration_ = 0;
+  size_t nonfinite_ = 0;
+  mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
+};
+
+// The loop with checkpoints and outputs, for the CLI and the Python module.
+struct RunOptions {
+  std::string out_dir;        // outputs and checkpoint.bin go here ("" = write nothing)
+  int checkpoint_every = 50;  // iterations between checkpoints (0: only at the end)
+  // Called after every iteration; return false to stop (as a cancel).
+  std::function<bool(const IterationLog&)> on_iteration;
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+enum class RunResult { Finished, Cancelled };
+
+// Runs until settings().iterations; on cancel (flag or callback) stops after the
+// last completed iteration. Either way writes OUT/checkpoint.bin and the outputs.
+RunResult run_optimizer(Optimizer& opt, const RunOptions& options);
+
+// The sRGB encoding extended above 1 (no clamp) and its derivative.
+float srgb_encode_unclamped(float c);
+float srgb_encode_derivative(float c);
+
+}  // namespace ptir

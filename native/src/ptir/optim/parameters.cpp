@@ -1,0 +1,212 @@
+#include "ptir/optim/parameters.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ptir/core/error.h"
+
+namespace ptir {
+
+float logit_clamped(float p) {
+  p = std::clamp(p, 1e-6f, 1.0f - 1e-6f);
+  return std::log(p / (1.0f - p));
+}
+
+float roughness_to_raw(float r) { return logit_clamped((r - kRoughnessMin) / kRoughnessRange); }
+
+const char* param_kind_name(ParamKind k) {
+  switch (k) {
+    case ParamKind::GaussianAlbedo: return "albedo";
+    case ParamKind::GaussianRoughness: return "roughness";
+    case ParamKind::GaussianMetallic: return "metallic";
+    case ParamKind::EnvLatLong: return "env_latlong";
+    case ParamKind::EnvSg: return "env_sg";
+    case ParamKind::MeshColour: return "mesh_base_colour";
+    case ParamKind::MeshRoughness: return "mesh_roughness";
+    case ParamKind::MeshMetallic: return "mesh_metallic";
+  }
+  return "?";
+}
+
+const ParameterGroup* Parameters::find(ParamKind k) const {
+  for (const ParameterGroup& g : groups)
+    if (g.kind == k) return &g;
+  return nullptr;
+}
+
+ParameterGroup* Parameters::find(ParamKind k) {
+  for (ParameterGroup& g : groups)
+    if (g.kind == k) return &g;
+  return nullptr;
+}
+
+size_t Parameters::count() const {
+  size_t n = 0;
+  for (const ParameterGroup& g : groups) n += g.raw.size();
+  return n;
+}
+
+void install_environment(Scene& scene, const ParameterSettings& s) {
+  scene.environment = SceneEnvironment();
+  if (!s.env_init_path.empty()) {
+    if (s.env != EnvMode::LatLong) throw Error(s.env_init_path, "an initial environment map needs the lat-long environment model");
+    scene.environment.latlong = Environment::load(s.env_init_path);
+    // Texels are exp(raw): keep them strictly positive.
+    for (float& t : scene.environment.latlong->texels()) t = std::max(t, 1e-6f);
+    scene.environment.latlong->rebuild_sampling();
+  } else if (s.env == EnvMode::LatLong) {
+    if (s.env_width < 1 || s.env_height < 1) throw Error("environment size must be positive");
+    if (!(s.env_init > 0.0f)) throw Error("initial environment radiance must be positive (texels are exp(raw))");
+    scene.environment.latlong = Environment::constant(Vec3(s.env_init), s.env_width, s.env_height);
+  } else {
+    if (s.sg_lobes < 1) throw Error("the SG environment needs at least one lobe");
+    scene.environment.sg = SgEnvironment(s.sg_lobes);
+  }
+}
+
+Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
+  Parameters p;
+  const size_t n = scene.gaussians->size();
+  p.groups.push_back({ParamKind::GaussianAlbedo, s.lr_albedo, std::vector<float>(3 * n, logit_clamped(s.init_albedo))});
+  p.groups.push_back({ParamKind::GaussianRoughness, s.lr_roughness, std::vector<float>(n, roughness_to_raw(s.init_roughness))});
+  if (s.optimize_metallic)
+    p.groups.push_back({ParamKind::GaussianMetallic, s.lr_metallic, std::vector<float>(n, logit_clamped(s.init_metallic_optimised))});
+  if (!s.optimize_env) {
+    // Fixed lighting: no group.
+  } else if (scene.environment.latlong) {
+    const Environment& env = *scene.environment.latlong;
+    std::vector<float> raw(env.texels().size());
+    for (size_t i = 0; i < raw.size(); ++i) raw[i] = std::log(std::max(env.texels()[i], 1e-8f));
+    p.groups.push_back({ParamKind::EnvLatLong, s.lr_env, std::move(raw)});
+  } else if (scene.environment.sg) {
+    std::vector<float> raw;
+    for (const Vec3& x : scene.environment.sg->raw()) raw.insert(raw.end(), {x.x, x.y, x.z});
+    p.groups.push_back({ParamKind::EnvSg, s.lr_env, std::move(raw)});
+  }
+  if (s.optimize_meshes && !scene.meshes.empty()) {
+    const size_t m = scene.meshes.size();
+    p.groups.push_back({ParamKind::MeshColour, s.lr_mesh, std::vector<float>(3 * m, logit_clamped(s.init_albedo))});
+    p.groups.push_back({ParamKind::MeshRoughness, s.lr_mesh, std::vector<float>(m, roughness_to_raw(s.init_roughness))});
+    if (s.optimize_metallic)
+      p.groups.push_back({ParamKind::MeshMetallic, s.lr_mesh, std::vector<float>(m, logit_clamped(s.init_metallic_optimised))});
+  }
+  return p;
+}
+
+namespace {
+
+void check_size(const ParameterGroup& g, size_t n) {
+  if (g.raw.size() != n)
+    throw Error(std::string("parameter group '") + param_kind_name(g.kind) + "' has " + std::to_string(g.raw.size()) +
+                " values, the scene needs " + std::to_string(n));
+}
+
+}  // namespace
+
+void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& scene) {
+  GaussianField& f = *scene.gaussians;
+  const size_t n = f.size();
+  f.albedo.resize(n);
+  f.roughness.resize(n);
+  f.metallic.resize(n);
+  if (!p.find(ParamKind::GaussianMetallic)) std::fill(f.metallic.begin(), f.metallic.end(), s.init_metallic);
+  for (const ParameterGroup& g : p.groups) {
+    switch (g.kind) {
+      case ParamKind::GaussianAlbedo:
+        check_size(g, 3 * n);
+        for (size_t i = 0; i < n; ++i) f.albedo[i] = Vec3(sigmoid(g.raw[3 * i]), sigmoid(g.raw[3 * i + 1]), sigmoid(g.raw[3 * i + 2]));
+        break;
+      case ParamKind::GaussianRoughness:
+        check_size(g, n);
+        for (size_t i = 0; i < n; ++i) f.roughness[i] = roughness_from_raw(g.raw[i]);
+        break;
+      case ParamKind::GaussianMetallic:
+        check_size(g, n);
+        for (size_t i = 0; i < n; ++i) f.metallic[i] = sigmoid(g.raw[i]);
+        break;
+      case ParamKind::EnvLatLong: {
+        if (!scene.environment.latlong) throw Error("parameters hold a lat-long environment, the scene has none");
+        Environment& env = *scene.environment.latlong;
+        check_size(g, env.texels().size());
+        for (size_t i = 0; i < g.raw.size(); ++i) env.texels()[i] = std::exp(g.raw[i]);
+        env.rebuild_sampling();
+        break;
+      }
+      case ParamKind::EnvSg: {
+        if (!scene.environment.sg) throw Error("parameters hold an SG environment, the scene has none");
+        SgEnvironment& sg = *scene.environment.sg;
+        check_size(g, 3 * size_t(sg.size()));
+        for (int i = 0; i < sg.size(); ++i) sg.raw()[size_t(i)] = Vec3(g.raw[3 * i], g.raw[3 * i + 1], g.raw[3 * i + 2]);
+        sg.update();
+        break;
+      }
+      case ParamKind::MeshColour:
+        check_size(g, 3 * scene.meshes.size());
+        for (size_t i = 0; i < scene.meshes.size(); ++i)
+          scene.meshes[i].material.base_colour = Vec3(sigmoid(g.raw[3 * i]), sigmoid(g.raw[3 * i + 1]), sigmoid(g.raw[3 * i + 2]));
+        break;
+      case ParamKind::MeshRoughness:
+        check_size(g, scene.meshes.size());
+        for (size_t i = 0; i < scene.meshes.size(); ++i) scene.meshes[i].material.roughness = roughness_from_raw(g.raw[i]);
+        break;
+      case ParamKind::MeshMetallic:
+        check_size(g, scene.meshes.size());
+        for (size_t i = 0; i < scene.meshes.size(); ++i) scene.meshes[i].material.metallic = sigmoid(g.raw[i]);
+        break;
+    }
+  }
+}
+
+std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGradients& gr) {
+  std::vector<std::vector<float>> out;
+  out.reserve(p.groups.size());
+  auto dsig = [](float x) {
+    float s = sigmoid(x);
+    return s * (1.0f - s);
+  };
+  for (const ParameterGroup& g : p.groups) {
+    std::vector<float> d(g.raw.size(), 0.0f);
+    switch (g.kind) {
+      case ParamKind::GaussianAlbedo:
+        check_size(g, 3 * gr.gaussian_albedo.size());
+        for (size_t i = 0; i < gr.gaussian_albedo.size(); ++i)
+          for (int c = 0; c < 3; ++c) d[3 * i + c] = gr.gaussian_albedo[i][c] * dsig(g.raw[3 * i + c]);
+        break;
+      case ParamKind::GaussianRoughness:
+        check_size(g, gr.gaussian_roughness.size());
+        for (size_t i = 0; i < d.size(); ++i) d[i] = gr.gaussian_roughness[i] * kRoughnessRange * dsig(g.raw[i]);
+        break;
+      case ParamKind::GaussianMetallic:
+        check_size(g, gr.gaussian_metallic.size());
+        for (size_t i = 0; i < d.size(); ++i) d[i] = gr.gaussian_metallic[i] * dsig(g.raw[i]);
+        break;
+      case ParamKind::EnvLatLong:
+        check_size(g, 3 * gr.env_texels.size());
+        for (size_t i = 0; i < gr.env_texels.size(); ++i)
+          for (int c = 0; c < 3; ++c) d[3 * i + c] = gr.env_texels[i][c] * std::exp(g.raw[3 * i + c]);
+        break;
+      case ParamKind::EnvSg:
+        check_size(g, 3 * gr.sg_raw.size());
+        for (size_t i = 0; i < gr.sg_raw.size(); ++i)
+          for (int c = 0; c < 3; ++c) d[3 * i + c] = gr.sg_raw[i][c];
+        break;
+      case ParamKind::MeshColour:
+        check_size(g, 3 * gr.mesh_base_colour.size());
+        for (size_t i = 0; i < gr.mesh_base_colour.size(); ++i)
+          for (int c = 0; c < 3; ++c) d[3 * i + c] = gr.mesh_base_colour[i][c] * dsig(g.raw[3 * i + c]);
+        break;
+      case ParamKind::MeshRoughness:
+        check_size(g, gr.mesh_roughness.size());
+        for (size_t i = 0; i < d.size(); ++i) d[i] = gr.mesh_roughness[i] * kRoughnessRange * dsig(g.raw[i]);
+        break;
+      case ParamKind::MeshMetallic:
+        check_size(g, gr.mesh_metallic.size());
+        for (size_t i = 0; i < d.size(); ++i) d[i] = gr.mesh_metallic[i] * dsig(g.raw[i]);
+        break;
+    }
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
+}  // namespace ptir

@@ -1,0 +1,88 @@
+// The optimised parameters of the inversion (METHOD §6), held raw (unconstrained)
+// for Adam, and their activations into the scene the renderer reads:
+//
+//   Gaussian albedo     a = sigmoid(x)                    (3 per Gaussian)
+//   Gaussian roughness  r = 0.09 + 0.9 sigmoid(x)         (PTIR's range [0.09, 0.99])
+//   Gaussian metallic   m = sigmoid(x)                    (optional; else fixed, default 0)
+//   lat-long env texel  L = exp(x)                        (3 per texel, strength 1)
+//   SG env amplitudes   x itself (SgEnvironment activates c = exp(softplus(x)/gamma) - 1)
+//   mesh materials      base colour sigmoid, roughness as above, metallic sigmoid (optional)
+//
+// Geometry, opacity and normals are not parameters (fixed during inversion).
+// The renderer's adjoints (SceneGradients) are with respect to the ACTIVATED
+// values; raw_gradients() chains them through the activations.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ptir/math/vec.h"
+#include "ptir/scene/scene.h"
+#include "ptir/transport/gradients.h"
+
+namespace ptir {
+
+enum class EnvMode { LatLong, SG };
+
+// Activations (exposed for tests).
+constexpr float kRoughnessMin = 0.09f;
+constexpr float kRoughnessRange = 0.9f;
+// sigmoid/logit: math/vec.h.
+float logit_clamped(float p);  // logit of p clamped into [1e-6, 1 - 1e-6]
+inline float roughness_from_raw(float x) { return kRoughnessMin + kRoughnessRange * sigmoid(x); }
+float roughness_to_raw(float r);  // clamps r into the activation's open range
+
+struct ParameterSettings {
+  float init_albedo = 0.3f;     // METHOD §6
+  float init_roughness = 0.6f;
+  float init_metallic = 0.0f;   // the fixed value when metallic is not optimised
+  // Start of an optimised metallic: away from 0, where sigmoid is flat (logit(0) = -inf).
+  float init_metallic_optimised = 0.05f;
+  bool optimize_metallic = false;
+  EnvMode env = EnvMode::LatLong;
+  int env_width = 128, env_height = 64;  // the benchmark setting
+  float env_init = 0.5f;                 // lat-long texels start at this radiance (PTIR)
+  // Known lighting: start the lat-long environment from this map (its size wins
+  // over env_width/height) instead of the constant env_init.
+  std::string env_init_path;
+  bool optimize_env = true;              // false: the environment is held fixed
+  int sg_lobes = 24;
+  bool optimize_meshes = false;          // mesh materials of a --scene, one set per mesh
+  // Adam learning rates (PTIR code).
+  float lr_albedo = 0.035f, lr_roughness = 0.025f, lr_metallic = 0.035f, lr_env = 0.035f, lr_mesh = 0.035f;
+};
+
+enum class ParamKind { GaussianAlbedo, GaussianRoughness, GaussianMetallic, EnvLatLong, EnvSg, MeshColour, MeshRoughness, MeshMetallic };
+const char* param_kind_name(ParamKind k);
+
+struct ParameterGroup {
+  ParamKind kind;
+  float lr = 0.0f;
+  std::vector<float> raw;
+};
+
+struct Parameters {
+  std::vector<ParameterGroup> groups;
+  const ParameterGroup* find(ParamKind k) const;
+  ParameterGroup* find(ParamKind k);
+  size_t count() const;  // scalars in all groups
+};
+
+// Replaces the scene's environment with the learnable one of `s` (lat-long of
+// env_width x env_height at env_init, or sg_lobes SGs at PTIR's initialisation).
+void install_environment(Scene& scene, const ParameterSettings& s);
+
+// Raw parameters at the initial values of `s`, sized for `scene` (whose
+// environment install_environment has set up).
+Parameters make_parameters(const Scene& scene, const ParameterSettings& s);
+
+// Writes the activated values into the scene (Gaussian materials, environment
+// texels or SG amplitudes with their sampling rebuilt, mesh materials). Fixed
+// metallic is set to s.init_metallic.
+void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& scene);
+
+// dLoss/d(raw) for every group, from the adjoints w.r.t. activated values; same
+// shapes as the groups' raw vectors. Reads the current activated values from raw.
+std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGradients& g);
+
+}  // namespace ptir

@@ -1,0 +1,658 @@
+// Scene files (docs/scene_format.md): JSON -> Scene, with strict key checking
+// and messages that name the file and the JSON path of the offending value.
+#include "ptir/scene/scene_json.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "ptir/accel/scene_accel.h"
+#include "ptir/core/error.h"
+#include "ptir/scene/gaussian_ply.h"
+#include "ptir/transport/orient_normals.h"
+
+namespace ptir {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+// ---------------------------------------------------------------------------
+// Gaussian transforms
+
+std::array<float, 4> mat3_to_quat(const Mat3& r) {
+  // Shepperd's method: build from the largest of (w, x, y, z) for accuracy.
+  const double m00 = r.m[0][0], m11 = r.m[1][1], m22 = r.m[2][2];
+  const double tr = m00 + m11 + m22;
+  double q[4];
+  if (tr >= m00 && tr >= m11 && tr >= m22) {
+    double s = 2.0 * std::sqrt(std::max(1e-30, 1.0 + tr));
+    q[0] = 0.25 * s;
+    q[1] = (r.m[2][1] - r.m[1][2]) / s;
+    q[2] = (r.m[0][2] - r.m[2][0]) / s;
+    q[3] = (r.m[1][0] - r.m[0][1]) / s;
+  } else if (m00 >= m11 && m00 >= m22) {
+    double s = 2.0 * std::sqrt(std::max(1e-30, 1.0 + m00 - m11 - m22));
+    q[0] = (r.m[2][1] - r.m[1][2]) / s;
+    q[1] = 0.25 * s;
+    q[2] = (r.m[0][1] + r.m[1][0]) / s;
+    q[3] = (r.m[0][2] + r.m[2][0]) / s;
+  } else if (m11 >= m22) {
+    double s = 2.0 * std::sqrt(std::max(1e-30, 1.0 + m11 - m00 - m22));
+    q[0] = (r.m[0][2] - r.m[2][0]) / s;
+    q[1] = (r.m[0][1] + r.m[1][0]) / s;
+    q[2] = 0.25 * s;
+    q[3] = (r.m[1][2] + r.m[2][1]) / s;
+  } else {
+    double s = 2.0 * std::sqrt(std::max(1e-30, 1.0 + m22 - m00 - m11));
+    q[0] = (r.m[1][0] - r.m[0][1]) / s;
+    q[1] = (r.m[0][2] + r.m[2][0]) / s;
+    q[2] = (r.m[1][2] + r.m[2][1]) / s;
+    q[3] = 0.25 * s;
+  }
+  double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  double sign = q[0] < 0.0 ? -1.0 : 1.0;
+  return {float(sign * q[0] / n), float(sign * q[1] / n), float(sign * q[2] / n), float(sign * q[3] / n)};
+}
+
+namespace {
+
+// Splits the linear part of an affine transform into s * Q (Q orthogonal, s > 0);
+// throws when it is not a similarity.
+void similarity_parts(const Mat3& a, const std::string& what, float* scale, Mat3* q, bool* mirror) {
+  double ata[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      double s = 0;
+      for (int k = 0; k < 3; ++k) s += double(a.m[k][i]) * a.m[k][j];
+      ata[i][j] = s;
+    }
+  double s2 = (ata[0][0] + ata[1][1] + ata[2][2]) / 3.0;
+  if (!(s2 > 1e-24) || !std::isfinite(s2)) throw Error(what, "transform is degenerate (zero or non-finite linear part)");
+  double worst = 0.0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) worst = std::max(worst, std::fabs(ata[i][j] / s2 - (i == j ? 1.0 : 0.0)));
+  if (worst > 2e-4) {
+    double sx = std::sqrt(ata[0][0]), sy = std::sqrt(ata[1][1]), sz = std::sqrt(ata[2][2]);
+    std::ostringstream msg;
+    msg << "transform has a non-uniform scale or shear (column lengths " << sx << ", " << sy << ", " << sz
+        << "); Gaussians support rotation, translation and uniform scale only";
+    throw Error(what, msg.str());
+  }
+  double s = std::sqrt(s2);
+  *scale = float(s);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) q->m[i][j] = float(a.m[i][j] / s);
+  double det = double(q->m[0][0]) * (double(q->m[1][1]) * q->m[2][2] - double(q->m[1][2]) * q->m[2][1]) -
+               double(q->m[0][1]) * (double(q->m[1][0]) * q->m[2][2] - double(q->m[1][2]) * q->m[2][0]) +
+               double(q->m[0][2]) * (double(q->m[1][0]) * q->m[2][1] - double(q->m[1][1]) * q->m[2][0]);
+  *mirror = det < 0.0;
+}
+
+Affine affine_from_rowmajor(const float m[16]) {
+  Affine a;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) a.linear.m[r][c] = m[r * 4 + c];
+  a.translation = Vec3(m[3], m[7], m[11]);
+  return a;
+}
+
+}  // namespace
+
+void transform_gaussians(GaussianField& field, const float m[16], const std::string& what) {
+  for (int i = 0; i < 16; ++i)
+    if (!std::isfinite(m[i])) throw Error(what, "transform has a non-finite entry");
+  if (m[12] != 0.0f || m[13] != 0.0f || m[14] != 0.0f || m[15] != 1.0f)
+    throw Error(what, "transform must be affine (last row 0 0 0 1)");
+  Affine a = affine_from_rowmajor(m);
+  float s;
+  Mat3 q;
+  bool mirror;
+  similarity_parts(a.linear, what, &s, &q, &mirror);
+  // A mirror Q (det -1): Sigma' = Q R S^2 R^T Q^T = (Q R D) S^2 (Q R D)^T with D = diag(-1, 1, 1),
+  // and Q R D is a proper rotation.
+  Mat3 D;
+  D.m[0][0] = mirror ? -1.0f : 1.0f;
+  const size_t n = field.size();
+  for (size_t i = 0; i < n; ++i) {
+    field.position[i] = a.point(field.position[i]);
+    field.scale[i] = field.scale[i] * s;
+    Mat3 r = q * field.rotation_matrix(i) * D;
+    field.rotation[i] = mat3_to_quat(r);
+    if (i < field.normal.size()) field.normal[i] = normalize(q * field.normal[i]);
+  }
+  field.source = io::PlyFile();
+}
+
+void append_gaussians(GaussianField& a, GaussianField&& b) {
+  if (a.size() == 0) {
+    bool from_file = b.normals_from_file;
+    a = std::move(b);
+    a.normals_from_file = from_file;
+    return;
+  }
+  if (b.size() == 0) return;
+  const size_t na = a.size(), nb = b.size();
+  const int degree = std::max(a.sh_degree, b.sh_degree);
+  const int stride = (degree + 1) * (degree + 1) * 3;
+  auto padded = [&](const GaussianField& f, size_t n) {
+    std::vector<float> out(n * size_t(stride), 0.0f);
+    const int fs_ = f.sh_stride();
+    if (f.sh.size() == n * size_t(fs_))
+      for (size_t i = 0; i < n; ++i) std::copy(f.sh.begin() + i * fs_, f.sh.begin() + (i + 1) * fs_, out.begin() + i * stride);
+    return out;
+  };
+  std::vector<float> sh = padded(a, na);
+  std::vector<float> shb = padded(b, nb);
+  sh.insert(sh.end(), shb.begin(), shb.end());
+  auto cat = [](auto& x, auto& y) { x.insert(x.end(), y.begin(), y.end()); };
+  cat(a.position, b.position);
+  cat(a.scale, b.scale);
+  cat(a.rotation, b.rotation);
+  cat(a.opacity, b.opacity);
+  cat(a.normal, b.normal);
+  cat(a.albedo, b.albedo);
+  cat(a.roughness, b.roughness);
+  cat(a.metallic, b.metallic);
+  a.sh = std::move(sh);
+  a.sh_degree = degree;
+  a.normals_from_file = a.normals_from_file && b.normals_from_file;
+  a.source = io::PlyFile();
+  a.source_path.clear();
+}
+
+// ---------------------------------------------------------------------------
+// JSON reading with paths in messages
+
+namespace {
+
+struct Ctx {
+  std::string file;      // for messages
+  std::string base_dir;  // relative paths resolve against this
+  [[noreturn]] void fail(const std::string& where, const std::string& problem) const {
+    throw Error(file, where.empty() ? problem : where + " " + problem);
+  }
+  std::string resolve(const std::string& p) const {
+    fs::path path(p);
+    if (path.is_absolute() || base_dir.empty()) return path.lexically_normal().string();
+    return (fs::path(base_dir) / path).lexically_normal().string();
+  }
+};
+
+const char* type_name(const json& j) {
+  switch (j.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::object: return "an object";
+    case json::value_t::array: return "an array";
+    case json::value_t::string: return "a string";
+    case json::value_t::boolean: return "a boolean";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+    case json::value_t::number_float: return "a number";
+    default: return "an unsupported value";
+  }
+}
+
+struct Node {
+  const json& j;
+  std::string path;
+  const Ctx& ctx;
+
+  [[noreturn]] void fail(const std::string& problem) const { ctx.fail(path, problem); }
+  std::string key_path(const std::string& key) const { return path.empty() ? key : path + "." + key; }
+  Node operator[](const std::string& key) const { return Node{j.at(key), key_path(key), ctx}; }
+  Node at(size_t i) const { return Node{j.at(i), path + "[" + std::to_string(i) + "]", ctx}; }
+  bool has(const std::string& key) const { return j.is_object() && j.contains(key) && !j.at(key).is_null(); }
+  bool contains(const std::string& key) const { return j.is_object() && j.contains(key); }
+
+  void expect_object() const {
+    if (!j.is_object()) fail(std::string("must be an object, got ") + type_name(j));
+  }
+  void expect_array() const {
+    if (!j.is_array()) fail(std::string("must be a list, got ") + type_name(j));
+  }
+  // Every key must be one of `allowed`.
+  void check_keys(std::initializer_list<const char*> allowed) const {
+    expect_object();
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      bool ok = false;
+      for (const char* a : allowed) ok = ok || it.key() == a;
+      if (!ok) {
+        std::string list;
+        for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        ctx.fail(key_path(it.key()), "is not a known key (expected one of: " + list + ")");
+      }
+    }
+  }
+  void require(const std::string& key) const {
+    if (!has(key)) ctx.fail(key_path(key), "is required");
+  }
+
+  float number() const {
+    if (!j.is_number()) fail(std::string("must be a number, got ") + type_name(j));
+    double v = j.get<double>();
+    if (!std::isfinite(v) || std::fabs(v) > 3.0e38) fail("must be a finite number");
+    return float(v);
+  }
+  float number(const std::string& key, float def) const { return has(key) ? (*this)[key].number() : def; }
+  float number_in(const std::string& key, float def, float lo, float hi, bool lo_open = false) const {
+    if (!has(key)) return def;
+    Node n = (*this)[key];
+    float v = n.number();
+    if (v < lo || v > hi || (lo_open && v == lo)) {
+      std::ostringstream s;
+      s << "must be in " << (lo_open ? "(" : "[") << lo << ", " << hi << "], got " << v;
+      n.fail(s.str());
+    }
+    return v;
+  }
+  float positive(const std::string& key, float def) const {
+    return number_in(key, def, 0.0f, std::numeric_limits<float>::max(), true);
+  }
+  float non_negative(const std::string& key, float def) const {
+    return number_in(key, def, 0.0f, std::numeric_limits<float>::max());
+  }
+  int64_t integer() const {
+    if (!j.is_number_integer() && !j.is_number_unsigned()) {
+      if (j.is_number_float()) {
+        double v = j.get<double>();
+        if (std::floor(v) == v && std::fabs(v) < 9e15) return int64_t(v);
+      }
+      fail(std::string("must be an integer, got ") + (j.is_number() ? j.dump() : type_name(j)));
+    }
+    if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(std::numeric_limits<int64_t>::max()))
+      fail("is too large");
+    return j.get<int64_t>();
+  }
+  int64_t integer_in(const std::string& key, int64_t def, int64_t lo, int64_t hi) const {
+    if (!has(key)) return def;
+    Node n = (*this)[key];
+    int64_t v = n.integer();
+    if (v < lo || v > hi) n.fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + std::to_string(v));
+    return v;
+  }
+  bool boolean(const std::string& key, bool def) const {
+    if (!has(key)) return def;
+    Node n = (*this)[key];
+    if (!n.j.is_boolean()) n.fail(std::string("must be true or false, got ") + type_name(n.j));
+    return n.j.get<bool>();
+  }
+  std::string string() const {
+    if (!j.is_string()) fail(std::string("must be a string, got ") + type_name(j));
+    return j.get<std::string>();
+  }
+  std::string string(const std::string& key, const std::string& def) const { return has(key) ? (*this)[key].string() : def; }
+  std::string choice(const std::string& key, const std::string& def, std::initializer_list<const char*> options) const {
+    if (!has(key)) return def;
+    Node n = (*this)[key];
+    std::string v = n.string();
+    std::string list;
+    for (const char* o : options) {
+      if (v == o) return v;
+      list += (list.empty() ? "'" : ", '") + std::string(o) + "'";
+    }
+    n.fail("must be one of " + list + ", got '" + v + "'");
+  }
+  Vec3 vec3() const {
+    if (!j.is_array() || j.size() != 3) fail("must be a list of 3 numbers");
+    return Vec3(at(0).number(), at(1).number(), at(2).number());
+  }
+  Vec3 vec3(const std::string& key, Vec3 def) const { return has(key) ? (*this)[key].vec3() : def; }
+  Vec3 colour(const std::string& key, Vec3 def) const {
+    if (!has(key)) return def;
+    Node n = (*this)[key];
+    Vec3 c = n.vec3();
+    if (c.x < 0 || c.y < 0 || c.z < 0) n.fail("must not be negative");
+    return c;
+  }
+  // 4x4 row-major: [[4 numbers] x 4] or 16 numbers.
+  std::array<float, 16> matrix() const {
+    std::array<float, 16> m{};
+    if (j.is_array() && j.size() == 16 && j.at(0).is_number()) {
+      for (size_t i = 0; i < 16; ++i) m[i] = at(i).number();
+    } else if (j.is_array() && j.size() == 4) {
+      for (size_t r = 0; r < 4; ++r) {
+        Node row = at(r);
+        if (!row.j.is_array() || row.j.size() != 4) row.fail("must be a list of 4 numbers (a row of the 4x4 matrix)");
+        for (size_t c = 0; c < 4; ++c) m[r * 4 + c] = row.at(c).number();
+      }
+    } else {
+      fail("must be a 4x4 matrix: 4 rows of 4 numbers (row-major), or 16 numbers");
+    }
+    return m;
+  }
+  // An affine matrix (last row 0 0 0 1).
+  std::array<float, 16> affine() const {
+    std::array<float, 16> m = matrix();
+    if (m[12] != 0.0f || m[13] != 0.0f || m[14] != 0.0f || m[15] != 1.0f)
+      fail("must be an affine matrix (last row 0, 0, 0, 1)");
+    return m;
+  }
+  std::string file(const std::string& key) const {
+    Node n = (*this)[key];
+    std::string p = n.string();
+    if (p.empty()) n.fail("must not be empty");
+    return ctx.resolve(p);
+  }
+};
+
+// Runs f, re-throwing an engine error from a file it reads as "<scene>: <where>: <error>".
+template <class F>
+auto with_context(const Node& n, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const Error& e) {
+    n.ctx.fail(n.path + ":", e.what());
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Sections
+
+MeshMaterial parse_material(const Node& n, const std::string& default_name) {
+  n.check_keys({"name", "base_color", "roughness", "metallic", "emission"});
+  MeshMaterial m;
+  m.name = n.string("name", default_name);
+  if (n.has("base_color")) {
+    Node c = n["base_color"];
+    m.base_colour = c.vec3();
+    for (int k = 0; k < 3; ++k)
+      if (m.base_colour[k] < 0.0f || m.base_colour[k] > 1.0f) c.fail("components must be in [0, 1] (linear RGB)");
+  }
+  m.roughness = n.number_in("roughness", m.roughness, 0.0f, 1.0f);
+  m.metallic = n.number_in("metallic", m.metallic, 0.0f, 1.0f);
+  m.emission = n.colour("emission", m.emission);
+  return m;
+}
+
+TriangleMesh parse_mesh(const Node& n, size_t index) {
+  n.check_keys({"name", "file", "vertices", "triangles", "transform", "material"});
+  TriangleMesh mesh;
+  const bool has_file = n.has("file"), has_inline = n.has("vertices") || n.has("triangles");
+  if (has_file == has_inline) n.fail("needs either \"file\" or inline \"vertices\" and \"triangles\" (not both)");
+  if (has_file) {
+    std::string path = n.file("file");
+    mesh = with_context(n["file"], [&] { return load_mesh(path); });
+    if (mesh.name.empty()) mesh.name = fs::path(path).stem().string();
+  } else {
+    n.require("vertices");
+    n.require("triangles");
+    Node v = n["vertices"], t = n["triangles"];
+    v.expect_array();
+    t.expect_array();
+    for (size_t i = 0; i < v.j.size(); ++i) mesh.vertices.push_back(v.at(i).vec3());
+    for (size_t i = 0; i < t.j.size(); ++i) {
+      Node tri = t.at(i);
+      if (!tri.j.is_array() || tri.j.size() != 3) tri.fail("must be a list of 3 vertex indices");
+      std::array<uint32_t, 3> idx;
+      for (size_t k = 0; k < 3; ++k) {
+        Node e = tri.at(k);
+        int64_t x = e.integer();
+        if (x < 0 || x >= int64_t(mesh.vertices.size()))
+          e.fail("is out of range (the mesh has " + std::to_string(mesh.vertices.size()) + " vertices)");
+        idx[k] = uint32_t(x);
+      }
+      mesh.triangles.push_back(idx);
+    }
+    if (mesh.triangles.empty()) t.fail("must hold at least one triangle");
+  }
+  mesh.name = n.string("name", mesh.name.empty() ? "mesh_" + std::to_string(index) : mesh.name);
+  if (n.has("transform")) {
+    Node tn = n["transform"];
+    std::array<float, 16> m = tn.affine();
+    Affine a = affine_from_rowmajor(m.data());
+    for (Vec3& p : mesh.vertices) p = a.point(p);
+    const Mat3& l = a.linear;
+    double det = double(l.m[0][0]) * (double(l.m[1][1]) * l.m[2][2] - double(l.m[1][2]) * l.m[2][1]) -
+                 double(l.m[0][1]) * (double(l.m[1][0]) * l.m[2][2] - double(l.m[1][2]) * l.m[2][0]) +
+                 double(l.m[0][2]) * (double(l.m[1][0]) * l.m[2][1] - double(l.m[1][1]) * l.m[2][0]);
+    if (!(std::fabs(det) > 0.0) || !std::isfinite(det)) tn.fail("is singular");
+    // A mirror would turn the faces inside out: keep the winding's normals pointing the same way.
+    if (det < 0.0)
+      for (auto& tri : mesh.triangles) std::swap(tri[1], tri[2]);
+  }
+  for (const Vec3& p : mesh.vertices)
+    if (!is_finite(p)) n.fail("has a non-finite vertex");
+  mesh.material = n.has("material") ? parse_material(n["material"], mesh.name) : MeshMaterial{};
+  if (!n.has("material")) mesh.material.name = mesh.name;
+  return mesh;
+}
+
+Emitter parse_light(const Node& n) {
+  n.expect_object();
+  n.require("type");
+  std::string type = n.choice("type", "", {"point", "sun", "area"});
+  if (type == "point") {
+    n.check_keys({"type", "name", "position", "power", "color", "radius", "visible_camera"});
+    n.require("position");
+    n.require("power");
+    Vec3 pos = n["position"].vec3();
+    float power = n.non_negative("power", 0.0f);
+    return PointLight::from_blender(pos, power, n.colour("color", Vec3(1.0f)), n.non_negative("radius", 0.0f));
+  }
+  if (type == "sun") {
+    n.check_keys({"type", "name", "direction", "transform", "strength", "color", "angle", "visible_camera"});
+    if (n.has("direction") == n.has("transform")) n.fail("needs exactly one of \"direction\" (toward the sun) or \"transform\"");
+    Vec3 to_sun;
+    if (n.has("direction")) {
+      to_sun = n["direction"].vec3();
+      if (!(length(to_sun) > 0.0f)) n["direction"].fail("must not be zero");
+    } else {
+      std::array<float, 16> m = n["transform"].affine();
+      to_sun = Vec3(m[2], m[6], m[10]);  // the object's +z axis: Blender suns shine along local -z
+      if (!(length(to_sun) > 0.0f)) n["transform"].fail("has a zero z axis");
+    }
+    float strength = n.non_negative("strength", 1.0f);
+    float angle = n.number_in("angle", 0.0f, 0.0f, kPi);
+    return SunLight::from_blender(to_sun, strength, n.colour("color", Vec3(1.0f)), angle);
+  }
+  // area
+  n.check_keys({"type", "name", "shape", "transform", "size", "size_y", "power", "color", "visible_camera"});
+  n.require("transform");
+  n.require("power");
+  std::string shape = n.choice("shape", "square", {"square", "rectangle", "disk", "ellipse"});
+  float size = n.positive("size", 1.0f);
+  float size_y = n.positive("size_y", size);
+  if (shape == "square" || shape == "disk") size_y = size;  // Blender ignores Size Y for these shapes
+  std::array<float, 16> m = n["transform"].affine();
+  Affine a = affine_from_rowmajor(m.data());
+  if (!(length(a.linear.col(0)) > 0.0f) || !(length(a.linear.col(1)) > 0.0f) ||
+      !(length(cross(a.linear.col(0), a.linear.col(1))) > 0.0f))
+    n["transform"].fail("is degenerate in the light's plane (local x and y)");
+  AreaShape s = (shape == "square" || shape == "rectangle") ? AreaShape::Rectangle : AreaShape::Ellipse;
+  return AreaLight::from_blender(a, s, size, size_y, n.non_negative("power", 0.0f), n.colour("color", Vec3(1.0f)));
+}
+
+void parse_environment(const Node& n, SceneEnvironment& env) {
+  if (n.j.is_null()) return;
+  n.expect_object();
+  n.require("type");
+  std::string type = n.choice("type", "", {"latlong", "color", "sg"});
+  if (type == "latlong") {
+    n.check_keys({"type", "file", "strength", "rotation_z"});
+    n.require("file");
+    std::string path = n.file("file");
+    float strength = n.non_negative("strength", 1.0f);
+    float rot = n.number("rotation_z", 0.0f);
+    env.latlong = with_context(n["file"], [&] { return Environment::load(path, strength, rot); });
+  } else if (type == "color") {
+    n.check_keys({"type", "color", "strength"});
+    Vec3 c = n.colour("color", Vec3(1.0f));
+    float strength = n.non_negative("strength", 1.0f);
+    env.latlong = Environment::constant(c * strength);
+  } else {
+    n.check_keys({"type", "lobes", "gamma", "raw"});
+    int lobes = int(n.integer_in("lobes", SgEnvironment::kDefaultLobes, 1, 4096));
+    float gamma = n.positive("gamma", SgEnvironment::kDefaultGamma);
+    SgEnvironment sg(lobes, gamma);
+    if (n.has("raw")) {
+      Node r = n["raw"];
+      if (r.j.is_array() && r.j.size() == 3 && r.j.at(0).is_number()) {
+        Vec3 v = r.vec3();
+        for (Vec3& x : sg.raw()) x = v;
+      } else {
+        r.expect_array();
+        if (int(r.j.size()) != lobes)
+          r.fail("must be one [r, g, b] or one per lobe (" + std::to_string(lobes) + "), got " + std::to_string(r.j.size()));
+        for (int i = 0; i < lobes; ++i) sg.raw()[i] = r.at(size_t(i)).vec3();
+      }
+    }
+    sg.update();
+    env.sg = std::move(sg);
+  }
+}
+
+void parse_cameras(const Node& n, std::vector<Camera>& cams) {
+  n.expect_array();
+  for (size_t i = 0; i < n.j.size(); ++i) {
+    Node c = n.at(i);
+    c.expect_object();
+    if (c.has("transforms")) {
+      c.check_keys({"transforms", "width", "height"});
+      std::string path = c.file("transforms");
+      int w = int(c.integer_in("width", 0, 0, 65536)), h = int(c.integer_in("height", 0, 0, 65536));
+      std::vector<Camera> more = with_context(c["transforms"], [&] { return load_transforms_json(path, w, h); });
+      cams.insert(cams.end(), more.begin(), more.end());
+    } else {
+      c.check_keys({"name", "transform", "fov_x", "width", "height"});
+      for (const char* k : {"transform", "fov_x", "width", "height"}) c.require(k);
+      std::array<float, 16> m = c["transform"].matrix();
+      float fov = c.number_in("fov_x", 0.0f, 0.0f, kPi, true);
+      if (fov >= kPi) c["fov_x"].fail("must be below pi (radians)");
+      int w = int(c.integer_in("width", 0, 1, 65536)), h = int(c.integer_in("height", 0, 1, 65536));
+      std::string name = c.string("name", "camera_" + std::to_string(i));
+      cams.push_back(with_context(c, [&] { return make_camera(m.data(), fov, w, h, name); }));
+    }
+  }
+  std::set<std::string> seen;
+  for (const Camera& cam : cams)
+    if (!seen.insert(cam.name).second) n.fail("has two cameras named '" + cam.name + "'");
+}
+
+void parse_integrator(const Node& n, IntegratorSettings& s) {
+  if (n.j.is_null()) return;
+  n.check_keys({"spp", "bounces", "seed", "interaction", "tau_g", "geometric_criterion", "self_intersection",
+                "self_range_scale", "fixed_offset", "fixed_range", "min_throughput"});
+  s.spp = int(n.integer_in("spp", s.spp, 1, 1 << 20));
+  s.max_bounces = int(n.integer_in("bounces", s.max_bounces, 0, 1024));
+  if (n.has("seed")) {
+    Node sn = n["seed"];
+    if (!sn.j.is_number_unsigned() && !(sn.j.is_number_integer() && sn.j.get<int64_t>() >= 0))
+      sn.fail("must be a non-negative integer");
+    s.seed = sn.j.get<uint64_t>();
+  }
+  s.interaction.mode = n.choice("interaction", "aggregate", {"aggregate", "discrete"}) == "discrete"
+                           ? InteractionMode::Discrete
+                           : InteractionMode::Aggregate;
+  s.interaction.tau_g = n.number_in("tau_g", s.interaction.tau_g, 0.0f, 1.0f);
+  s.geometric_criterion = n.boolean("geometric_criterion", s.geometric_criterion);
+  s.self_intersection = n.choice("self_intersection", "backface", {"backface", "fixed"}) == "fixed"
+                            ? SelfIntersection::FixedOffset
+                            : SelfIntersection::BackfaceAware;
+  if (n.contains("self_range_scale")) {
+    Node r = n["self_range_scale"];
+    if (r.j.is_null() || (r.j.is_string() && r.j.get<std::string>() == "inf"))
+      s.self_range_scale = std::numeric_limits<float>::infinity();
+    else if (r.j.is_number())
+      s.self_range_scale = n.positive("self_range_scale", 0.0f);
+    else
+      r.fail("must be a positive number or \"inf\"");
+  }
+  s.fixed_offset = n.non_negative("fixed_offset", s.fixed_offset);
+  s.fixed_range = n.non_negative("fixed_range", s.fixed_range);
+  s.min_throughput = n.non_negative("min_throughput", s.min_throughput);
+}
+
+// Shortest-axis normals face the cameras (or away from the centroid without cameras);
+// the meshes occlude.
+void orient_loaded_normals(GaussianField& field, const std::vector<TriangleMesh>& meshes, const std::vector<Camera>& cams) {
+  if (field.normals_from_file || field.size() == 0) return;
+  if (cams.empty()) {
+    orient_normals_away_from_centroid(field);
+    return;
+  }
+  SceneAccel accel(field, meshes);
+  int rays_per_camera = std::max(4096, int(262144 / std::max<size_t>(1, cams.size())));
+  orient_normals_to_cameras(field, accel, cams, rays_per_camera);
+}
+
+Scene parse_scene(const json& root, const Ctx& ctx) {
+  Node n{root, "", ctx};
+  if (!root.is_object()) ctx.fail("", std::string("the scene must be a JSON object, got ") + type_name(root));
+  n.check_keys({"version", "comment", "gaussians", "meshes", "lights", "environment", "cameras", "integrator"});
+  if (n.has("version") && n.integer_in("version", 1, 1, 1) != 1) n.fail("unsupported version");
+  Scene scene;
+  scene.source_path = ctx.file;
+  if (n.has("cameras")) parse_cameras(n["cameras"], scene.cameras);
+  if (n.has("integrator")) parse_integrator(n["integrator"], scene.integrator);
+  if (n.has("environment")) parse_environment(n["environment"], scene.environment);
+  if (n.has("lights")) {
+    Node l = n["lights"];
+    l.expect_array();
+    for (size_t i = 0; i < l.j.size(); ++i) {
+      scene.emitters.push_back(parse_light(l.at(i)));
+      // Blender hides lights from camera rays unless Ray Visibility > Camera is on.
+      scene.emitter_visible_camera.push_back(l.at(i).boolean("visible_camera", false) ? 1 : 0);
+    }
+  }
+  if (n.has("meshes")) {
+    Node m = n["meshes"];
+    m.expect_array();
+    for (size_t i = 0; i < m.j.size(); ++i) scene.meshes.push_back(parse_mesh(m.at(i), i));
+  }
+  if (n.has("gaussians")) {
+    Node g = n["gaussians"];
+    g.expect_array();
+    GaussianField all;
+    for (size_t i = 0; i < g.j.size(); ++i) {
+      Node e = g.at(i);
+      e.check_keys({"file", "transform"});
+      e.require("file");
+      std::string path = e.file("file");
+      GaussianField field = with_context(e["file"], [&] { return load_gaussians(path); });
+      if (e.has("transform")) {
+        Node t = e["transform"];
+        std::array<float, 16> m = t.matrix();
+        with_context(t, [&] {
+          transform_gaussians(field, m.data(), path);
+          return 0;
+        });
+      }
+      orient_loaded_normals(field, scene.meshes, scene.cameras);
+      append_gaussians(all, std::move(field));
+    }
+    *scene.gaussians = std::move(all);
+  }
+  return scene;
+}
+
+}  // namespace
+
+Scene scene_from_json_string(const std::string& text, const std::string& base_dir, const std::string& name) {
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // e.what() is "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
+    std::string what = e.what();
+    auto pos = what.find("] ");
+    throw Error(name, "invalid JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
+  }
+  Ctx ctx{name, base_dir};
+  return parse_scene(root, ctx);
+}
+
+Scene load_scene_json(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open scene file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  fs::path p(path);
+  return scene_from_json_string(ss.str(), p.has_parent_path() ? p.parent_path().string() : std::string(), path);
+}
+
+}  // namespace ptir

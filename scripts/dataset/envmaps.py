@@ -1,0 +1,69 @@
+"""Synthetic HDR environment maps (lat-long, linear RGB) in Blender's orientation.
+
+Texel (x, y) of a W x H map (row 0 = top of the file) covers u in [x/W, (x+1)/W)
+and theta = pi (y + 0.5) / H from +z; the direction of u is
+phi = (0.5 - u) 2 pi, i.e. u = 0.5 is +x and u = 0.25 is +y: exactly the
+Environment Texture node's default mapping and ptir's Environment::load
+(native/src/ptir/lights/environment.h). Values are radiance, strength 1.
+
+Each map is a sky gradient (zenith / horizon / ground colours) plus a few
+spherical-Gaussian "lamps" L = c exp(lambda (d.mu - 1)). They are smooth enough
+that 64-spp Cycles renders are not dominated by noise, and different enough
+(colour, direction, sharpness) that relighting is a real test.
+"""
+
+import math
+
+import numpy as np
+
+
+def direction(azimuth_deg, elevation_deg):
+    """Unit vector; azimuth from +x toward +y, elevation above the xy plane."""
+    a, e = math.radians(azimuth_deg), math.radians(elevation_deg)
+    return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+
+
+def texel_directions(width, height):
+    """(H, W, 3) unit directions of the texel centres."""
+    u = (np.arange(width) + 0.5) / width
+    theta = math.pi * (np.arange(height) + 0.5) / height
+    phi = (0.5 - u) * 2.0 * math.pi
+    st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
+    return np.stack([st * np.cos(phi)[None, :], st * np.sin(phi)[None, :], np.broadcast_to(ct, (height, width))], -1)
+
+
+def _smoothstep(e0, e1, x):
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+# name -> (zenith, horizon, ground, [(colour, azimuth, elevation, sharpness), ...])
+PRESETS = {
+    # Training light: a neutral room with a big warm key light up-front-right, a
+    # cool fill on the other side and a dim floor. Broad lobes: soft shading and
+    # wide highlights that still reveal roughness.
+    "studio": ((0.30, 0.30, 0.32), (0.34, 0.33, 0.32), (0.10, 0.10, 0.10),
+               [((4.0, 3.7, 3.3), 35.0, 40.0, 12.0),
+                ((0.9, 1.1, 1.5), 215.0, 25.0, 5.0),
+                ((1.2, 1.2, 1.2), 300.0, 70.0, 8.0)]),
+    # Relight 1: a low orange sun under a purple-blue sky, dark ground.
+    "sunset": ((0.10, 0.14, 0.32), (0.75, 0.42, 0.25), (0.06, 0.05, 0.045),
+               [((14.0, 7.0, 3.0), 250.0, 10.0, 60.0),
+                ((0.6, 0.3, 0.2), 250.0, 5.0, 4.0)]),
+    # Relight 2: a clear blue sky with a high white sun on the other side, green ground.
+    "sky": ((0.20, 0.38, 0.80), (0.60, 0.70, 0.85), (0.12, 0.16, 0.08),
+            [((16.0, 15.0, 13.5), 120.0, 60.0, 100.0)]),
+}
+
+
+def make_envmap(name, width=128, height=64):
+    """The preset `name` as an (H, W, 3) float32 array."""
+    zenith, horizon, ground, lamps = PRESETS[name]
+    d = texel_directions(width, height)
+    z = d[..., 2:3]
+    sky = np.asarray(horizon) + (np.asarray(zenith) - np.asarray(horizon)) * _smoothstep(0.0, 0.8, z)
+    img = np.where(z >= 0.0, sky, np.asarray(ground) + (np.asarray(horizon) - np.asarray(ground)) * _smoothstep(-0.15, 0.0, z))
+    for colour, az, el, sharp in lamps:
+        mu = direction(az, el)
+        img = img + np.asarray(colour) * np.exp(sharp * (d @ mu - 1.0))[..., None]
+    return img.astype(np.float32)

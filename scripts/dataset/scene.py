@@ -1,0 +1,337 @@
+"""Blender side of the dataset maker: the sample object, materials with a
+roughness AOV, the environment world, cameras, Cycles settings and the
+compositor that writes every pass as an uncompressed float EXR.
+"""
+
+import math
+import os
+
+import bmesh
+import bpy
+import numpy as np
+
+OBJECT_COLLECTION = "PTIR_Object"
+ROUGHNESS_AOV = "roughness"
+FOV_X = 0.6911112  # NeRF-synthetic's camera_angle_x
+
+# The bundled sample: part -> (linear base colour, roughness). Metallic 0 everywhere.
+SAMPLE_PARTS = {
+    "head": ((0.80, 0.30, 0.10), 0.30),
+    "eyes": ((0.85, 0.85, 0.80), 0.20),
+    "pedestal_top": ((0.60, 0.60, 0.55), 0.80),
+    "pedestal_side": ((0.08, 0.30, 0.45), 0.50),
+}
+
+
+# ---------------------------------------------------------------- materials
+
+def principled_material(name, base_colour, roughness, metallic=0.0):
+    """A Principled BSDF (GGX, specular 0.5 = F0 0.04, nothing else) plus an AOV
+    Output writing the roughness into the view layer's "roughness" AOV."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nt = mat.node_tree
+    p = nt.nodes["Principled BSDF"]
+    p.distribution = "GGX"
+    p.inputs["Base Color"].default_value = (*base_colour, 1.0)
+    p.inputs["Metallic"].default_value = metallic
+    p.inputs["Specular"].default_value = 0.5
+    p.inputs["Specular Tint"].default_value = 0.0
+    p.inputs["Roughness"].default_value = roughness
+    p.inputs["Sheen"].default_value = 0.0
+    p.inputs["Clearcoat"].default_value = 0.0
+    p.inputs["Subsurface"].default_value = 0.0
+    p.inputs["Transmission"].default_value = 0.0
+    mat.diffuse_color = (*base_colour, 1.0)  # viewport colour
+    mat["ptir_base_color"] = list(base_colour)
+    mat["ptir_roughness"] = float(roughness)
+    mat["ptir_metallic"] = float(metallic)
+    ensure_roughness_aov(mat)
+    return mat
+
+
+def principled_node(mat):
+    if not mat or not mat.use_nodes:
+        return None
+    for node in mat.node_tree.nodes:
+        if node.type == "BSDF_PRINCIPLED":
+            return node
+    return None
+
+
+def ensure_roughness_aov(mat):
+    """Adds (once) an AOV Output "roughness" fed by the Principled node's roughness
+    (its link when it is textured, else its value). Materials without a Principled
+    node write 0.5 and are reported by material_values()."""
+    nt = mat.node_tree
+    for node in nt.nodes:
+        if node.bl_idname == "ShaderNodeOutputAOV" and node.name == ROUGHNESS_AOV:
+            return node
+    aov = nt.nodes.new("ShaderNodeOutputAOV")
+    aov.name = ROUGHNESS_AOV  # ShaderNodeOutputAOV.name is the AOV's name
+    p = principled_node(mat)
+    if p is None:
+        aov.inputs["Value"].default_value = 0.5
+    elif p.inputs["Roughness"].is_linked:
+        nt.links.new(p.inputs["Roughness"].links[0].from_socket, aov.inputs["Value"])
+    else:
+        aov.inputs["Value"].default_value = p.inputs["Roughness"].default_value
+    return aov
+
+
+def material_values(mat):
+    """(base colour, roughness, metallic, exact) of a material: the Principled node's
+    unlinked values; exact = False when textured or not Principled."""
+    if mat is not None and "ptir_base_color" in mat:
+        return tuple(mat["ptir_base_color"]), float(mat["ptir_roughness"]), float(mat["ptir_metallic"]), True
+    p = principled_node(mat)
+    if p is None:
+        return (0.8, 0.8, 0.8), 0.5, 0.0, False
+    linked = any(p.inputs[k].is_linked for k in ("Base Color", "Roughness", "Metallic"))
+    c = p.inputs["Base Color"].default_value
+    return (c[0], c[1], c[2]), p.inputs["Roughness"].default_value, p.inputs["Metallic"].default_value, not linked
+
+
+# ---------------------------------------------------------------- the sample object
+
+def clear_scene():
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj, do_unlink=True)
+    for coll in (bpy.data.meshes, bpy.data.materials, bpy.data.cameras, bpy.data.lights, bpy.data.images):
+        for block in list(coll):
+            coll.remove(block)
+
+
+def _collection():
+    coll = bpy.data.collections.get(OBJECT_COLLECTION)
+    if coll is None:
+        coll = bpy.data.collections.new(OBJECT_COLLECTION)
+        bpy.context.scene.collection.children.link(coll)
+    return coll
+
+
+def _move_to(obj, coll):
+    for c in list(obj.users_collection):
+        c.objects.unlink(obj)
+    coll.objects.link(obj)
+
+
+def build_sample_object(subdiv=2, pedestal_cuts=4, radius=1.25):
+    """Suzanne (smooth, Catmull-Clark level `subdiv`; head and eyes separate parts)
+    resting on a closed box pedestal (top and sides separate parts), scaled so the
+    bounding sphere of the whole has `radius` and centred at the origin.
+    Returns the mesh objects (in collection PTIR_Object)."""
+    coll = _collection()
+    mats = {name: principled_material(name, c, r) for name, (c, r) in SAMPLE_PARTS.items()}
+
+    size, height = 1.25, 0.4
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -0.5 * height))
+    ped = bpy.context.active_object
+    ped.name = "pedestal"
+    ped.scale = (size, size, height)
+    bpy.ops.object.transform_apply(scale=True)
+    ped.data.materials.append(mats["pedestal_top"])
+    ped.data.materials.append(mats["pedestal_side"])
+    bm = bmesh.new()
+    bm.from_mesh(ped.data)
+    for f in bm.faces:
+        f.material_index = 0 if f.normal.z > 0.9 else 1
+    bm.to_mesh(ped.data)
+    bm.free()
+    mod = ped.modifiers.new("grid", "SUBSURF")
+    mod.subdivision_type = "SIMPLE"
+    mod.levels = mod.render_levels = pedestal_cuts
+
+    bpy.ops.mesh.primitive_monkey_add(size=1.5, location=(0.0, 0.0, 0.0))
+    head = bpy.context.active_object
+    head.rotation_euler = (math.radians(-10.0), 0.0, math.radians(-20.0))
+    bpy.ops.object.transform_apply(rotation=True)
+    lowest = min(v.co.z for v in head.data.vertices)
+    head.location.z = -lowest - 0.03  # sink the chin slightly into the pedestal top
+    bpy.ops.object.transform_apply(location=True)
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.separate(type="LOOSE")
+    bpy.ops.object.mode_set(mode="OBJECT")
+    parts = sorted(bpy.context.selected_objects, key=lambda o: len(o.data.vertices), reverse=True)
+    for i, obj in enumerate(parts):
+        obj.name = "head" if i == 0 else "eye_%d" % i
+        obj.data.materials.clear()
+        obj.data.materials.append(mats["head" if i == 0 else "eyes"])
+        for poly in obj.data.polygons:
+            poly.use_smooth = True
+        mod = obj.modifiers.new("smooth", "SUBSURF")
+        mod.levels = mod.render_levels = subdiv
+
+    objs = [ped] + parts
+    # Centre and scale the whole: bounding sphere (about the box centre) of `radius`.
+    dg = bpy.context.evaluated_depsgraph_get()
+    pts = []
+    for o in objs:
+        ev = o.evaluated_get(dg)
+        m = ev.to_mesh()
+        co = np.empty(len(m.vertices) * 3)
+        m.vertices.foreach_get("co", co)
+        ev.to_mesh_clear()
+        mw = np.array(o.matrix_world)
+        pts.append(co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3])
+    pts = np.concatenate(pts)
+    centre = 0.5 * (pts.min(0) + pts.max(0))
+    scale = radius / np.linalg.norm(pts - centre, axis=1).max()
+    for o in objs:
+        o.location = (np.array(o.location) - centre) * scale
+        o.scale = tuple(np.array(o.scale) * scale)
+        _move_to(o, coll)
+    bpy.ops.object.select_all(action="SELECT")
+    bpy.ops.object.transform_apply(location=True, rotation=True, scale=True)
+    bpy.ops.object.select_all(action="DESELECT")
+    return objs
+
+
+def object_meshes():
+    """The object to capture: the meshes of collection PTIR_Object, else every
+    visible mesh object of the scene."""
+    coll = bpy.data.collections.get(OBJECT_COLLECTION)
+    objs = list(coll.all_objects) if coll else list(bpy.context.scene.objects)
+    return [o for o in objs if o.type == "MESH" and not o.hide_render]
+
+
+# ---------------------------------------------------------------- world, cameras, Cycles
+
+def set_environment(scene, exr_path):
+    """World = Environment Texture (Closest, equirectangular, default mapping) x strength 1."""
+    world = scene.world or bpy.data.worlds.new("World")
+    scene.world = world
+    world.use_nodes = True
+    world.cycles.sampling_method = "MANUAL"
+    world.cycles.sample_map_resolution = 256
+    nt = world.node_tree
+    nt.nodes.clear()
+    env = nt.nodes.new("ShaderNodeTexEnvironment")
+    env.interpolation = "Closest"  # = ptir's nearest lookup: both renderers see the same function
+    env.projection = "EQUIRECTANGULAR"
+    env.image = bpy.data.images.load(os.path.abspath(exr_path), check_existing=True)
+    env.image.colorspace_settings.name = "Linear"
+    bg = nt.nodes.new("ShaderNodeBackground")
+    bg.inputs["Strength"].default_value = 1.0
+    out = nt.nodes.new("ShaderNodeOutputWorld")
+    nt.links.new(env.outputs["Color"], bg.inputs["Color"])
+    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
+
+
+def look_at(eye, target=(0.0, 0.0, 0.0)):
+    """Camera-to-world 4x4 (camera looks down -z, +y up, world z up)."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    back = eye - target
+    back /= np.linalg.norm(back)
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, up, back, eye
+    return m
+
+
+def camera_object(scene, fov_x=FOV_X):
+    cam = bpy.data.objects.get("PTIR_Camera")
+    if cam is None:
+        data = bpy.data.cameras.new("PTIR_Camera")
+        cam = bpy.data.objects.new("PTIR_Camera", data)
+        scene.collection.objects.link(cam)
+    cam.data.type = "PERSP"
+    cam.data.sensor_fit = "HORIZONTAL"
+    cam.data.angle = fov_x
+    cam.data.shift_x = cam.data.shift_y = 0.0
+    cam.data.clip_start = 0.01
+    cam.data.clip_end = 1000.0
+    scene.camera = cam
+    return cam
+
+
+def setup_cycles(scene, res, samples, bounces, threads):
+    """Cycles computing the expectation ptir's estimator computes: no denoising, no
+    adaptive sampling, no clamping, no glossy filter, no light threshold, caustics
+    on, Box filter of 1 px (= uniform jitter in the pixel), transparent film
+    (alpha = coverage), every bounce limit = bounces."""
+    scene.render.engine = "CYCLES"
+    cy = scene.cycles
+    cy.device = "CPU"
+    cy.samples = samples
+    cy.use_adaptive_sampling = False
+    cy.use_denoising = False
+    cy.max_bounces = bounces
+    cy.diffuse_bounces = bounces
+    cy.glossy_bounces = bounces
+    cy.transmission_bounces = bounces
+    cy.volume_bounces = 0
+    cy.transparent_max_bounces = 8
+    cy.sample_clamp_direct = 0.0
+    cy.sample_clamp_indirect = 0.0
+    cy.blur_glossy = 0.0
+    cy.light_sampling_threshold = 0.0
+    cy.caustics_reflective = True
+    cy.caustics_refractive = True
+    cy.pixel_filter_type = "BOX"
+    cy.filter_width = 1.0
+    cy.use_animated_seed = False
+    scene.render.threads_mode = "FIXED" if threads > 0 else "AUTO"
+    if threads > 0:
+        scene.render.threads = threads
+    scene.render.resolution_x = res
+    scene.render.resolution_y = res
+    scene.render.resolution_percentage = 100
+    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
+    scene.render.film_transparent = True
+    scene.render.use_compositing = True
+    scene.render.use_sequencer = False
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    scene.frame_current = 1
+    for o in object_meshes():
+        o.cycles.shadow_terminator_geometry_offset = 0.0
+        o.cycles.shadow_terminator_offset = 0.0
+
+
+PASSES = ("rgba", "albedo", "normal", "roughness")
+
+
+def setup_passes(scene, out_dir):
+    """Diffuse Color and Normal passes, the roughness AOV, and a File Output node
+    writing rgba/albedo/normal/roughness as uncompressed 32-bit EXR into out_dir."""
+    vl = scene.view_layers[0]
+    vl.use_pass_diffuse_color = True
+    vl.use_pass_normal = True
+    if ROUGHNESS_AOV not in [a.name for a in vl.aovs]:
+        aov = vl.aovs.add()
+        aov.name = ROUGHNESS_AOV
+        aov.type = "VALUE"
+    scene.use_nodes = True
+    nt = scene.node_tree
+    nt.nodes.clear()
+    rl = nt.nodes.new("CompositorNodeRLayers")
+    comp = nt.nodes.new("CompositorNodeComposite")
+    nt.links.new(rl.outputs["Image"], comp.inputs["Image"])
+    fo = nt.nodes.new("CompositorNodeOutputFile")
+    fo.base_path = out_dir
+    fo.format.file_format = "OPEN_EXR"
+    fo.format.color_depth = "32"
+    fo.format.exr_codec = "NONE"
+    fo.format.color_mode = "RGBA"
+    fo.file_slots.clear()
+    sources = {"rgba": "Image", "albedo": "DiffCol", "normal": "Normal", "roughness": ROUGHNESS_AOV}
+    for name in PASSES:
+        fo.file_slots.new(name + "_")
+        slot = fo.file_slots[-1]
+        slot.use_node_format = False
+        slot.format.file_format = "OPEN_EXR"
+        slot.format.color_depth = "32"
+        slot.format.exr_codec = "NONE"
+        slot.format.color_mode = "RGBA" if name == "rgba" else "RGB"
+        nt.links.new(rl.outputs[sources[name]], fo.inputs[-1])
+    return fo
+
+
+def pass_file(out_dir, name, frame=1):
+    return os.path.join(out_dir, "%s_%04d.exr" % (name, frame))

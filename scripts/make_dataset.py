@@ -1,0 +1,318 @@
+"""The dataset maker: a Blender scene rendered by Cycles into a TensoIR-layout
+inverse-rendering dataset with known answers, plus the object's surface as a
+3DGS splat file.
+
+Run inside Blender 3.4 (headless):
+
+    blender -b --factory-startup -noaudio --python-exit-code 1 -P scripts/make_dataset.py -- \
+        --out DIR [--blend FILE] [--res 100] [--train 16] [--test 8] [--spp 64] [--bounces 4]
+        [--subdiv 2] [--train-env studio] [--relight-envs sunset,sky] [--env-size 128x64]
+        [--threads N] [--save-blend FILE]
+
+The object: with --blend, the mesh objects of the file's collection "PTIR_Object"
+(else every renderable mesh); without, the bundled sample built in code
+(scripts/dataset/scene.py: Suzanne on a pedestal, four Principled parts with
+metallic 0 and known colour/roughness; sample_blends/sample_object.blend is the
+same object saved by sample_blends/build_sample_object.py).
+
+Writes (docs/dataset_format.md has the conventions):
+    DIR/transforms_train.json, transforms_test.json   NeRF-synthetic cameras
+    DIR/train_XXX/rgba.png                            under the training environment
+    DIR/test_XXX/rgba.png                             novel view, training environment
+    DIR/test_XXX/albedo.png, roughness.png, normal.png ground truth
+    DIR/test_XXX/rgba_<env>.png                       relit under each relight environment
+    DIR/envmaps/<env>.exr                             every environment (linear lat-long, Blender orientation)
+    DIR/gaussians.ply                                 the surface as flat Gaussians (3DGS layout, no normals)
+    DIR/oracle/gaussians.ply, oracle/env.exr          a perfect "result" (true materials, face normals,
+                                                      training environment) for checking the evaluation
+    DIR/dataset.json                                  what was made, with which settings
+"""
+
+import argparse
+import json
+import os
+import shutil
+import sys
+import time
+
+import bpy
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from dataset import envmaps, exr, png, scene as dscene, splat  # noqa: E402
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="make_dataset.py", description=__doc__.split("\n")[0])
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--blend", help="take the object from this .blend (collection PTIR_Object)")
+    p.add_argument("--res", type=int, default=100, help="image width and height (default 100)")
+    p.add_argument("--train", type=int, default=16, help="training views (default 16)")
+    p.add_argument("--test", type=int, default=8, help="test views (default 8)")
+    p.add_argument("--spp", type=int, default=64, help="Cycles samples per pixel (default 64)")
+    p.add_argument("--bounces", type=int, default=4, help="Cycles bounce limit (default 4)")
+    p.add_argument("--subdiv", type=int, default=2, help="built-in sample: Suzanne's subdivision level (default 2)")
+    p.add_argument("--train-env", default="studio", help="environment of the training and NVS test views")
+    p.add_argument("--relight-envs", default="sunset,sky", help="comma-separated relight environments ('' for none)")
+    p.add_argument("--env-size", default="128x64", help="environment map size WxH (default 128x64)")
+    p.add_argument("--threads", type=int, default=0, help="Cycles threads (0: all)")
+    p.add_argument("--save-blend", help="also save the object scene (no cameras/world) to this .blend")
+    a = p.parse_args(argv)
+    a.relight_envs = [e for e in a.relight_envs.split(",") if e]
+    for name in [a.train_env] + a.relight_envs:
+        if name not in envmaps.PRESETS:
+            p.error("unknown environment '%s' (choose from %s)" % (name, ", ".join(envmaps.PRESETS)))
+    if a.train_env in a.relight_envs:
+        p.error("the training environment cannot also be a relight environment")
+    try:
+        a.env_w, a.env_h = (int(v) for v in a.env_size.lower().split("x"))
+    except ValueError:
+        p.error("--env-size must be WxH, e.g. 128x64")
+    if min(a.res, a.train, a.spp, a.env_w, a.env_h) < 1 or a.test < 1 or a.bounces < 0:
+        p.error("sizes and counts must be positive")
+    return a
+
+
+def log(msg):
+    print("make_dataset: " + msg, flush=True)
+
+
+# ---------------------------------------------------------------- cameras
+
+def train_poses(n, distance):
+    """n views spread over the upper part of a sphere (elevation 5..65 degrees, golden-angle azimuths)."""
+    out = []
+    s0, s1 = np.sin(np.radians(5.0)), np.sin(np.radians(65.0))
+    for i in range(n):
+        el = np.arcsin(s0 + (s1 - s0) * (i + 0.5) / n)
+        az = np.radians(137.50776 * i + 10.0)
+        eye = distance * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+        out.append(dscene.look_at(eye))
+    return out
+
+
+def test_poses(n, distance):
+    """n views on a ring, elevations alternating 15 and 35 degrees, azimuths between the training ones."""
+    out = []
+    for j in range(n):
+        el = np.radians(15.0 if j % 2 == 0 else 35.0)
+        az = np.radians(360.0 * j / n + 22.5) - 0.5 * np.pi
+        eye = distance * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+        out.append(dscene.look_at(eye))
+    return out
+
+
+def write_transforms(path, prefix, poses, res):
+    frames = [{"file_path": "./%s_%03d/rgba" % (prefix, i), "transform_matrix": np.round(m, 7).tolist()}
+              for i, m in enumerate(poses)]
+    with open(path, "w") as f:
+        json.dump({"camera_angle_x": dscene.FOV_X, "w": res, "h": res, "frames": frames}, f, indent=1)
+
+
+# ---------------------------------------------------------------- passes -> PNG files
+
+def unpremultiply(v, a):
+    """Premultiplied pass values / coverage (0 where nothing was hit)."""
+    safe = np.where(a > 1e-4, a, 1.0)
+    return np.where(a > 1e-4, v / safe, 0.0)
+
+
+def write_rgba_png(path, rgba):
+    """Linear premultiplied RGBA -> straight sRGB-encoded 8-bit RGBA (as Blender and TensoIR store PNGs)."""
+    a = rgba[..., 3:4]
+    rgb = png.srgb_encode(unpremultiply(rgba[..., :3], a))
+    png.write_png(path, png.to_8bit(np.concatenate([rgb, a], -1)))
+
+
+def write_gt_pngs(view_dir, passes, alpha):
+    a = alpha[..., None]
+    # Albedo: the Diffuse Color pass (= base colour x (1 - metallic) for a Principled
+    # BSDF, 1 - transmission aside), sRGB-encoded colour like TensoIR's albedo.png.
+    albedo = png.srgb_encode(unpremultiply(passes["albedo"][..., :3], a))
+    png.write_png(os.path.join(view_dir, "albedo.png"), png.to_8bit(np.concatenate([albedo, a], -1)))
+    # Normal: world space, 0.5 + 0.5 n (renormalised after the pixel average).
+    n = unpremultiply(passes["normal"][..., :3], a)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+    enc = np.where(a > 1e-4, 0.5 + 0.5 * n, 0.0)
+    png.write_png(os.path.join(view_dir, "normal.png"), png.to_8bit(np.concatenate([enc, a], -1)))
+    # Roughness: linear grey (data, no curve).
+    r = unpremultiply(passes["roughness"][..., :1], a)
+    png.write_png(os.path.join(view_dir, "roughness.png"), png.to_8bit(np.concatenate([r, r, r, a], -1)))
+
+
+def read_pass(path):
+    ch = exr.read_exr(path)
+    names = list(ch)
+    if set("RGBA") <= set(names):
+        return np.stack([ch[c] for c in "RGBA"], -1)
+    if set("RGB") <= set(names):
+        return np.stack([ch[c] for c in "RGB"], -1)
+    return np.stack([ch[names[0]]], -1)
+
+
+def render_view(scene, cam, matrix, seed, tmp):
+    cam.matrix_world = matrix.T.tolist()  # mathutils takes rows
+    scene.cycles.seed = seed
+    for name in dscene.PASSES:
+        f = dscene.pass_file(tmp, name)
+        if os.path.exists(f):
+            os.remove(f)
+    bpy.ops.render.render(write_still=False)
+    return {name: read_pass(dscene.pass_file(tmp, name)) for name in dscene.PASSES}
+
+
+# ---------------------------------------------------------------- splats
+
+def object_splats(objs):
+    """Gaussians of every polygon of every object, with per-polygon true materials."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    pieces, inexact = [], set()
+    for o in objs:
+        loops, start, total, mat_idx = splat.world_polygons(o, dg)
+        if len(start) == 0:
+            continue
+        g, keep = splat.polygons_to_gaussians(loops, start, total)
+        mats = [s.material for s in o.material_slots] or [None]
+        vals = []
+        for m in mats:
+            c, r, mt, exact = dscene.material_values(m)
+            if not exact:
+                inexact.add(m.name if m else "(none)")
+            vals.append((c, r, mt))
+        idx = np.clip(mat_idx[keep], 0, len(vals) - 1)
+        base = np.array([v[0] for v in vals])[idx]
+        g["albedo"] = base * (1.0 - np.array([v[2] for v in vals])[idx])[:, None]
+        g["roughness"] = np.array([v[1] for v in vals])[idx]
+        g["metallic"] = np.array([v[2] for v in vals])[idx]
+        g["display_colour"] = png.srgb_encode(base)  # what a trainer's SH DC would roughly hold
+        pieces.append(g)
+    if not pieces:
+        raise RuntimeError("the object has no polygons")
+    g = {k: np.concatenate([p[k] for p in pieces]) for k in pieces[0]}
+    return g, sorted(inexact)
+
+
+# ---------------------------------------------------------------- main
+
+def main():
+    a = parse_args()
+    t_start = time.time()
+    out = os.path.abspath(a.out)
+    os.makedirs(out, exist_ok=True)
+    if a.blend:
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(a.blend))
+        objs = dscene.object_meshes()
+        for o in objs:
+            for s in o.material_slots:
+                if s.material and s.material.use_nodes:
+                    dscene.ensure_roughness_aov(s.material)
+        source = os.path.abspath(a.blend)
+    else:
+        dscene.clear_scene()
+        objs = dscene.build_sample_object(subdiv=a.subdiv)
+        source = "built-in sample (subdiv %d)" % a.subdiv
+    if not objs:
+        raise RuntimeError("no mesh objects to capture")
+    if a.save_blend:
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(a.save_blend), compress=True, copy=True)
+        log("saved %s" % a.save_blend)
+    scene = bpy.context.scene
+
+    # Environment maps (exact linear floats, written byte by byte).
+    env_dir = os.path.join(out, "envmaps")
+    os.makedirs(env_dir, exist_ok=True)
+    env_files = {}
+    for name in [a.train_env] + a.relight_envs:
+        env_files[name] = os.path.join(env_dir, name + ".exr")
+        exr.write_exr(env_files[name], envmaps.make_envmap(name, a.env_w, a.env_h))
+
+    # Cameras.
+    distance = 4.0
+    poses = {"train": train_poses(a.train, distance), "test": test_poses(a.test, distance)}
+    for split in ("train", "test"):
+        write_transforms(os.path.join(out, "transforms_%s.json" % split), split, poses[split], a.res)
+
+    # Renders.
+    tmp = os.path.join(out, ".passes")
+    os.makedirs(tmp, exist_ok=True)
+    dscene.setup_cycles(scene, a.res, a.spp, a.bounces, a.threads)
+    dscene.setup_passes(scene, tmp)
+    cam = dscene.camera_object(scene)
+    t_render = time.time()
+    n_renders = 0
+    jobs = [(a.train_env, "train"), (a.train_env, "test")] + [(e, "test") for e in a.relight_envs]
+    for env, split in jobs:
+        dscene.set_environment(scene, env_files[env])
+        for i, m in enumerate(poses[split]):
+            view_dir = os.path.join(out, "%s_%03d" % (split, i))
+            os.makedirs(view_dir, exist_ok=True)
+            t0 = time.time()
+            seed = n_renders + 1
+            passes = render_view(scene, cam, m, seed, tmp)
+            n_renders += 1
+            rgba = passes["rgba"]
+            name = "rgba.png" if env == a.train_env else "rgba_%s.png" % env
+            write_rgba_png(os.path.join(view_dir, name), rgba)
+            if split == "test" and env == a.train_env:
+                write_gt_pngs(view_dir, passes, rgba[..., 3])
+            log("%s_%03d/%s (%.1f s)" % (split, i, name, time.time() - t0))
+    shutil.rmtree(tmp, ignore_errors=True)
+    render_s = time.time() - t_render
+
+    # The surface as Gaussians, and the oracle result.
+    g, inexact = object_splats(objs)
+    splat.write_gaussians_ply(os.path.join(out, "gaussians.ply"), g)
+    os.makedirs(os.path.join(out, "oracle"), exist_ok=True)
+    splat.write_gaussians_ply(os.path.join(out, "oracle", "gaussians.ply"), g, oracle=True)
+    shutil.copyfile(env_files[a.train_env], os.path.join(out, "oracle", "env.exr"))
+    if inexact:
+        log("warning: materials not exactly representable in the oracle (textured or not Principled): "
+            + ", ".join(inexact))
+
+    parts = {}
+    for o in objs:
+        for s in o.material_slots:
+            if s.material and s.material.name not in parts:
+                c, r, mt, exact = dscene.material_values(s.material)
+                parts[s.material.name] = {"base_color": [round(float(v), 6) for v in c], "roughness": round(float(r), 6),
+                                          "metallic": round(float(mt), 6), "exact": exact}
+    meta = {
+        "format": "ptir-dataset/1",
+        "generator": "scripts/make_dataset.py (Blender %s, Cycles)" % bpy.app.version_string,
+        "source": source,
+        "resolution": [a.res, a.res],
+        "train_views": a.train, "test_views": a.test,
+        "cycles": {"spp": a.spp, "bounces": a.bounces, "pixel_filter": "box 1px", "film": "transparent"},
+        "train_env": a.train_env,
+        "relight_envs": a.relight_envs,
+        "envmaps": {k: os.path.relpath(v, out) for k, v in env_files.items()},
+        "env_size": [a.env_w, a.env_h],
+        "gaussians": int(len(g["position"])),
+        "bbox": [np.round(g["position"].min(0), 5).tolist(), np.round(g["position"].max(0), 5).tolist()],
+        "splat": "gaussians.ply",
+        "oracle": "oracle",
+        "materials": parts,
+        "encodings": {"rgba": "sRGB 8-bit, straight alpha = coverage",
+                      "albedo": "sRGB 8-bit (Diffuse Color pass = base colour x (1 - metallic)), alpha = coverage",
+                      "roughness": "linear 8-bit grey, alpha = coverage",
+                      "normal": "world space, 0.5 + 0.5 n, 8-bit, alpha = coverage"},
+    }
+    with open(os.path.join(out, "dataset.json"), "w") as f:
+        json.dump(meta, f, indent=1)
+    log("%d Gaussians, %d train + %d test views (%dx%d, %d spp, %d bounces), envs %s; %d renders in %.1f s, total %.1f s -> %s"
+        % (len(g["position"]), a.train, a.test, a.res, a.res, a.spp, a.bounces, ",".join(env_files), n_renders,
+           render_s, time.time() - t_start, out))
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except SystemExit:
+        raise
+    except Exception as e:  # blender -b would otherwise exit 0 after a traceback
+        import traceback
+        traceback.print_exc()
+        print("make_dataset: error: %s" % e, file=sys.stderr)
+        sys.exit(1)

@@ -1,0 +1,133 @@
+"""End-to-end recovery: Cycles renders of known materials -> Gaussians -> `ptir optimize`.
+
+1. tests/blender/make_recovery_dataset.py (in Blender) renders 14 views (80x80,
+   64 spp) of an icosphere (albedo (0.70, 0.30, 0.12), roughness 0.25) and a cube
+   (albedo (0.15, 0.40, 0.60), roughness 0.65), each one uniform Principled BSDF
+   (metallic 0, specular 0.5), under a synthetic sky + ground + sun HDR, and turns
+   both meshes into flat Gaussians (one per face, no normals).
+2. `ptir optimize` recovers albedo, roughness and a 128x64 environment from the
+   images alone (the environment starts at a constant 0.5): 200 iterations, 8 spp,
+   2 bounces, seed 1 -- a quarter of the paper's 800 iterations, to stay within a
+   few minutes on 2 cores.
+3. Evaluation as METHOD section 7: the recovered albedo/roughness maps are rendered
+   from the training cameras (primary-hit AOVs at pixel centres); a part-ID map
+   (the same AOV with one-hot "albedo" per part) keeps the pixels that see one part
+   only; albedo is aligned by s_c = median(gt_c / pred_c) over all those pixels;
+   then per part the median aligned albedo and median roughness are compared with
+   the truth.
+
+Bounds, and why:
+* Albedo, per part and channel: |aligned / true - 1| <= 0.15. The residual comes
+  from (a) the model mismatch: Cycles' Principled BSDF (Burley diffuse with
+  retro-reflection, Smith masking) is not the paper's simplified Disney BRDF
+  (Lambert x (1 - F), Schlick-GGX masking with k = alpha/2). Rendering the TRUE
+  materials under the TRUE environment with ptir gives 0.95/0.93/0.90 (sphere) and
+  0.88/0.90/0.91 (cube) of Cycles' mean RGB: the common part goes into the
+  alignment scale, the part-to-part difference (up to ~7 %) does not; (b) the
+  albedo/lighting ambiguity of the jointly recovered environment; (c) 200
+  iterations at 8 spp (measured: at most 9 %). A run that learned nothing would
+  fail: a uniform albedo aligned to both parts is off by > 50 % on some channel.
+* Roughness of the sphere: within 0.1 of 0.25 (measured 0.22). The sphere shows
+  every normal, so the sun's highlight pins its width.
+* Roughness of the cube: only that it comes out clearly rougher than the sphere
+  (by >= 0.05) and not above the truth + 0.1. Flat faces see the sun's highlight
+  in few views, so their roughness is set by the brightness of a broad lobe --
+  where the two BRDF models differ most: Schlick-GGX masking keeps 84-91 % of the
+  energy of Smith masking at roughness 0.65 for the view angles used, and ptir
+  renders the true cube 12 % darker than Cycles in red (its specular-dominated
+  channel). Lowering the roughness to ~0.35 brings ptir's render to Cycles'
+  (measured: red 0.88 -> 0.975), so the recovered value (~0.37) is the
+  model-consistent one, not a failure of the optimiser; the same happens with a
+  Lambert + GGX Cycles material and with the true environment held fixed.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
+CLI = BUILD / "bin" / "ptir"
+BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
+
+pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
+
+ALBEDO_REL_TOL = 0.15
+SPHERE_ROUGHNESS_TOL = 0.10
+
+
+@pytest.fixture(scope="module")
+def ptir():
+    module_dir = BUILD / "python"
+    if not any(module_dir.glob("ptir*.so")):
+        pytest.fail(f"no native module in {module_dir} (run 'make build')")
+    sys.path.insert(0, str(module_dir))
+    import ptir as module
+    return module
+
+
+def test_recovers_known_materials_from_cycles_renders(ptir, tmp_path):
+    assert CLI.exists(), f"no CLI at {CLI}"
+    data = tmp_path / "data"
+    r = subprocess.run([*BLENDER, "-P", str(Path(__file__).with_name("make_recovery_dataset.py")), "--", "--out", str(data)],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    truth = json.loads((data / "truth.json").read_text())["parts"]
+
+    out = tmp_path / "out"
+    r = subprocess.run([str(CLI), "optimize", "--dataset", str(data), "--gaussians", str(data / "gaussians.ply"), "--out",
+                        str(out), "--iters", "200", "--spp", "8", "--bounces", "2", "--seed", "1", "-q"],
+                       capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    log = [l.split(",") for l in (out / "log.csv").read_text().splitlines()[1:]]
+    first = np.mean([float(l[2]) for l in log[:10]])
+    last = np.mean([float(l[2]) for l in log[-10:]])
+    assert last < 0.6 * first, (first, last)
+
+    # Recovered maps from the training cameras, and which part each pixel sees.
+    field = ptir.load_gaussians(str(out / "gaussians.ply"))
+    scene = ptir.Scene(field)
+    cameras = ptir.load_dataset(str(data)).cameras
+    names = list(truth)
+    albedo = field.albedo.copy()
+    onehot = np.zeros_like(albedo)
+    for k, name in enumerate(names):
+        a, b = truth[name]["gaussians"]
+        onehot[a:b, k] = 1.0
+    A = np.concatenate([scene.render_aov(c, "albedo").reshape(-1, 4) for c in cameras])
+    R = np.concatenate([scene.render_aov(c, "roughness").reshape(-1, 2) for c in cameras])
+    field.albedo = onehot
+    P = np.concatenate([scene.render_aov(c, "albedo").reshape(-1, 4) for c in cameras])
+    field.albedo = albedo
+
+    part = np.full(len(A), -1)
+    gt = np.zeros((len(A), 3))
+    for k, name in enumerate(names):
+        sel = (A[:, 3] > 0.5) & (P[:, k] > 0.99)
+        part[sel] = k
+        gt[sel] = truth[name]["albedo"]
+    fg = part >= 0
+    assert fg.sum() > 5000
+    scale = np.median(gt[fg] / np.maximum(A[fg, :3], 1e-6), axis=0)
+
+    report = {}
+    for k, name in enumerate(names):
+        sel = part == k
+        rec_albedo = np.median(A[sel, :3] * scale, axis=0)
+        rec_rough = float(np.median(R[sel, 0]))
+        rel = rec_albedo / np.array(truth[name]["albedo"]) - 1.0
+        report[name] = (rec_albedo.round(3).tolist(), rel.round(3).tolist(), round(rec_rough, 3))
+    print("recovery (albedo aligned, relative error, roughness):", report, "scale", scale.round(3).tolist())
+
+    for name, (rec_albedo, rel, rough) in report.items():
+        assert np.all(np.abs(rel) <= ALBEDO_REL_TOL), (name, report)
+    sphere_r, cube_r = report["sphere"][2], report["cube"][2]
+    assert abs(sphere_r - truth["sphere"]["roughness"]) <= SPHERE_ROUGHNESS_TOL, report
+    assert cube_r >= sphere_r + 0.05, report
+    assert cube_r <= truth["cube"]["roughness"] + 0.1, report

@@ -1,0 +1,214 @@
+"""The add-on's scene export (Blender -> scene file) and its pure-Python io helpers.
+
+The io tests need no Blender. The export test runs tests/blender/scene_export_check.py
+in Blender 3.4 and checks the file against what Blender itself reports (evaluated
+mesh bounds, matrices, where the camera projects points), then loads and renders
+the exported scene with the native module.
+"""
+
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
+BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
+sys.path.insert(0, str(REPO / "addon"))
+
+from ptir_blender.io import mesh_ply, scene_file, surface_splats  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def ptir():
+    module_dir = BUILD / "python"
+    if not any(module_dir.glob("ptir*.so")):
+        pytest.fail(f"no native module in {module_dir} (run 'make build' or set PTIR_BUILD_DIR)")
+    sys.path.insert(0, str(module_dir))
+    import ptir as module
+    return module
+
+
+# ---------------------------------------------------------------- io helpers (no Blender)
+
+def test_horizontal_fov_follows_blender_sensor_fit():
+    # 36 mm sensor, 50 mm lens: 2 atan(18/50) along the fitted dimension.
+    base = 2.0 * math.atan(18.0 / 50.0)
+    assert scene_file.horizontal_fov(50, 36, 24, "AUTO", 1920, 1080) == pytest.approx(base)
+    assert scene_file.horizontal_fov(50, 36, 24, "HORIZONTAL", 1080, 1920) == pytest.approx(base)
+    # AUTO, portrait: the sensor width spans the (larger) height.
+    portrait = 2.0 * math.atan(18.0 / 50.0 * 1080 / 1920)
+    assert scene_file.horizontal_fov(50, 36, 24, "AUTO", 1080, 1920) == pytest.approx(portrait)
+    # VERTICAL: the sensor height spans the height.
+    vert = 2.0 * math.atan(12.0 / 50.0 * 1920 / 1080)
+    assert scene_file.horizontal_fov(50, 36, 24, "VERTICAL", 1920, 1080) == pytest.approx(vert)
+    with pytest.raises(scene_file.SceneFileError):
+        scene_file.horizontal_fov(0, 36, 24, "AUTO", 10, 10)
+
+
+def test_render_size_and_matrix_rows():
+    assert scene_file.render_size(1920, 1080, 50) == (960, 540)
+    assert scene_file.render_size(301, 201, 50) == (150, 100)
+    assert scene_file.matrix_rows(np.eye(4)) == [[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]]
+    with pytest.raises(scene_file.SceneFileError):
+        scene_file.matrix_rows([[float("nan")] * 4] * 4)
+
+
+def test_write_scene_checks_keys_and_is_valid_json(tmp_path):
+    doc = {"meshes": [{"vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "triangles": [[0, 1, 2]]}],
+           "integrator": {"spp": 2}}
+    p = scene_file.write_scene(str(tmp_path / "s.json"), doc)
+    back = json.loads(Path(p).read_text())
+    assert back["version"] == 1 and back["meshes"] == doc["meshes"]
+    with pytest.raises(scene_file.SceneFileError, match="unknown scene keys"):
+        scene_file.write_scene(str(tmp_path / "t.json"), {"mesh": []})
+    with pytest.raises(scene_file.SceneFileError, match="unknown integrator keys"):
+        scene_file.write_scene(str(tmp_path / "t.json"), {"integrator": {"samples": 3}})
+
+
+def test_mesh_ply_round_trip_and_engine_load(tmp_path, ptir):
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.5]], np.float32)
+    t = np.array([[0, 1, 2], [0, 2, 3]])
+    p = mesh_ply.write_mesh_ply(str(tmp_path / "m.ply"), v, t, comment="test")
+    v2, t2 = mesh_ply.read_mesh_ply(p)
+    assert np.array_equal(v2, v) and np.array_equal(t2, t)
+    m = ptir.load_mesh(p)
+    assert m.triangle_count == 2 and np.allclose(m.vertices, v)
+    with pytest.raises(mesh_ply.MeshPlyError, match="out of range"):
+        mesh_ply.write_mesh_ply(str(tmp_path / "bad.ply"), v, [[0, 1, 4]])
+
+
+def test_surface_splats_of_a_square(tmp_path, ptir):
+    # One quad in the plane z = 1, counter-clockwise seen from +z.
+    loops = np.array([[0, 0, 1], [2, 0, 1], [2, 1, 1], [0, 1, 1]], float)
+    g = surface_splats.polygons_to_gaussians(loops, np.array([0]), np.array([4]))
+    assert np.allclose(g["position"], [[1.0, 0.5, 1.0]])
+    assert np.allclose(g["normal"], [[0, 0, 1]])
+    assert np.allclose(g["scale"], [[0.6 * 2.0, 0.6 * 1.0, 1e-3 * 1.2]])
+    ply = surface_splats.write_gaussians_ply(str(tmp_path / "g.ply"), g, opacity=0.9, albedo=(0.25, 0.5, 0.75),
+                                             roughness=0.4, metallic=0.2)
+    f = ptir.load_gaussians(ply)
+    assert len(f) == 1 and f.normals_from_file
+    assert np.allclose(f.normal, [[0, 0, 1]], atol=1e-6)
+    assert np.allclose(f.albedo, [[0.25, 0.5, 0.75]], atol=1e-6)
+    assert f.roughness[0] == pytest.approx(0.4) and f.metallic[0] == pytest.approx(0.2)
+    assert f.opacity[0] == pytest.approx(0.9, abs=1e-6)
+    assert np.allclose(f.scale, g["scale"], rtol=1e-5)
+    # The Gaussian's local z axis (rotation) is the polygon normal.
+    w, x, y, z = f.rotation[0]
+    local_z = [2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)]
+    assert np.allclose(local_z, [0, 0, 1], atol=1e-6)
+
+
+def test_triangles_to_gaussians_quaternions_are_proper_rotations():
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(60, 3))
+    t = rng.integers(0, 60, size=(100, 3))
+    t = t[(t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])]
+    g = surface_splats.triangles_to_gaussians(v, t)
+    q = g["rotation"]
+    assert np.allclose(np.linalg.norm(q, axis=1), 1.0) and np.all(q[:, 0] >= 0)
+    w, x, y, z = q.T
+    local_z = np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], 1)
+    assert np.allclose(local_z, g["normal"], atol=1e-9)
+    assert np.allclose(g["position"], v[t].mean(axis=1))
+
+
+# ---------------------------------------------------------------- export in Blender
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory, ptir):
+    if BLENDER is None:
+        pytest.skip("blender not installed")
+    out = tmp_path_factory.mktemp("export")
+    # A small Gaussian file for the custom-property holder.
+    g = surface_splats.triangles_to_gaussians(np.array([[0, 0, 0], [0.2, 0, 0], [0, 0.2, 0]], float),
+                                              np.array([[0, 1, 2]]))
+    ply = surface_splats.write_gaussians_ply(str(out / "holder.ply"), g, albedo=(0.5, 0.5, 0.5), roughness=0.5,
+                                             metallic=0.0)
+    cmd = [BLENDER, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1",
+           "-P", str(REPO / "tests" / "blender" / "scene_export_check.py"), "--", str(out), ply]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    line = next(l for l in r.stdout.splitlines() if l.startswith("PTIR_EXPORT_JSON: "))
+    info = json.loads(line.split(": ", 1)[1])
+    info["doc"] = json.loads(Path(info["scene"]).read_text())
+    info["dir"] = out
+    return info
+
+
+def test_export_meshes_and_materials(exported):
+    doc, out = exported["doc"], exported["dir"]
+    meshes = {m["name"]: m for m in doc["meshes"]}
+    assert sorted(meshes) == ["Cube_0", "Cube_1", "Lamp plane"]  # "Hidden" (hide_render) is skipped
+    matte, shiny, glow = meshes["Cube_0"]["material"], meshes["Cube_1"]["material"], meshes["Lamp plane"]["material"]
+    assert matte["base_color"] == pytest.approx([0.2, 0.4, 0.6]) and matte["roughness"] == 1.0
+    assert matte["metallic"] == 0.0 and matte["emission"] == [0, 0, 0]
+    assert shiny["base_color"] == pytest.approx([0.9, 0.8, 0.1]) and shiny["roughness"] == pytest.approx(0.35)
+    assert shiny["metallic"] == 1.0 and shiny["emission"] == pytest.approx([2.0, 1.0, 0.5])
+    assert glow["emission"] == pytest.approx([2.0, 4.0, 1.0]) and glow["base_color"] == [0, 0, 0]
+    # Geometry: evaluated (Simple subdivision: each face -> 4 quads -> 8 triangles), world space.
+    v0, t0 = mesh_ply.read_mesh_ply(str(out / meshes["Cube_0"]["file"]))
+    v1, t1 = mesh_ply.read_mesh_ply(str(out / meshes["Cube_1"]["file"]))
+    assert [len(t0), len(t1)] == exported["cube_tris"] == [40, 8]
+    allv = np.concatenate([v0, v1])
+    lo, hi = exported["cube_bbox"]
+    assert np.allclose(allv.min(0), lo, atol=1e-5) and np.allclose(allv.max(0), hi, atol=1e-5)
+
+
+def test_export_lights_world_gaussians_integrator(exported):
+    doc, out = exported["doc"], exported["dir"]
+    lights = {l["name"]: l for l in doc["lights"]}
+    assert sorted(lights) == ["Bulb", "Panel", "Sun"]  # the spot light is skipped...
+    assert any("Spot" in w and "not supported" in w for w in exported["warnings"])  # ...with a warning
+    assert any("Panel" in w and "hidden from camera rays" in w for w in exported["warnings"])
+    b = lights["Bulb"]
+    assert b["type"] == "point" and b["position"] == pytest.approx([1, -2, 3]) and b["power"] == 120
+    assert b["color"] == pytest.approx([1.0, 0.8, 0.6]) and b["radius"] == pytest.approx(0.2)
+    s = lights["Sun"]
+    assert s["type"] == "sun" and s["strength"] == 2.5 and s["angle"] == pytest.approx(0.1)
+    assert [row[2] for row in s["transform"][:3]] == pytest.approx(exported["sun_z"])
+    p = lights["Panel"]
+    assert p["type"] == "area" and p["shape"] == "ellipse" and p["size"] == 0.5 and p["size_y"] == 0.25
+    assert p["power"] == 55 and np.allclose(p["transform"], exported["panel_matrix"], atol=1e-6)
+    env = doc["environment"]
+    assert env["type"] == "latlong" and env["strength"] == pytest.approx(1.75)
+    assert env["rotation_z"] == pytest.approx(1.25) and (out / env["file"]).exists()
+    assert len(doc["gaussians"]) == 1 and doc["gaussians"][0]["file"] == "holder.ply"
+    assert np.allclose(doc["gaussians"][0]["transform"], exported["splats_matrix"], atol=1e-6)
+    assert doc["integrator"] == {"spp": 3, "bounces": 1}
+
+
+def test_export_camera_projects_like_blender(exported):
+    cams = exported["doc"]["cameras"]
+    assert [c["name"] for c in cams] == ["Main", "Other"]
+    c = cams[0]
+    assert (c["width"], c["height"]) == (150, 250)  # 300 x 500 at 50 %
+    m = np.array(c["transform"])
+    assert np.allclose(m[:3, 3], exported["main_location"])
+    assert np.allclose(np.linalg.norm(m[:3, :3], axis=0), 1.0)  # object scale removed
+    # Our pinhole (looks down -z, square pixels, fov_x) vs Blender's world_to_camera_view.
+    tan_half = math.tan(0.5 * c["fov_x"])
+    for p, (bx, by, _) in zip(exported["probes"], exported["projected"]):
+        q = np.linalg.inv(m) @ np.array([*p, 1.0])
+        x = (q[0] / -q[2]) / tan_half
+        y = (q[1] / -q[2]) / (tan_half * c["height"] / c["width"])
+        assert 0.5 + 0.5 * x == pytest.approx(bx, abs=1e-5)
+        assert 0.5 + 0.5 * y == pytest.approx(by, abs=1e-5)
+
+
+def test_exported_scene_loads_and_renders(exported, ptir):
+    scene = ptir.load_scene(exported["scene"])
+    assert scene.camera_names == ["Main", "Other"]
+    assert len(scene.gaussians) == 1 and scene.light_count == 3 and scene.environment == "latlong"
+    # The holder's uniform scale 2 reached the Gaussian.
+    src = ptir.load_gaussians(str(exported["dir"] / "holder.ply"))
+    assert np.allclose(scene.gaussians.scale, 2.0 * src.scale, rtol=1e-5)
+    img = scene.render("Other", spp=1)
+    assert img.shape == (250, 150, 4) and np.all(np.isfinite(img)) and img[..., :3].max() > 0

@@ -1,0 +1,493 @@
+// The inversion loop: activations and their chain rule, Adam, checkpoints, the
+// whole objective's gradient against finite differences, exact resume,
+// cancellation, view/crop selection, and that the loss goes down.
+#include <gtest/gtest.h>
+
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "ptir/core/error.h"
+#include "ptir/io/dataset.h"
+#include "ptir/optim/adam.h"
+#include "ptir/optim/checkpoint.h"
+#include "ptir/optim/optimizer.h"
+#include "ptir/optim/parameters.h"
+#include "ptir/render/render_path.h"
+#include "ptir/scene/gaussian_ply.h"
+#include "test_scenes.h"
+
+namespace fs = std::filesystem;
+using namespace ptir;
+
+namespace {
+
+fs::path fresh_dir(const std::string& name) {
+  fs::path d = fs::path(PTIR_TEST_TMP) / "optimizer" / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+Camera look_at(Vec3 eye, Vec3 target, int res, const std::string& name) {
+  Vec3 back = normalize(eye - target);
+  Vec3 right = normalize(cross(Vec3(0, 0, 1), back));
+  Vec3 up = cross(back, right);
+  float m[16] = {right.x, up.x, back.x, eye.x, right.y, up.y, back.y, eye.y, right.z, up.z, back.z, eye.z, 0, 0, 0, 1};
+  return make_camera(m, 0.7f, res, res, name);
+}
+
+// A sky: brighter and bluer toward +z, one hot texel.
+Environment sky(int w = 16, int h = 8) {
+  Image img(w, h, {"R", "G", "B"});
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      float t = float(y) / float(h - 1);
+      img.at(x, y, 0) = 1.5f - 1.0f * t;
+      img.at(x, y, 1) = 1.4f - 0.8f * t;
+      img.at(x, y, 2) = 1.2f - 0.4f * t;
+    }
+  img.at(w / 4, 1, 0) = 6.0f;
+  img.at(w / 4, 1, 1) = 5.0f;
+  img.at(w / 4, 1, 2) = 4.0f;
+  return Environment(img);
+}
+
+// Ground truth: a sphere of Gaussians, warm top, cool bottom.
+GaussianField truth_field(size_t n) {
+  GaussianField f = test::gaussian_sphere(n, 1.0f, Vec3(0.3f), 0.6f, 0.0f, 0.95f);
+  for (size_t i = 0; i < n; ++i) {
+    bool top = f.position[i].z > 0;
+    f.albedo[i] = top ? Vec3(0.7f, 0.35f, 0.2f) : Vec3(0.2f, 0.45f, 0.7f);
+    f.roughness[i] = top ? 0.3f : 0.7f;
+  }
+  return f;
+}
+
+// Renders `views` training views of the truth into `dir` (TensoIR layout, RGBA EXR)
+// and returns the dataset.
+std::shared_ptr<const Dataset> make_dataset(const fs::path& dir, size_t n, int views, int res, int spp) {
+  Scene truth;
+  truth.gaussians = std::make_shared<GaussianField>(truth_field(n));
+  truth.environment.latlong = sky();
+  PathTracer tracer(truth);
+  IntegratorSettings s;
+  s.spp = spp;
+  s.max_bounces = 1;
+  std::ostringstream js;
+  js << "{\"camera_angle_x\": 0.7, \"frames\": [";
+  for (int i = 0; i < views; ++i) {
+    float phi = 2.0f * kPi * float(i) / float(views);
+    Vec3 eye(3.5f * std::cos(phi), 3.5f * std::sin(phi), (i % 2) ? 1.6f : -0.8f);
+    std::string name = "train_00" + std::to_string(i);
+    Camera cam = look_at(eye, Vec3(0.0f), res, name);
+    Image img = render_path(tracer, cam, s);
+    for (int p = 0; p < res * res; ++p)
+      for (int c = 0; c < 3; ++c) img.pixels[size_t(p) * 4 + c] *= img.pixels[size_t(p) * 4 + 3];  // EXR: associated alpha
+    fs::create_directories(dir / name);
+    write_image((dir / name / "rgba.exr").string(), img);
+    const Affine& a = cam.cam_to_world;
+    js << (i ? "," : "") << "{\"file_path\": \"./" << name << "/rgba\", \"transform_matrix\": [";
+    for (int r = 0; r < 3; ++r)
+      js << "[" << a.linear.m[r][0] << "," << a.linear.m[r][1] << "," << a.linear.m[r][2] << "," << a.translation[r] << "],";
+    js << "[0,0,0,1]]}";
+  }
+  js << "]}";
+  std::ofstream(dir / "transforms_train.json") << js.str();
+  return std::shared_ptr<const Dataset>(load_dataset(dir.string()));
+}
+
+Scene input_scene(size_t n) {
+  Scene s;
+  GaussianField f = truth_field(n);
+  std::fill(f.albedo.begin(), f.albedo.end(), Vec3(0.5f));  // forgotten by the optimiser anyway
+  s.gaussians = std::make_shared<GaussianField>(std::move(f));
+  return s;
+}
+
+OptimizerSettings small_settings() {
+  OptimizerSettings s;
+  s.integrator.spp = 2;
+  s.integrator.max_bounces = 1;
+  s.params.env_width = 16;
+  s.params.env_height = 8;
+  s.seed = 7;
+  return s;
+}
+
+struct Fixture {
+  std::shared_ptr<const Dataset> data;
+  size_t n = 300;
+};
+
+const Fixture& fixture() {
+  static Fixture f = [] {
+    Fixture x;
+    x.data = make_dataset(fresh_dir("data"), x.n, 4, 24, 32);
+    return x;
+  }();
+  return f;
+}
+
+bool same_state(const Optimizer& a, const Optimizer& b) {
+  const Parameters &pa = a.parameters(), &pb = b.parameters();
+  if (pa.groups.size() != pb.groups.size()) return false;
+  for (size_t i = 0; i < pa.groups.size(); ++i) {
+    if (pa.groups[i].raw != pb.groups[i].raw) return false;
+    if (a.adam()[i].m != b.adam()[i].m || a.adam()[i].v != b.adam()[i].v || a.adam()[i].t != b.adam()[i].t) return false;
+  }
+  return a.iteration() == b.iteration();
+}
+
+}  // namespace
+
+TEST(Parameters, ActivationsAndTheirInverses) {
+  EXPECT_NEAR(roughness_from_raw(roughness_to_raw(0.6f)), 0.6f, 1e-6f);
+  EXPECT_NEAR(roughness_from_raw(-40.0f), kRoughnessMin, 1e-6f);
+  EXPECT_NEAR(roughness_from_raw(40.0f), kRoughnessMin + kRoughnessRange, 1e-6f);
+  EXPECT_NEAR(sigmoid(logit_clamped(0.3f)), 0.3f, 1e-6f);
+  EXPECT_TRUE(std::isfinite(logit_clamped(0.0f)));
+  EXPECT_TRUE(std::isfinite(roughness_to_raw(0.05f)));  // below the range: clamped
+}
+
+TEST(Parameters, ChainRuleMatchesFiniteDifferencesOfTheActivations) {
+  Scene scene;
+  scene.gaussians = std::make_shared<GaussianField>(truth_field(20));
+  scene.meshes.push_back(test::quad_z(-2.0f, 3.0f));
+  for (EnvMode mode : {EnvMode::LatLong, EnvMode::SG}) {
+    ParameterSettings ps;
+    ps.optimize_metallic = true;
+    ps.optimize_meshes = true;
+    ps.env = mode;
+    ps.env_width = 8;
+    ps.env_height = 4;
+    install_environment(scene, ps);
+    Parameters p = make_parameters(scene, ps);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+    for (ParameterGroup& g : p.groups)
+      for (float& x : g.raw) x = u(rng);
+    // Random adjoints w.r.t. activated values: the objective is their dot product.
+    SceneGradients gr = SceneGradients::zeros_like(scene);
+    for (auto* v : {&gr.gaussian_albedo, &gr.mesh_base_colour, &gr.env_texels, &gr.sg_raw})
+      for (Vec3& x : *v) x = Vec3(u(rng), u(rng), u(rng));
+    for (auto* v : {&gr.gaussian_roughness, &gr.gaussian_metallic, &gr.mesh_roughness, &gr.mesh_metallic})
+      for (float& x : *v) x = u(rng);
+    auto objective = [&](const Parameters& q) {
+      apply_parameters(q, ps, scene);
+      const GaussianField& f = *scene.gaussians;
+      double s = 0;
+      for (size_t i = 0; i < f.size(); ++i)
+        s += dot(gr.gaussian_albedo[i], f.albedo[i]) + gr.gaussian_roughness[i] * f.roughness[i] +
+             gr.gaussian_metallic[i] * f.metallic[i];
+      for (size_t i = 0; i < scene.meshes.size(); ++i)
+        s += dot(gr.mesh_base_colour[i], scene.meshes[i].material.base_colour) +
+             gr.mesh_roughness[i] * scene.meshes[i].material.roughness + gr.mesh_metallic[i] * scene.meshes[i].material.metallic;
+      if (scene.environment.latlong)
+        for (size_t i = 0; i < gr.env_texels.size(); ++i)
+          s += dot(gr.env_texels[i], scene.environment.latlong->texel(int(i) % 8, int(i) / 8));
+      // SG: the adjoint is already w.r.t. raw (identity chain).
+      if (scene.environment.sg)
+        for (size_t i = 0; i < gr.sg_raw.size(); ++i) s += dot(gr.sg_raw[i], scene.environment.sg->raw()[i]);
+      return s;
+    };
+    std::vector<std::vector<float>> d = raw_gradients(p, gr);
+    ASSERT_EQ(d.size(), p.groups.size());
+    for (size_t gi = 0; gi < p.groups.size(); ++gi) {
+      for (size_t k = 0; k < p.groups[gi].raw.size(); k += 7) {
+        Parameters a = p, b = p;
+        const float h = 1e-2f;
+        a.groups[gi].raw[k] += h;
+        b.groups[gi].raw[k] -= h;
+        double fd = (objective(a) - objective(b)) / (2.0 * h);
+        EXPECT_NEAR(d[gi][k], fd, 2e-3 * std::max(1.0, std::fabs(fd)))
+            << param_kind_name(p.groups[gi].kind) << "[" << k << "]";
+      }
+    }
+  }
+}
+
+TEST(Adam, MatchesTheReferenceFormula) {
+  Adam adam(2, 0.1f);
+  std::vector<float> x = {1.0f, -2.0f};
+  double m[2] = {0, 0}, v[2] = {0, 0}, xr[2] = {1.0, -2.0};
+  for (int t = 1; t <= 5; ++t) {
+    std::vector<float> g = {0.5f * float(t), t % 2 ? -1e-3f : 2e-3f};
+    adam.step(x, g);
+    for (int i = 0; i < 2; ++i) {
+      m[i] = 0.9 * m[i] + 0.1 * g[i];
+      v[i] = 0.999 * v[i] + 0.001 * double(g[i]) * g[i];
+      xr[i] -= 0.1 * (m[i] / (1 - std::pow(0.9, t))) / (std::sqrt(v[i] / (1 - std::pow(0.999, t))) + 1e-15);
+    }
+  }
+  EXPECT_EQ(adam.t, 5u);
+  EXPECT_NEAR(x[0], xr[0], 1e-5);
+  EXPECT_NEAR(x[1], xr[1], 1e-5);
+  std::vector<float> bad(3);
+  EXPECT_THROW(adam.step(bad, bad), Error);
+}
+
+TEST(Checkpoint, RoundTripAndCorruption) {
+  fs::path d = fresh_dir("ckpt");
+  Checkpoint c;
+  c.iteration = 12;
+  c.fingerprint = {{"spp", "4"}, {"gaussians", "10"}};
+  c.groups.push_back({ParamKind::GaussianAlbedo, 0.035f, 12, {1, 2, 3}, {0.1f, 0.2f, 0.3f}, {1e-3f, 2e-3f, 3e-3f}});
+  c.normals = {Vec3(0, 0, 1)};
+  IterationLog l;
+  l.iteration = 12;
+  l.loss = 0.25;
+  l.views = "a+b";
+  c.log = {l};
+  const std::string path = (d / "c.bin").string();
+  write_checkpoint(path, c);
+  Checkpoint r = read_checkpoint(path);
+  EXPECT_EQ(r.iteration, 12u);
+  EXPECT_EQ(r.fingerprint, c.fingerprint);
+  ASSERT_EQ(r.groups.size(), 1u);
+  EXPECT_EQ(r.groups[0].raw, c.groups[0].raw);
+  EXPECT_EQ(r.groups[0].v, c.groups[0].v);
+  EXPECT_EQ(r.groups[0].adam_t, 12u);
+  EXPECT_EQ(r.log[0].views, "a+b");
+  EXPECT_EQ(r.log[0].loss, 0.25);
+  for (const auto& entry : fs::directory_iterator(d)) EXPECT_EQ(entry.path().filename(), "c.bin");  // no temp file left
+
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    bytes = ss.str();
+  }
+  std::ofstream(path, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  EXPECT_THROW(read_checkpoint(path), Error);
+  std::string flipped = bytes;
+  flipped[40] ^= 1;
+  std::ofstream(path, std::ios::binary) << flipped;
+  try {
+    read_checkpoint(path);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("corrupt"), std::string::npos) << e.what();
+  }
+  try {
+    check_fingerprint(path, {{"spp", "4"}, {"gaussians", "10"}}, {{"spp", "8"}, {"gaussians", "10"}});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("spp: checkpoint 4, now 8"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Optimizer, ViewsCoverEveryViewOncePerEpochAndCropsStayInside) {
+  const Fixture& fx = fixture();
+  OptimizerSettings s = small_settings();
+  s.views_per_iteration = 3;
+  s.crop_size = 10;
+  Optimizer opt(input_scene(fx.n), fx.data, s);
+  const size_t N = fx.data->size();
+  std::vector<size_t> seq;
+  for (int it = 0; it < 8; ++it)
+    for (const auto& p : opt.pick_views(it)) {
+      seq.push_back(p.view);
+      EXPECT_EQ(p.w, 10);
+      EXPECT_EQ(p.h, 10);
+      EXPECT_GE(p.x0, 0);
+      EXPECT_GE(p.y0, 0);
+      EXPECT_LE(p.x0 + p.w, fx.data->width);
+      EXPECT_LE(p.y0 + p.h, fx.data->height);
+    }
+  for (size_t e = 0; e + N <= seq.size(); e += N) {
+    std::set<size_t> epoch(seq.begin() + long(e), seq.begin() + long(e + N));
+    EXPECT_EQ(epoch.size(), N) << "epoch " << e / N;
+  }
+  // Keyed: asking again gives the same picks.
+  auto a = opt.pick_views(5), b = opt.pick_views(5);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].view, b[i].view);
+    EXPECT_EQ(a[i].x0, b[i].x0);
+  }
+}
+
+// The gradient of the whole objective (image loss through the sRGB curve and the
+// binomial filter, PRB through the path tracer, TV through the AOV adjoint,
+// activations) against central differences of the same objective with the same
+// random numbers. Albedo: the paths do not depend on it, so the two agree up to
+// the L1 kinks. Environment: a uniform scale of every texel leaves the sampling
+// distribution unchanged, so again the same paths.
+TEST(Optimizer, ObjectiveGradientMatchesFiniteDifferences) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+  const Fixture& fx = fixture();
+  OptimizerSettings s = small_settings();
+  s.integrator.spp = 4;
+  s.views_per_iteration = 2;
+  s.crop_size = 20;
+  Optimizer opt(input_scene(fx.n), fx.data, s);
+  // Move away from the uniform start so that TV has something to act on.
+  Parameters p0 = opt.parameters();
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+  for (ParameterGroup& g : p0.groups)
+    for (float& x : g.raw) x += u(rng);
+  opt.set_parameters(p0);
+  const int it = 3;
+  IterationLog base = opt.evaluate(it, true);
+  EXPECT_GT(base.image, 0.0);
+  EXPECT_GT(base.tv, 0.0);
+  std::vector<std::vector<float>> g = raw_gradients(opt.parameters(), opt.gradients());
+
+  auto directional = [&](ParamKind kind, auto&& select) {
+    size_t gi = 0;
+    while (p0.groups[gi].kind != kind) ++gi;
+    double analytic = 0;
+    for (size_t k = 0; k < p0.groups[gi].raw.size(); ++k)
+      if (select(k)) analytic += g[gi][k];
+    const float h = 0.0025f;  // small: few L1 kinks are crossed (at 0.02 they cost ~10% on a small term)
+    Parameters a = p0, b = p0;
+    for (size_t k = 0; k < p0.groups[gi].raw.size(); ++k)
+      if (select(k)) {
+        a.groups[gi].raw[k] += h;
+        b.groups[gi].raw[k] -= h;
+      }
+    opt.set_parameters(a);
+    double la = opt.evaluate(it, false).loss;
+    opt.set_parameters(b);
+    double lb = opt.evaluate(it, false).loss;
+    opt.set_parameters(p0);
+    return std::make_pair(analytic, (la - lb) / (2.0 * h));
+  };
+  const GaussianField& f = *opt.scene().gaussians;
+  for (int c = 0; c < 3; ++c) {
+    auto [an, fd] = directional(ParamKind::GaussianAlbedo, [&](size_t k) { return int(k % 3) == c && f.position[k / 3].z > 0; });
+    EXPECT_NEAR(an, fd, 0.01 * std::fabs(fd) + 5e-6) << "albedo channel " << c << " (top)";
+    auto [an2, fd2] = directional(ParamKind::GaussianAlbedo, [&](size_t k) { return int(k % 3) == c && f.position[k / 3].z <= 0; });
+    EXPECT_NEAR(an2, fd2, 0.01 * std::fabs(fd2) + 5e-6) << "albedo channel " << c << " (bottom)";
+  }
+  auto [an, fd] = directional(ParamKind::EnvLatLong, [](size_t) { return true; });
+  EXPECT_NEAR(an, fd, 0.01 * std::fabs(fd) + 5e-6) << "environment scale";
+
+  // Single texels (perturbed without rebuilding the sampling tables, so the paths stay the same).
+  opt.evaluate(it, true);
+  const SceneGradients gr = opt.gradients();
+  std::vector<std::pair<float, size_t>> order;
+  for (size_t i = 0; i < gr.env_texels.size(); ++i) order.push_back({-std::fabs(gr.env_texels[i].y), i});
+  std::sort(order.begin(), order.end());
+  auto& tex = opt.scene().environment.latlong->texels();
+  for (int k = 0; k < 3; ++k) {
+    const size_t i = order[size_t(k) * 4].second;
+    const float h = 0.01f, old = tex[3 * i + 1];
+    tex[3 * i + 1] = old + h;
+    double la = opt.evaluate(it, false).loss;
+    tex[3 * i + 1] = old - h;
+    double lb = opt.evaluate(it, false).loss;
+    tex[3 * i + 1] = old;
+    double fd1 = (la - lb) / (2.0 * h);
+    EXPECT_NEAR(gr.env_texels[i].y, fd1, 0.01 * std::fabs(fd1) + 1e-6) << "texel " << i;
+  }
+}
+
+TEST(Optimizer, ResumeIsBitIdenticalToAnUninterruptedRun) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+  const Fixture& fx = fixture();
+  OptimizerSettings s = small_settings();
+  s.views_per_iteration = 2;
+  s.crop_size = 16;
+  const fs::path d = fresh_dir("resume");
+  const std::string ckpt = (d / "checkpoint.bin").string();
+
+  Optimizer straight(input_scene(fx.n), fx.data, s);
+  for (int i = 0; i < 6; ++i) straight.step();
+
+  {
+    Optimizer first(input_scene(fx.n), fx.data, s);
+    for (int i = 0; i < 3; ++i) first.step();
+    first.save_checkpoint(ckpt);
+  }
+  Optimizer resumed(input_scene(fx.n), fx.data, s);
+  resumed.load_checkpoint(ckpt);
+  EXPECT_EQ(resumed.iteration(), 3);
+  for (int i = 0; i < 3; ++i) resumed.step();
+  EXPECT_TRUE(same_state(straight, resumed));
+  const GaussianField &a = *straight.scene().gaussians, &b = *resumed.scene().gaussians;
+  for (size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a.albedo[i].x, b.albedo[i].x);
+    ASSERT_EQ(a.roughness[i], b.roughness[i]);
+  }
+  EXPECT_EQ(straight.environment_image().pixels, resumed.environment_image().pixels);
+  ASSERT_EQ(resumed.log().size(), 6u);
+  for (size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(resumed.log()[i].loss, straight.log()[i].loss) << i;
+    EXPECT_EQ(resumed.log()[i].views, straight.log()[i].views) << i;
+  }
+
+  // A checkpoint of a different problem is refused, naming the difference.
+  OptimizerSettings other = s;
+  other.integrator.spp = 3;
+  Optimizer wrong(input_scene(fx.n), fx.data, other);
+  try {
+    wrong.load_checkpoint(ckpt);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("spp: checkpoint 2, now 3"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Optimizer, CancelLeavesTheStateOfTheLastIteration) {
+  const Fixture& fx = fixture();
+  Optimizer opt(input_scene(fx.n), fx.data, small_settings());
+  opt.step();
+  Parameters before = opt.parameters();
+  std::atomic<bool> cancel{true};
+  EXPECT_THROW(opt.step(&cancel), Cancelled);
+  EXPECT_EQ(opt.iteration(), 1);
+  EXPECT_EQ(opt.parameters().groups[0].raw, before.groups[0].raw);
+  EXPECT_EQ(opt.log().size(), 1u);
+
+  RunOptions ro;
+  ro.cancel = &cancel;
+  EXPECT_EQ(run_optimizer(opt, ro), RunResult::Cancelled);
+  EXPECT_EQ(opt.iteration(), 1);
+  int calls = 0;
+  ro.cancel = nullptr;
+  ro.on_iteration = [&](const IterationLog&) { return ++calls < 2; };
+  EXPECT_EQ(run_optimizer(opt, ro), RunResult::Cancelled);
+  EXPECT_EQ(opt.iteration(), 3);
+}
+
+TEST(Optimizer, LossDecreasesAndOutputsAreWritten) {
+  const Fixture& fx = fixture();
+  OptimizerSettings s = small_settings();
+  s.iterations = 60;
+  s.integrator.spp = 4;
+  Optimizer opt(input_scene(fx.n), fx.data, s);
+  const fs::path d = fresh_dir("outputs");
+  RunOptions ro;
+  ro.out_dir = d.string();
+  ro.checkpoint_every = 25;
+  EXPECT_EQ(run_optimizer(opt, ro), RunResult::Finished);
+  ASSERT_EQ(opt.log().size(), 60u);
+  double first = 0, last = 0;
+  for (int i = 0; i < 8; ++i) first += opt.log()[size_t(i)].image / 8;
+  for (int i = 52; i < 60; ++i) last += opt.log()[size_t(i)].image / 8;
+  EXPECT_LT(last, 0.7 * first) << "first " << first << " last " << last;
+
+  GaussianField out = load_gaussians((d / "gaussians.ply").string());
+  ASSERT_EQ(out.size(), fx.n);
+  EXPECT_TRUE(out.normals_from_file);
+  for (size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out.albedo[i].x, opt.scene().gaussians->albedo[i].x);
+  Image env = read_image((d / "env.exr").string());
+  EXPECT_EQ(env.width, 16);
+  EXPECT_EQ(env.height, 8);
+  std::ifstream csv(d / "log.csv");
+  std::string line;
+  int lines = 0;
+  while (std::getline(csv, line)) ++lines;
+  EXPECT_EQ(lines, 61);
+  Checkpoint c = read_checkpoint((d / "checkpoint.bin").string());
+  EXPECT_EQ(c.iteration, 60u);
+}
+

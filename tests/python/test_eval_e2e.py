@@ -1,0 +1,157 @@
+"""End to end on data with known answers: the dataset maker renders a tiny
+Cycles dataset, `ptir optimize` inverts it, `ptir eval` scores the result, and
+`ptir relight` relights it.
+
+Bounds (see the comments at each assert for the numbers behind them). Two
+reference evaluations of the same dataset bracket the optimised result:
+  * init   -- `ptir optimize --iters 0`: the initial materials (albedo 0.3 grey,
+             roughness 0.6) and environment (0.5 grey): what no inversion gives;
+  * oracle -- the true materials and the training environment (oracle/ from the
+             dataset maker): the ceiling left by the Cycles-Principled vs
+             simplified-Disney model mismatch, the faceted splat and noise.
+The optimised result must be clearly better than init on every material metric
+and reach absolute levels that only a working inversion reaches on this object.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import skimage.io
+
+from conftest import REPO
+
+BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
+pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
+
+ITERS = 300  # tiny dataset: 48x48 images, 8 training views, 8 spp: about 30 s on 2 cores
+
+
+def run(cmd, timeout):
+    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout)
+    assert r.returncode == 0, " ".join(map(str, cmd)) + "\n" + r.stdout[-3000:] + r.stderr[-3000:]
+    return r
+
+
+@pytest.fixture(scope="module")
+def e2e(tmp_path_factory, cli):
+    root = tmp_path_factory.mktemp("e2e")
+    data = root / "data"
+    run([*BLENDER, "-P", REPO / "scripts" / "make_dataset.py", "--", "--out", data, "--res", "48", "--train", "8",
+         "--test", "3", "--spp", "32", "--subdiv", "1", "--threads", "2"], timeout=600)
+    init, opt = root / "init", root / "opt"
+    common = ["optimize", "--dataset", data, "--gaussians", data / "gaussians.ply", "--spp", "8", "--seed", "0", "-q"]
+    run([cli, *common, "--out", init, "--iters", "0"], timeout=300)
+    run([cli, *common, "--out", opt, "--iters", ITERS], timeout=900)
+    relight = ["--relight", "sunset=%s" % (data / "envmaps" / "sunset.exr"), "--relight", "sky=%s" % (data / "envmaps" / "sky.exr")]
+    metrics = {}
+    for name, result in (("init", init), ("opt", opt), ("oracle", data / "oracle")):
+        run([cli, "eval", "--dataset", data, "--result", result, *relight, "--spp", "32", "-q"], timeout=300)
+        metrics[name] = json.loads((result / "eval" / "metrics.json").read_text())
+    return {"data": data, "opt": opt, "m": metrics, "root": root}
+
+
+def test_eval_writes_everything(e2e):
+    ev = e2e["opt"] / "eval"
+    for i in range(3):
+        for f in ("rgba", "albedo", "roughness", "metallic", "normal", "rgba_sunset", "rgba_sky"):
+            assert (ev / ("test_%03d" % i) / (f + ".exr")).exists()
+    m = e2e["m"]["opt"]
+    assert set(m["relight"]) == {"sunset", "sky"} and m["views"] == 3
+    for sheet in ("nvs", "albedo", "roughness", "normal", "relight_sunset", "relight_sky"):
+        img = skimage.io.imread(ev / f"sheet_{sheet}.png")
+        assert img.shape[0] > 3 * 48 and img.shape[1] > 3 * 3 * 48  # 3 rows, 3 columns, magnified
+    assert "Albedo PSNR" in (ev / "metrics.md").read_text()
+
+
+def test_oracle_ceiling(e2e):
+    """The true materials rendered by ptir against Cycles: what the model mismatch leaves."""
+    m = e2e["m"]["oracle"]
+    print("oracle", {k: m[k] for k in ("albedo_psnr", "nvs_psnr", "relight_psnr", "roughness_mse", "normal_mae_deg")})
+    # Albedo/roughness AOVs of the true values vs Cycles' passes differ only at silhouettes and
+    # part boundaries (faceted Gaussians vs the smooth mesh) and by the 8-bit files: measured
+    # 32.4 dB and 3e-4 at 48 px.
+    assert m["albedo_scale"] == pytest.approx([1, 1, 1], abs=0.02)
+    assert m["albedo_psnr"] > 28.0
+    assert m["roughness_mse"] < 0.003
+    # Flat Gaussians of a level-1 Suzanne against smooth-shaded normals: faceting (measured 6.7 deg).
+    assert m["normal_mae_deg"] < 12.0
+    # Renders: Cycles' Principled BSDF (Burley diffuse with retro-reflection, additive specular)
+    # vs our simplified Disney BRDF reflects ~7 % less light; plus silhouettes of the splat and
+    # 32-spp noise on both sides: measured 23.8 (NVS) and 23.3 dB (relight) at 48 px.
+    assert m["nvs_psnr"] > 21.5
+    assert m["relight_psnr"] > 21.0
+
+
+def part_roughness(ptir, data, result):
+    """{true roughness: mean recovered roughness} over the Gaussians of each part."""
+    truth = ptir.load_gaussians(str(data / "oracle" / "gaussians.ply"))
+    ours = ptir.load_gaussians(str(result / "gaussians.ply"))
+    key = np.round(truth.roughness, 3)
+    return {float(k): float(ours.roughness[key == k].mean()) for k in np.unique(key)}
+
+
+def test_optimisation_recovers_materials(e2e, ptir):
+    m, init, oracle = e2e["m"]["opt"], e2e["m"]["init"], e2e["m"]["oracle"]
+    summary = {k: (init[k], m[k], oracle[k]) for k in ("albedo_psnr", "nvs_psnr", "relight_psnr", "roughness_mse")}
+    print("init / optimised / oracle", summary)
+    # Albedo: init is one grey for every part; after the per-channel scale it can match one
+    # part at best: 12.9 dB. The four part colours recovered within ~10 % give > 20 dB (a
+    # uniform 10 % error of sRGB values is 20 dB); measured 23 dB.
+    assert m["albedo_psnr"] > 20.0
+    assert m["albedo_psnr"] > init["albedo_psnr"] + 6.0
+    # Relighting needs albedo, roughness and the scale together. Init scores 19.9 dB; the
+    # optimised asset reaches the oracle's 23.3 dB (measured 23.3-23.5): require most of that gap.
+    assert m["relight_psnr"] > init["relight_psnr"] + 2.0
+    assert m["relight_psnr"] > oracle["relight_psnr"] - 2.0
+    # NVS under the training light is what is optimised: the inversion even absorbs part of the
+    # model mismatch (measured 24.8-25.0 dB vs the oracle's 23.8).
+    assert m["nvs_psnr"] > oracle["nvs_psnr"] - 1.0
+    assert m["nvs_psnr"] > init["nvs_psnr"] + 5.0
+    # Roughness: init (0.6 everywhere) scores 0.0164 here. The glossy parts are recovered
+    # (head 0.3 -> ~0.40, pedestal sides 0.5 -> ~0.51) but the very rough pedestal top (0.8)
+    # comes out ~0.4: under Cycles' Principled BSDF a rough top brightens at grazing angles
+    # (Burley retro-reflection) and our simplified Disney BRDF can only explain that with a
+    # glossier surface -- the model mismatch, not the optimiser. Measured MSE 0.0125-0.013;
+    # the paper reports 0.015 (with prior) to 0.023 (without) on TensoIR.
+    assert m["roughness_mse"] < 0.9 * init["roughness_mse"]
+    assert m["roughness_mse"] < 0.015
+    parts = part_roughness(ptir, e2e["data"], e2e["opt"])
+    print("recovered roughness per part", parts)
+    assert abs(parts[0.3] - 0.3) < 0.5 * abs(0.6 - 0.3)  # the head: at least half-way from init to truth
+    assert abs(parts[0.5] - 0.5) < 0.1                   # the pedestal sides
+    # Normals are not optimised: the same Gaussians' shortest axes as the oracle's face normals.
+    assert m["normal_mae_deg"] == pytest.approx(oracle["normal_mae_deg"], abs=2.0)
+
+
+def test_relight_command(e2e, cli):
+    data, opt, root = e2e["data"], e2e["opt"], e2e["root"]
+    floor = root / "floor.ply"
+    z = json.loads((data / "dataset.json").read_text())["bbox"][0][2]
+    floor.write_text("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                     "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+                     f"-5 -5 {z}\n5 -5 {z}\n5 5 {z}\n-5 5 {z}\n3 0 1 2\n3 0 2 3\n")
+    base = [cli, "relight", "--result", opt, "--cameras", data / "transforms_test.json", "--frame", "0", "--spp", "16",
+            "--albedo-scale", "auto", "-q"]
+    run([*base, "--env", data / "envmaps" / "sky.exr", "-o", root / "r_env"], timeout=300)
+    run([*base, "--env", data / "envmaps" / "sky.exr", "--point", "0,-3,3,300", "--mesh", floor, "-o", root / "r_lit"],
+        timeout=300)
+    run([*base, "--area", "0,-3,3, 0,0,0, 1,1, 200", "--transparent", "-o", root / "r_area"], timeout=300)
+    env = skimage.io.imread(root / "r_env" / "test_000.png").astype(float)
+    lit = skimage.io.imread(root / "r_lit" / "test_000.png").astype(float)
+    area = skimage.io.imread(root / "r_area" / "test_000.png")
+    assert env.shape[:2] == (48, 48) and (root / "r_env" / "test_000.exr").exists()
+    # The point light adds light on the object's front (where the test camera looks).
+    obj = skimage.io.imread(data / "test_000" / "rgba.png")[..., 3] == 255
+    assert lit[obj][:, :3].mean() > env[obj][:, :3].mean() + 5
+    # Transparent film: the background is alpha 0; the object, lit by the area light only, is visible.
+    assert area[..., 3][~obj].min() == 0 and area[..., 3][obj].mean() > 200
+    assert area[..., :3][obj].mean() > 10
+    # Errors name the problem.
+    r = subprocess.run([str(cli), "relight", "--result", str(opt), "--cameras", str(data / "transforms_test.json"),
+                        "-o", str(root / "r_none")], capture_output=True, text=True)
+    assert r.returncode == 1 and "no light" in r.stderr

@@ -1,0 +1,249 @@
+"""`ptir optimize` and the Python optimiser: outputs, exact resume, Ctrl-C, errors.
+
+The dataset is made here with the module itself: a sphere of flat Gaussians with a
+warm top and a cool bottom under a sky with a sun, rendered from 6 views at 32x32
+(TensoIR layout, RGBA PNG). Runs are tiny (a few iterations at 2 spp, 1 thread);
+what is checked is the plumbing, not the recovery (tests/blender does that).
+"""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import write_splat_ply
+
+
+def fibonacci(n):
+    i = np.arange(n) + 0.5
+    z = 1 - 2 * i / n
+    r = np.sqrt(1 - z * z)
+    phi = i * math.pi * (3 - math.sqrt(5))
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
+
+
+def quat_z_to(n):
+    """Unit quaternions (w, x, y, z) rotating +z onto each row of n."""
+    q = np.zeros((len(n), 4))
+    for k, v in enumerate(n):
+        c, d = np.cross([0, 0, 1.0], v), v[2]
+        q[k] = (0, 1, 0, 0) if d < -0.999999 else np.array([1 + d, *c]) / np.linalg.norm([1 + d, *c])
+    return q
+
+
+def look_at(eye, target):
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    back = (eye - target) / np.linalg.norm(eye - target)
+    right = np.cross([0, 0, 1.0], back)
+    right /= np.linalg.norm(right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
+    return m
+
+
+@pytest.fixture(scope="module")
+def dataset(ptir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("optimize_ds")
+    n = 600
+    p = fibonacci(n)
+    spacing = math.sqrt(4 * math.pi / n)
+    write_splat_ply(out / "g.ply", p, (0.7 * spacing, 0.7 * spacing, 1e-3 * spacing), quat=quat_z_to(p), opacity=0.95)
+    env = np.zeros((8, 16, 3), np.float32)
+    for r in range(8):
+        env[r] = [1.6 - 0.15 * r, 1.4 - 0.12 * r, 1.0]
+    env[1, 4] = [8, 7, 5]
+    ptir.write_image(str(out / "env.exr"), env)
+    frames = []
+    for i in range(6):
+        phi = 2 * math.pi * i / 6
+        eye = (3.5 * math.cos(phi), 3.5 * math.sin(phi), 1.0 + 0.6 * (i % 2))
+        frames.append({"file_path": "./train_%03d/rgba" % i, "transform_matrix": look_at(eye, (0, 0, 0)).tolist()})
+    (out / "transforms_train.json").write_text(json.dumps({"camera_angle_x": 0.7, "w": 32, "h": 32, "frames": frames}))
+    scene = ptir.scene_from_dict({"gaussians": [{"file": "g.ply"}], "environment": {"type": "latlong", "file": "env.exr"},
+                                  "cameras": [{"transforms": "transforms_train.json"}]}, base_dir=str(out))
+    g = scene.gaussians
+    g.albedo = np.where(p[:, 2:3] > 0, [[0.7, 0.3, 0.2]], [[0.2, 0.5, 0.7]]).astype(np.float32)
+    g.roughness = np.where(p[:, 2] > 0, 0.3, 0.7).astype(np.float32)
+    for i in range(6):
+        img = scene.render(i, spp=32, bounces=2)
+        (out / ("train_%03d" % i)).mkdir()
+        ptir.write_image(str(out / ("train_%03d" % i) / "rgba.png"), img)
+    return out
+
+
+def optimize(cli, dataset, out, *extra, check=True):
+    """Runs the CLI; `extra` options override the small defaults (2 spp, 1 thread, 16x8 environment)."""
+    extra = [str(e) for e in extra]
+    defaults = [opt for opt in (("--spp", "2"), ("--threads", "1"), ("--env-size", "16x8")) if opt[0] not in extra]
+    cmd = [str(cli), "optimize", "--dataset", str(dataset), "--gaussians", str(dataset / "g.ply"), "--out", str(out),
+           *[x for opt in defaults for x in opt], *extra]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    if check:
+        assert r.returncode == 0, r.stderr[-3000:]
+    return r
+
+
+def read_ply_properties(path):
+    header = Path(path).read_bytes().split(b"end_header")[0].decode("ascii")
+    return [line.split()[-1] for line in header.splitlines() if line.startswith("property")]
+
+
+def state(ptir, out):
+    g = ptir.load_gaussians(str(out / "gaussians.ply"))
+    return g.albedo, g.roughness, g.normal, ptir.read_image(str(out / "env.exr"))
+
+
+def test_outputs_and_progress(ptir, cli, dataset, tmp_path):
+    out = tmp_path / "out"
+    r = optimize(cli, dataset, out, "--iters", 6, "--checkpoint-every", 3, "--seed", 3)
+    lines = [l for l in r.stderr.splitlines() if l.startswith("iter ")]
+    assert len(lines) == 6
+    assert "loss" in lines[0] and "s/iter" in lines[0] and "ETA" in lines[0]
+    for name in ("gaussians.ply", "env.exr", "log.csv", "checkpoint.bin"):
+        assert (out / name).is_file(), name
+    assert not [p for p in out.iterdir() if ".tmp" in p.name]  # atomic writes leave no temp files
+    props = read_ply_properties(out / "gaussians.ply")
+    for name in read_ply_properties(dataset / "g.ply"):
+        assert name in props  # every input property kept
+    for name in ("albedo_0", "albedo_1", "albedo_2", "roughness", "metallic", "nx", "ny", "nz"):
+        assert name in props
+    g = ptir.load_gaussians(str(out / "gaussians.ply"))
+    src = ptir.load_gaussians(str(dataset / "g.ply"))
+    np.testing.assert_array_equal(g.position, src.position)
+    assert not np.allclose(g.albedo, 0.3, atol=1e-3)  # materials moved
+    assert np.all(g.metallic == 0)
+    n = g.normal
+    assert np.allclose(np.linalg.norm(n, axis=1), 1, atol=1e-4)
+    seen = g.position[:, 2] > -0.3  # the cameras are above z = 1: the bottom cap is never seen directly
+    assert np.all(np.sum(n * g.position, 1)[seen] > 0)  # oriented outward (toward the cameras)
+    env = ptir.read_image(str(out / "env.exr"))
+    assert env.shape == (8, 16, 3) and np.all(env > 0)
+    rows = (out / "log.csv").read_text().splitlines()
+    assert rows[0].startswith("iteration,loss,image,tv,prior,prior_weight,seconds")
+    assert [int(r.split(",")[0]) for r in rows[1:]] == list(range(1, 7))
+
+
+def test_resume_after_interruption_is_exact(ptir, cli, dataset, tmp_path):
+    straight = tmp_path / "straight"
+    optimize(cli, dataset, straight, "--iters", 8, "--seed", 5, "--views-per-iter", 2, "--crop", 24)
+    # The same run stopped after 4 iterations, then resumed to 8.
+    part = tmp_path / "part"
+    optimize(cli, dataset, part, "--iters", 4, "--seed", 5, "--views-per-iter", 2, "--crop", 24)
+    r = optimize(cli, dataset, part, "--iters", 8, "--seed", 5, "--views-per-iter", 2, "--crop", 24, "--resume")
+    assert "resumed from" in r.stderr and "iteration 4" in r.stderr
+    for a, b in zip(state(ptir, straight), state(ptir, part)):
+        np.testing.assert_array_equal(a, b)
+    la = [l.split(",")[:6] for l in (straight / "log.csv").read_text().splitlines()]
+    lb = [l.split(",")[:6] for l in (part / "log.csv").read_text().splitlines()]
+    assert [row[:2] for row in la] == [row[:2] for row in lb]  # iterations and losses (not the timings)
+
+
+def test_resume_refuses_a_different_problem(cli, dataset, tmp_path):
+    out = tmp_path / "out"
+    optimize(cli, dataset, out, "--iters", 2)
+    r = optimize(cli, dataset, out, "--iters", 4, "--spp", 3, "--resume", check=False)
+    assert r.returncode == 1
+    assert "spp: checkpoint 2, now 3" in r.stderr
+    r = optimize(cli, dataset, tmp_path / "none", "--iters", 4, "--resume", check=False)
+    assert r.returncode == 1 and "no checkpoint" in r.stderr
+
+
+def test_ctrl_c_writes_a_checkpoint_and_resume_finishes_exactly(ptir, cli, dataset, tmp_path):
+    straight = tmp_path / "straight"
+    optimize(cli, dataset, straight, "--iters", 12, "--spp", 8, "--seed", 2)
+    out = tmp_path / "out"
+    cmd = [str(cli), "optimize", "--dataset", str(dataset), "--gaussians", str(dataset / "g.ply"), "--out", str(out),
+           "--spp", "8", "--threads", "1", "--env-size", "16x8", "--iters", "12", "--seed", "2"]
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
+    # Interrupt after the second iteration's progress line.
+    seen = 0
+    while seen < 2:
+        line = proc.stderr.readline()
+        assert line, "optimize ended before it could be interrupted"
+        seen += line.startswith("iter ")
+    proc.send_signal(signal.SIGINT)
+    rest = proc.stderr.read()
+    assert proc.wait(timeout=120) == 130, rest
+    assert "interrupted after iteration" in rest
+    ckpt_iters = int(rest.split("interrupted after iteration ")[1].split(";")[0])
+    assert 2 <= ckpt_iters < 12
+    for name in ("gaussians.ply", "env.exr", "log.csv", "checkpoint.bin"):
+        assert (out / name).is_file(), name
+    assert len((out / "log.csv").read_text().splitlines()) == ckpt_iters + 1
+    optimize(cli, dataset, out, "--iters", 12, "--spp", 8, "--seed", 2, "--resume")
+    for a, b in zip(state(ptir, straight), state(ptir, out)):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_clear_errors(cli, dataset, tmp_path):
+    r = optimize(cli, tmp_path / "missing", tmp_path / "o", "--iters", 1, check=False)
+    assert r.returncode == 1 and "dataset folder not found" in r.stderr
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "transforms_train.json").write_text('{"camera_angle_x": 0.7, "frames": [')
+    r = subprocess.run([str(cli), "optimize", "--dataset", str(bad), "--gaussians", str(dataset / "g.ply"), "--out",
+                        str(tmp_path / "o")], capture_output=True, text=True)
+    assert r.returncode == 1 and "transforms_train.json" in r.stderr and "invalid JSON" in r.stderr
+    r = subprocess.run([str(cli), "optimize", "--dataset", str(dataset), "--gaussians", str(dataset / "g.ply"), "--out",
+                        str(tmp_path / "o"), "--env", "cubemap"], capture_output=True, text=True)
+    assert r.returncode == 1 and "--env must be 'latlong' or 'sg'" in r.stderr
+    r = subprocess.run([str(cli), "optimize", "--dataset", str(dataset), "--out", str(tmp_path / "o")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "--gaussians" in r.stderr
+
+
+def test_sg_environment(ptir, cli, dataset, tmp_path):
+    out = tmp_path / "sg"
+    optimize(cli, dataset, out, "--iters", 3, "--env", "sg")
+    env = ptir.read_image(str(out / "env.exr"))
+    assert env.shape == (8, 16, 3)
+    lobes = json.loads((out / "env_sg.json").read_text())["lobes"]
+    assert len(lobes) == 24 and all(len(l["raw"]) == 3 for l in lobes)
+
+
+def test_python_optimizer_callback_and_cancel(ptir, dataset, tmp_path):
+    ds = ptir.load_dataset(str(dataset))
+    assert len(ds) == 6 and ds.width == 32 and ds.view_names[0] == "train_000"
+    rgb, alpha, has_alpha = ds.target(0)
+    assert rgb.shape == (32, 32, 3) and alpha.shape == (32, 32) and has_alpha
+    opt = ptir.Optimizer(ds, str(dataset / "g.ply"), iters=10, spp=2, env_size=(16, 8), threads=1)
+    seen = []
+
+    def callback(info):
+        seen.append(info["iteration"])
+        assert set(info) >= {"loss", "image", "tv", "prior", "seconds", "views"}
+        return info["iteration"] < 3  # stop after the third
+
+    out = tmp_path / "py"
+    assert opt.run(out=str(out), callback=callback) == "cancelled"
+    assert seen == [1, 2, 3] and opt.iteration == 3
+    assert (out / "checkpoint.bin").is_file() and (out / "gaussians.ply").is_file()
+    assert opt.gaussians.albedo.shape == (600, 3)
+    assert opt.environment.shape == (8, 16, 3)
+    # Continue in the same object to the end.
+    assert opt.run(out=str(out)) == "finished"
+    assert opt.iteration == 10 and len(opt.log) == 10
+    # An uninterrupted run in a fresh object ends in the same state.
+    again = ptir.Optimizer(ds, str(dataset / "g.ply"), iters=10, spp=2, env_size=(16, 8), threads=1)
+    assert again.run() == "finished"
+    np.testing.assert_array_equal(again.gaussians.albedo, opt.gaussians.albedo)
+
+    # An exception in the callback stops the run and is re-raised after the outputs are written.
+    opt2 = ptir.Optimizer(ds, str(dataset / "g.ply"), iters=5, spp=2, env_size=(16, 8), threads=1)
+
+    def boom(info):
+        raise ValueError("stop here")
+
+    with pytest.raises(ValueError, match="stop here"):
+        opt2.run(out=str(tmp_path / "boom"), callback=boom)
+    assert opt2.iteration == 1 and (tmp_path / "boom" / "checkpoint.bin").is_file()
+
+    r = ptir.optimize(str(dataset), str(dataset / "g.ply"), str(tmp_path / "fn"), iters=2, spp=2, env_size=(16, 8),
+                      threads=1)
+    assert r["result"] == "finished" and r["iteration"] == 2 and len(r["log"]) == 2
