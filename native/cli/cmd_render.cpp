@@ -169,6 +169,7 @@ int run_render(const RenderOptions& o, const CLI::App& cmd) {
       if (cmd.count(flag))
         throw Error(std::string(flag) + " belongs to the flag form; with a scene file, put it in the file (" + o.scene + ")");
     scene = load_scene_json(o.scene);
+    orient_scene_normals(scene);
     camera = pick_scene_camera(scene, o.camera_name);
     if (o.width > 0 || o.height > 0) {
       // Resize keeping the horizontal field of view (and the aspect ratio when only one is given).

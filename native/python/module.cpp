@@ -352,6 +352,7 @@ PYBIND11_MODULE(ptir, m) {
   m.def("load_scene",
         [](const std::string& path, int k) {
           Scene scene = load_scene_json(path);
+          orient_scene_normals(scene);
           return make_pyscene(std::move(scene), k);
         },
         py::arg("path"), py::arg("k") = 16, py::call_guard<py::gil_scoped_release>(),
@@ -359,6 +360,7 @@ PYBIND11_MODULE(ptir, m) {
   m.def("scene_from_json_string",
         [](const std::string& text, const std::string& base_dir, const std::string& name, int k) {
           Scene scene = scene_from_json_string(text, base_dir, name);
+          orient_scene_normals(scene);
           return make_pyscene(std::move(scene), k);
         },
         py::arg("text"), py::arg("base_dir") = "", py::arg("name") = "scene", py::arg("k") = 16,
@@ -369,6 +371,7 @@ PYBIND11_MODULE(ptir, m) {
           std::string text = py::module_::import("json").attr("dumps")(obj).cast<std::string>();
           py::gil_scoped_release release;
           Scene scene = scene_from_json_string(text, base_dir, name);
+          orient_scene_normals(scene);
           return make_pyscene(std::move(scene), k);
         },
         py::arg("scene"), py::arg("base_dir") = "", py::arg("name") = "scene", py::arg("k") = 16,

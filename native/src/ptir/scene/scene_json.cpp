@@ -11,10 +11,8 @@
 #include <set>
 #include <sstream>
 
-#include "ptir/accel/scene_accel.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/gaussian_ply.h"
-#include "ptir/transport/orient_normals.h"
 
 namespace ptir {
 
@@ -567,19 +565,6 @@ void parse_integrator(const Node& n, IntegratorSettings& s) {
   s.min_throughput = n.non_negative("min_throughput", s.min_throughput);
 }
 
-// Shortest-axis normals face the cameras (or away from the centroid without cameras);
-// the meshes occlude.
-void orient_loaded_normals(GaussianField& field, const std::vector<TriangleMesh>& meshes, const std::vector<Camera>& cams) {
-  if (field.normals_from_file || field.size() == 0) return;
-  if (cams.empty()) {
-    orient_normals_away_from_centroid(field);
-    return;
-  }
-  SceneAccel accel(field, meshes);
-  int rays_per_camera = std::max(4096, int(262144 / std::max<size_t>(1, cams.size())));
-  orient_normals_to_cameras(field, accel, cams, rays_per_camera);
-}
-
 Scene parse_scene(const json& root, const Ctx& ctx) {
   Node n{root, "", ctx};
   if (!root.is_object()) ctx.fail("", std::string("the scene must be a JSON object, got ") + type_name(root));
@@ -622,7 +607,6 @@ Scene parse_scene(const json& root, const Ctx& ctx) {
           return 0;
         });
       }
-      orient_loaded_normals(field, scene.meshes, scene.cameras);
       append_gaussians(all, std::move(field));
     }
     *scene.gaussians = std::move(all);

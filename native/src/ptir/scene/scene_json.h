@@ -18,9 +18,8 @@
 
 namespace ptir {
 
-// Reads a scene file. Gaussians whose PLY has no normals get their shortest axis
-// oriented toward the scene's cameras (as `ptir render` does), else away from
-// their centroid.
+// Reads a scene file. Gaussians whose PLY has no normals keep their shortest
+// axes unoriented: renderers call orient_scene_normals (transport layer) next.
 Scene load_scene_json(const std::string& path);
 
 // The same from JSON text; relative paths resolve against base_dir ("" = the

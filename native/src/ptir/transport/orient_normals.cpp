@@ -53,4 +53,18 @@ OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& ac
   return stats;
 }
 
+OrientStats orient_scene_normals(Scene& scene) {
+  GaussianField& field = *scene.gaussians;
+  OrientStats stats;
+  if (field.normals_from_file || field.size() == 0) return stats;
+  if (scene.cameras.empty()) {
+    orient_normals_away_from_centroid(field);
+    stats.unseen = field.size();
+    return stats;
+  }
+  SceneAccel accel(field, scene.meshes);
+  int rays_per_camera = std::max(4096, int(262144 / std::max<size_t>(1, scene.cameras.size())));
+  return orient_normals_to_cameras(field, accel, scene.cameras, rays_per_camera);
+}
+
 }  // namespace ptir

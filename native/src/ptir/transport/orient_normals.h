@@ -11,6 +11,7 @@
 
 #include "ptir/accel/scene_accel.h"
 #include "ptir/scene/camera.h"
+#include "ptir/scene/scene.h"
 
 namespace ptir {
 
@@ -24,5 +25,10 @@ struct OrientStats {
 // grid is subsampled to about that many rays.
 OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& accel, const std::vector<Camera>& cameras,
                                       int rays_per_camera = 256 * 256);
+
+// For a loaded scene: when its Gaussians' normals did not come from their files,
+// orients them toward the scene's cameras (meshes occlude), or away from the
+// field's centroid when the scene has no camera. About 256K rays in all.
+OrientStats orient_scene_normals(Scene& scene);
 
 }  // namespace ptir
