@@ -4,8 +4,11 @@
 //   - Gaussian rays/s of the opacity AOV, i.e. the full ordered k-buffer walk plus
 //     compositing (InteractionBuilder) with early termination at T < 0.001:
 //       render_aov      the library's renderer, as it is;
-//       walk 1x1        the same per-pixel work here, one SceneAccel::walk per ray;
-//       packet WxH      the same with SceneAccel::walk_packet over WxH pixel blocks;
+//       aov 1x1         the same per-pixel work here, one SceneAccel::walk per ray;
+//       aov WxH         the same with SceneAccel::walk_packet over WxH pixel blocks;
+//     and of the traversal alone (the hits in order, composited into opacity only,
+//     no material fetched; the counterpart of a closest hit):
+//       trav 1x1, trav WxH;
 //   - triangle rays/s: SceneAccel::closest_mesh (a triangles-only Embree scene,
 //     rtcIntersect1) over the same rays, on a mesh with one triangle per Gaussian;
 // single-threaded (CPU time: robust on a shared machine) and multi-threaded (TBB,
@@ -104,30 +107,44 @@ struct Options {
   int repeat = 5;
   float zoom = 1.0f;  // narrows the field of view so the object fills more of the image
   std::vector<int> ks = {8, 16, 32};
-  std::vector<std::string> variants = {"render_aov", "walk", "2x2", "4x2", "4x4"};
+  std::vector<std::string> variants = {"render_aov", "aov1x1", "aov2x2", "aov4x2", "aov4x4", "trav1x1", "trav4x4"};
 };
 
 // A way to render the opacity AOV: render_aov itself (block 0x0) or the bench's
-// copy of its per-pixel work over blocks of bw x bh pixels (1x1: walk per ray).
+// copy of its per-pixel work over blocks of bw x bh pixels (1x1: walk per ray),
+// with the full interaction (aov) or the opacity only (trav).
 struct Variant {
   std::string name;
   int bw = 0, bh = 0;
+  bool material = true;
 };
 
 Variant parse_variant(const std::string& s) {
-  if (s == "render_aov") return {"render_aov", 0, 0};
-  if (s == "walk") return {"walk 1x1", 1, 1};
+  if (s == "render_aov") return {"render_aov", 0, 0, true};
   int w = 0, h = 0;
-  if (std::sscanf(s.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1 || w * h > SceneAccel::kMaxPacket)
-    throw Error("unknown variant '" + s + "' (render_aov, walk, or WxH with W*H <= 16)");
-  return {"packet " + s, w, h};
+  bool aov = s.rfind("aov", 0) == 0, trav = s.rfind("trav", 0) == 0;
+  if ((!aov && !trav) || std::sscanf(s.c_str() + (aov ? 3 : 4), "%dx%d", &w, &h) != 2 || w < 1 || h < 1 ||
+      w * h > SceneAccel::kMaxPacket)
+    throw Error("unknown variant '" + s + "' (render_aov, aovWxH or travWxH with W*H <= 16)");
+  return {std::string(aov ? "aov " : "trav ") + s.substr(aov ? 3 : 4), w, h, aov};
 }
+
+// Opacity-only compositing (trav variants): the sums InteractionBuilder makes for O.
+struct Opacity {
+  float T = 1.0f, O = 0.0f;
+  bool add(const GaussianHit& h, float min_T) {
+    O += T * h.alpha;
+    T *= 1.0f - h.alpha;
+    return T >= min_T;
+  }
+};
 
 // The opacity AOV at pixel centres, as render_aov(Aov::Opacity) computes it
 // (trace_aov without preview, then the coverage), over 8x8 tiles in parallel,
 // each tile in blocks of bw x bh pixels traced together (1x1: SceneAccel::walk).
-Image render_opacity_blocks(const SceneAccel& accel, const Camera& cam, int bw, int bh, const AovSettings& settings,
-                            TraceStats* stats) {
+// Without `material`, the hits are composited into the opacity only.
+Image render_opacity_blocks(const SceneAccel& accel, const Camera& cam, int bw, int bh, bool material,
+                            const AovSettings& settings, TraceStats* stats) {
   Image image(cam.width, cam.height, {"A"});
   const GaussianField& field = accel.field();
   const float min_T = accel.settings().cull.min_transmittance;
@@ -136,32 +153,36 @@ Image render_opacity_blocks(const SceneAccel& accel, const Camera& cam, int bw, 
     TraceStats local;
     for (int by = r.rows().begin(); by < r.rows().end(); by += bh)
       for (int bx = r.cols().begin(); bx < r.cols().end(); bx += bw) {
-        // The block's rays and interaction builders, lane = row-major pixel index.
-        Ray rays[SceneAccel::kMaxPacket];
-        InteractionBuilder* builders[SceneAccel::kMaxPacket];
-        alignas(InteractionBuilder) unsigned char storage[SceneAccel::kMaxPacket][sizeof(InteractionBuilder)];
-        int xs[SceneAccel::kMaxPacket], ys[SceneAccel::kMaxPacket], n = 0;
+        // The block's rays and compositing, lane = row-major pixel index.
+        constexpr int kMax = SceneAccel::kMaxPacket;
+        Ray rays[kMax];
+        InteractionBuilder* builders[kMax];
+        alignas(InteractionBuilder) unsigned char storage[kMax][sizeof(InteractionBuilder)];
+        Opacity opacity[kMax];
+        int xs[kMax], ys[kMax], n = 0;
         for (int y = by; y < std::min(by + bh, r.rows().end()); ++y)
           for (int x = bx; x < std::min(bx + bw, r.cols().end()); ++x) {
             Rng rng(settings.seed, uint64_t(y) * uint64_t(cam.width) + uint64_t(x), 0);
             rays[n] = cam.generate_ray(float(x) + 0.5f, float(y) + 0.5f);
-            builders[n] = new (storage[n]) InteractionBuilder(field, settings.interaction, min_T, rng.key());
+            if (material) builders[n] = new (storage[n]) InteractionBuilder(field, settings.interaction, min_T, rng.key());
             xs[n] = x, ys[n] = y;
             n++;
           }
-        WalkEnd ends[SceneAccel::kMaxPacket];
-        if (n == 1) {
-          ends[0] = accel.walk(rays[0], [&](const GaussianHit& h) { return builders[0]->add(h); }, &local, true);
-        } else {
-          accel.walk_packet(rays, n, [&](int lane, const GaussianHit& h) { return builders[lane]->add(h); }, ends,
-                            &local, true);
-        }
+        auto visit = [&](int lane, const GaussianHit& h) {
+          return material ? builders[lane]->add(h) : opacity[lane].add(h, min_T);
+        };
+        WalkEnd ends[kMax];
+        if (n == 1) ends[0] = accel.walk(rays[0], [&](const GaussianHit& h) { return visit(0, h); }, &local, true);
+        else accel.walk_packet(rays, n, visit, ends, &local, true);
         // Coverage as render_aov: the Gaussians' opacity, plus what a mesh behind covers.
         for (int l = 0; l < n; ++l) {
-          SurfaceInteraction si = builders[l]->finish(rays[l]);
-          float opacity = si.opacity + ((!ends[l].stopped && ends[l].mesh.valid) ? si.transmittance : 0.0f);
-          image.at(xs[l], ys[l], 0) = std::min(1.0f, opacity);
-          builders[l]->~InteractionBuilder();
+          float O = opacity[l].O, T = opacity[l].T;
+          if (material) {
+            SurfaceInteraction si = builders[l]->finish(rays[l]);
+            O = si.opacity, T = si.transmittance;
+            builders[l]->~InteractionBuilder();
+          }
+          image.at(xs[l], ys[l], 0) = std::min(1.0f, O + ((!ends[l].stopped && ends[l].mesh.valid) ? T : 0.0f));
         }
       }
     rounds += local.rounds, hits += local.hits, candidates += local.candidates, packet_rounds += local.packet_rounds;
@@ -224,7 +245,7 @@ int run(const Options& o) {
   std::printf("\n%4s  %-7s  %-11s  %15s  %15s  %6s  %8s  %10s  %9s  %8s\n", "k", "threads", "variant", "Gaussian rays/s",
               "triangle rays/s", "ratio", "hits/ray", "rounds/ray", "boxes/ray", "coverage");
   AovSettings settings;  // pixel centres, aggregate interaction
-  Best best[2];
+  Best best[4];  // [1 thread, all threads] x [with material, traversal only]
   bool render_aov_packets = false;
   for (int k : o.ks) {
     AccelSettings as;
@@ -238,7 +259,7 @@ int run(const Options& o) {
         auto render = [&] {
           stats = TraceStats();
           img = v.bw == 0 ? render_aov(accel, cam, Aov::Opacity, settings, {}, &stats)
-                          : render_opacity_blocks(accel, cam, v.bw, v.bh, settings, &stats);
+                          : render_opacity_blocks(accel, cam, v.bw, v.bh, v.material, settings, &stats);
         };
         double secs = with_threads(threads, [&] { return median_seconds(o.repeat, threads == 1, render); });
         if (v.bw == 0) render_aov_packets = stats.packet_rounds > 0;
@@ -253,17 +274,21 @@ int run(const Options& o) {
         std::printf("%4d  %-7s  %-11s  %15.0f  %15.0f  %5.1fx  %8.2f  %10.2f  %9.2f  %7.1f%%\n", k,
                     threads == 1 ? "1" : "all", v.name.c_str(), g, t, t / g, double(stats.hits) / n_rays,
                     double(stats.rounds) / n_rays, double(stats.candidates) / n_rays, 100.0 * coverage / n_rays);
-        Best& b = best[threads == 1 ? 0 : 1];
+        Best& b = best[(threads == 1 ? 0 : 1) + (v.material ? 0 : 2)];
         if (g / t > b.ratio) b = {g / t, v.name + ", k=" + std::to_string(k)};
       }
     }
   }
   std::printf("\nratio = triangle rays/s / Gaussian rays/s (how many times slower the Gaussians are); hits: Gaussians\n"
-              "composited; boxes: Gaussian proxy boxes tested per ray (packets: every lane of the packet counts)\n\n");
-  for (int i = 0; i < 2; ++i)
-    std::printf("best Gaussian/triangle throughput, %s: %.2f (1/%.1f) with %s; requirement >= 1/3: %s\n",
-                i == 0 ? "1 thread " : "all threads", best[i].ratio, 1.0 / best[i].ratio, best[i].what.c_str(),
-                best[i].ratio >= 1.0 / 3.0 ? "met" : "NOT met");
+              "composited; boxes: Gaussians tested per ray (packets: every lane tested counts)\n"
+              "aov: render_aov's per-pixel work (InteractionBuilder: depth, normal, material sums); trav: the traversal\n"
+              "alone (hits in order, composited into opacity only, like a closest hit that fetches nothing)\n\n");
+  for (int i = 0; i < 4; ++i) {
+    if (best[i].what.empty()) continue;
+    std::printf("best Gaussian/triangle throughput, %-9s %-13s %.2f (1/%.1f) with %s; >= 1/3: %s\n",
+                i % 2 == 0 ? "1 thread," : "all,", i < 2 ? "full AOV:" : "traversal:", best[i].ratio,
+                1.0 / best[i].ratio, best[i].what.c_str(), best[i].ratio >= 1.0 / 3.0 ? "yes" : "NO");
+  }
   std::printf("render_aov traces %s\n", render_aov_packets ? "packets (SceneAccel::walk_packet)"
                                                            : "one ray at a time (SceneAccel::walk)");
   return 0;
@@ -281,7 +306,7 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", o.repeat, "timed runs per measurement (median)")->capture_default_str();
   app.add_option("--zoom", o.zoom, "divide tan(fov/2) by this (object fills more rays)")->capture_default_str();
   app.add_option("--k", o.ks, "k-buffer sizes")->capture_default_str();
-  app.add_option("--variants", o.variants, "render_aov, walk (1x1) and/or packet block sizes WxH")
+  app.add_option("--variants", o.variants, "render_aov, aovWxH (its work in WxH blocks), travWxH (traversal only)")
       ->capture_default_str();
   try {
     app.parse(argc, argv);

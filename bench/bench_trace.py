@@ -2,11 +2,15 @@
 """Gaussian vs triangle ray-tracing throughput on the ≥100K-Gaussian sample.
 
     bench/bench_trace.py [--build build] [--subdiv 4] [--size 256] [--zoom 2] [--repeat 5]
+                         [--variants render_aov aov1x1 aov4x4 trav1x1 trav4x4 ...]
 
 Makes out/bench/ with Blender (scripts/make_sample_splat.py --subdiv 4, ~130K
 Gaussians) when it is missing, then runs BUILD/bin/bench_trace, which prints the
-table (k = 8, 16, 32; one thread and all threads). A benchmark, not a test: the
-machine is shared, so compare the ratios within one run, not absolute rays/s.
+table (k = 8, 16, 32; one thread and all threads; render_aov, its per-pixel work
+one ray at a time and in packets of pixel blocks, the traversal alone) and the
+best Gaussian/triangle throughput ratios. A benchmark, not a test: the machine is
+shared, so compare the ratios within one run, not absolute rays/s (one-thread
+rows are timed in CPU time, all-thread rows in wall time).
 """
 
 import argparse
@@ -44,6 +48,7 @@ def main():
     p.add_argument("--zoom", type=float, default=2.0, help="narrow the view so the object fills most rays")
     p.add_argument("--repeat", type=int, default=5, help="timed runs per measurement")
     p.add_argument("--frame", type=int, default=0)
+    p.add_argument("--variants", nargs="+", help="bench_trace variants (default: its own list)")
     args = p.parse_args()
 
     build = Path(args.build)
@@ -61,6 +66,8 @@ def main():
 
     cmd = [str(exe), "--gaussians", str(files[0]), "--cameras", str(files[1]), "--frame", str(args.frame),
            "--size", str(args.size), "--zoom", str(args.zoom), "--repeat", str(args.repeat), "--k", "8", "16", "32"]
+    if args.variants:
+        cmd += ["--variants"] + args.variants
     sys.stdout.flush()
     return subprocess.run(cmd).returncode
 

@@ -322,7 +322,7 @@ INSTANTIATE_TEST_SUITE_P(
                                  {"type": "point", "position": [0,0,0], "power": "100"}]})",
                   "lights[2].power must be a number, got a string"},
         ErrorCase{R"({"lights": [{"type": "point", "position": [0,0,0], "powr": 1}]})",
-                  "lights[0].powr is not a known key (expected one of: type, name, position, power, color, radius)"},
+                  "lights[0].powr is not a known key (expected one of: type, name, position, power, color, radius, visible_camera)"},
         ErrorCase{R"({"lights": [{"type": "area", "transform": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})",
                   "lights[0].power is required"},
         ErrorCase{R"({"lights": [{"type": "spot", "power": 1}]})", "lights[0].type must be one of 'point', 'sun', 'area', got 'spot'"},

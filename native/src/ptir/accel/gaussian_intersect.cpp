@@ -1,6 +1,5 @@
 // The Embree intersect callback of the Gaussians and the evaluation of the
 // Gaussians it queues: the hot loop of the traversal.
-#pragma GCC diagnostic ignored "-Wpsabi"  // see below
 #include <immintrin.h>
 
 #include <algorithm>
@@ -8,9 +7,6 @@
 #include <cstring>
 
 #include "ptir/accel/round_context.h"
-
-// -Wpsabi: the vector helpers of gaussian_response.h are instantiated here for 8
-// lanes and inlined into the AVX2 variant; their calling convention never matters.
 
 // Code the evaluation needs inlined into its per-ISA variants (see evaluate_queue).
 #define PTIR_INLINE inline __attribute__((always_inline))
@@ -53,7 +49,7 @@ struct Chunk<8> {
   typedef int Ints __attribute__((vector_size(32)));
 };
 
-// Bit i set where lane i is non-zero (SSE2 movemask, 4 lanes at a time).
+// Bit i set where lane i is non-zero (SSE2 movemask, 4 lanes at a time), and back.
 PTIR_INLINE unsigned lane_bits(Chunk<4>::Ints v) {
   return unsigned(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(__m128i(v), _mm_setzero_si128())))) ^ 0xFu;
 }
@@ -64,6 +60,13 @@ PTIR_INLINE unsigned lane_bits(Chunk<8>::Ints v) {
   return lane_bits(lo) | lane_bits(hi) << 4;
 }
 
+template <class Ints>
+PTIR_INLINE Ints lanes_of(uint32_t bits) {
+  Ints lane_bit;
+  for (int i = 0; i < int(sizeof(Ints) / 4); ++i) lane_bit[i] = 1 << i;
+  return (lane_bit & int(bits)) != 0;
+}
+
 template <class V>
 PTIR_INLINE void load(V& v, const void* p) {
   std::memcpy(&v, p, sizeof v);
@@ -71,18 +74,14 @@ PTIR_INLINE void load(V& v, const void* p) {
 
 // One Gaussian against the rays [first, first + W) of a packet of N: the peaks
 // (and alphas) of every lane at once, with the same arithmetic as for one ray,
-// then the k-buffers of the lanes that accept it. `ou`: the origin in the
-// Gaussian's unit space when the lanes share it (else null).
+// then the k-buffers of the lanes (of `lanes`) that accept it. `ou`: the origin
+// in the Gaussian's unit space when the lanes share it (else null).
 template <int N, int W>
-PTIR_INLINE void intersect_chunk(RoundContext* rc, float* soa, unsigned* geom_id, int first, const GaussianTraceData& g,
-                                 const float* ou) {
+PTIR_INLINE void intersect_chunk(RoundContext* rc, float* soa, unsigned* geom_id, int first, uint32_t lanes,
+                                 const GaussianTraceData& g, const float* ou) {
   using Floats = typename Chunk<W>::Floats;
   using Ints = typename Chunk<W>::Ints;
-  Ints ok;
-  load(ok, rc->valid + first);
-  const unsigned lanes = lane_bits(ok);
-  rc->candidates += unsigned(__builtin_popcount(lanes));
-  if (!lanes) return;
+  Ints ok = lanes_of<Ints>(lanes >> first);
 
   // The SoA packet (RTCRayHitN): org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, time, tfar, ...
   float* tfar = soa + 8 * N + first;
@@ -112,20 +111,22 @@ PTIR_INLINE void intersect_chunk(RoundContext* rc, float* soa, unsigned* geom_id
   }
 }
 
-// One Gaussian against a packet of N rays, W lanes at a time.
+// One Gaussian against the rays `lanes` of a packet of N, W lanes at a time.
 template <int N, int W>
-PTIR_INLINE void intersect_packet(RoundContext* rc, RTCRayHitN* rayhit, const GaussianTraceData& g) {
+PTIR_INLINE void intersect_packet(RoundContext* rc, RTCRayHitN* rayhit, uint32_t lanes, const GaussianTraceData& g) {
   constexpr int C = N < W ? N : W;
   float* soa = reinterpret_cast<float*>(rayhit);
   unsigned* geom_id = &RTCHitN_geomID(RTCRayHitN_HitN(rayhit, N), N, 0);
+  rc->candidates += unsigned(__builtin_popcount(lanes));
   // Camera rays share their origin: its unit-space image is computed once.
   float ou[3];
   if (rc->shared_origin) unit_origin(g, rc->origin[0], rc->origin[1], rc->origin[2], ou[0], ou[1], ou[2]);
   for (int first = 0; first < N; first += C)
-    intersect_chunk<N, C>(rc, soa, geom_id, first, g, rc->shared_origin ? ou : nullptr);
+    if ((lanes >> first) & ((1u << C) - 1u))
+      intersect_chunk<N, C>(rc, soa, geom_id, first, lanes, g, rc->shared_origin ? ou : nullptr);
 }
 
-// The queued Gaussians against the ray or packet, W lanes at a time.
+// The queued Gaussians against the packet, W lanes at a time.
 template <int W>
 PTIR_INLINE void evaluate(RoundContext* rc, void* rayhit) {
   // A few Gaussians ahead: their loads overlap the evaluation of this one.
@@ -136,18 +137,19 @@ PTIR_INLINE void evaluate(RoundContext* rc, void* rayhit) {
   for (int i = 0; i < n; ++i) {
     if (i + kAhead < n) __builtin_prefetch(rc->data + rc->queue[i + kAhead]);
     const GaussianTraceData& g = rc->data[rc->queue[i]];
+    const uint32_t lanes = rc->queue_lanes[i];
     switch (rc->lanes) {
-      case 1: intersect_one(rc, static_cast<RTCRayHit*>(rayhit), g); break;
-      case 4: intersect_packet<4, W>(rc, rh, g); break;
-      case 8: intersect_packet<8, W>(rc, rh, g); break;
-      case 16: intersect_packet<16, W>(rc, rh, g); break;
+      case 4: intersect_packet<4, W>(rc, rh, lanes, g); break;
+      case 8: intersect_packet<8, W>(rc, rh, lanes, g); break;
+      case 16: intersect_packet<16, W>(rc, rh, lanes, g); break;
     }
   }
   rc->queued = 0;
 }
 
 // One variant per instruction set, chosen at run time: the build stays portable
-// (SSE2) and AVX2 machines evaluate 8 lanes at once.
+// (SSE2, 4 lanes at once) and AVX2 machines evaluate 8 lanes at once. Every
+// variant runs the same IEEE operations per lane (no FMA): the same results.
 void evaluate_sse2(RoundContext* rc, void* rayhit) { evaluate<4>(rc, rayhit); }
 __attribute__((target("avx2"))) void evaluate_avx2(RoundContext* rc, void* rayhit) { evaluate<8>(rc, rayhit); }
 
@@ -166,8 +168,35 @@ void evaluate_queue(RoundContext* rc, void* rayhit) {
 
 void gaussian_intersect(const RTCIntersectFunctionNArguments* args) {
   auto* rc = reinterpret_cast<RoundContext*>(args->context);
-  if (args->N == 1 && !args->valid[0]) return;
-  rc->queue[rc->queued++] = args->primID;
+  if (args->N == 1) {
+    // One ray: evaluate now (it prunes the rest of the traversal soonest), and
+    // start loading the Gaussians next to this one in Morton order, which the
+    // BVH tends to report next.
+    if (!args->valid[0]) return;
+    const GaussianTraceData& g = rc->data[args->primID];
+    const uintptr_t at = reinterpret_cast<uintptr_t>(&g);
+    __builtin_prefetch(reinterpret_cast<const void*>(at + sizeof(g)));
+    __builtin_prefetch(reinterpret_cast<const void*>(at + 2 * sizeof(g)));
+    __builtin_prefetch(reinterpret_cast<const void*>(at - sizeof(g)));
+    intersect_one(rc, reinterpret_cast<RTCRayHit*>(args->rayhit), g);
+    return;
+  }
+  // A packet: queue, with the lanes Embree reports it for, then evaluate in
+  // batches. A coherent traversal walks the lanes of each octant of directions
+  // separately: a Gaussian may come once per octant, each time for other lanes.
+  // With one octant it comes once, and is evaluated for every lane (those Embree
+  // leaves out have their tfar in front of it, and reject it).
+  uint32_t lanes = rc->active;
+  if (!rc->one_octant) {
+    lanes = 0;
+    for (unsigned i = 0; i < args->N; i += 4) {
+      Chunk<4>::Ints v;
+      load(v, args->valid + i);
+      lanes |= lane_bits(v) << i;
+    }
+  }
+  rc->queue[rc->queued] = args->primID;
+  rc->queue_lanes[rc->queued++] = lanes;
   if (rc->queued == RoundContext::kQueue) evaluate_queue(rc, args->rayhit);
 }
 

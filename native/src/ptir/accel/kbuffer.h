@@ -56,7 +56,10 @@ struct KBuffer {
       // Append; sort only once the buffer may bound the round.
       hits[count++] = GaussianHit{t, alpha, id};
       T_all *= 1.0f - alpha;
-      if (count == k || T_all < min_T * kOrderSlack) sort_and_cut(tfar, geom_id);
+      if (count == k || T_all < min_T * kOrderSlack) {
+        make_sorted(tfar);
+        shrink(tfar, geom_id);
+      }
       return;
     }
     // Drop buffered hits that a triangle found since then hides (the opaque cut,
@@ -85,7 +88,7 @@ struct KBuffer {
   // the sorted hits in front of the triangle. Returns whether hits may remain
   // after the last one (the buffer filled up before the ray became opaque).
   bool finish(bool mesh_hit, float tfar) {
-    if (!sorted) sort_and_cut_only(tfar);
+    if (!sorted) make_sorted(tfar);
     if (mesh_hit) {
       while (count > 0 && hits[count - 1].t >= tfar) count--;
       return false;
@@ -121,7 +124,7 @@ struct KBuffer {
   }
 
   // Unsorted -> sorted: drops hits a triangle hides, sorts, cuts.
-  void sort_and_cut_only(float tfar) {
+  void make_sorted(float tfar) {
     // The hits in front of tfar, as (t, id) keys (id biased for a signed compare).
     GaussianHit kept[SceneAccel::kMaxK];
     float key_t[SceneAccel::kMaxK];
@@ -135,20 +138,19 @@ struct KBuffer {
       n++;
     }
     // Each hit goes to its rank: how many hits come before it (branch-free; the
-    // inner loop vectorises, and n is small).
+    // inner loop vectorises, and n is small). Equal keys (never expected: one hit
+    // per Gaussian) would keep their order rather than share a rank.
     for (int i = 0; i < n; ++i) {
       int rank = 0;
-      for (int j = 0; j < n; ++j) rank += (key_t[j] < key_t[i]) | ((key_t[j] == key_t[i]) & (key_id[j] < key_id[i]));
+      for (int j = 0; j < n; ++j) {
+        const bool same_t = key_t[j] == key_t[i];
+        rank += (key_t[j] < key_t[i]) | (same_t & (key_id[j] < key_id[i])) | (same_t & (key_id[j] == key_id[i]) & (j < i));
+      }
       hits[rank] = kept[i];
     }
     count = n;
     sorted = true;
     cut_from(0);
-  }
-
-  void sort_and_cut(float& tfar, unsigned& geom_id) {
-    sort_and_cut_only(tfar);
-    shrink(tfar, geom_id);
   }
 };
 

@@ -1,5 +1,6 @@
 // What the Embree intersect callback of the Gaussians sees during one traversal
-// round, of one ray or of a packet of rays (internal to the traversal).
+// round, of one ray or of a packet of rays, and the Embree objects of a
+// SceneAccel (internal to the traversal).
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -14,12 +15,13 @@ namespace ptir {
 // Reached from the callback through the intersect context (which must stay the
 // first member). Lane i of a packet is ray i of the RTCRayHitN given to Embree.
 //
-// The callback only queues the Gaussians Embree reports; they are evaluated in
-// batches (evaluate_pending) when the queue is full and when the traversal ends.
-// A batch runs at the speed of the arithmetic, with its loads prefetched, where
-// one Gaussian per callback would wait on each load and each dependent chain.
-// The k-buffers end the same either way: their content does not depend on the
-// order of the candidates, and tfar only prunes what they would reject.
+// For a packet, the callback only queues the Gaussians Embree reports; they are
+// evaluated in batches (evaluate_queue) when the queue is full and when the
+// traversal ends. A batch runs at the speed of the arithmetic, with its loads
+// prefetched, where one Gaussian per callback would wait on each load and each
+// dependent chain. The k-buffers end the same either way: their content does not
+// depend on the order of the candidates, and tfar only prunes what they would
+// reject. (A single ray is evaluated at once: there, pruning early pays more.)
 struct RoundContext {
   static constexpr int kQueue = 64;  // Gaussians queued before a batch runs
 
@@ -29,13 +31,14 @@ struct RoundContext {
   int lanes;            // 1: rtcIntersect1 (RTCRayHit); 4, 8, 16: rtcIntersectN
   uint32_t active;      // lanes traced this round (bit i: lane i)
   bool shared_origin;   // every active lane starts at `origin`
+  bool one_octant;      // every active lane's direction has the same signs (as Embree tells them)
   float origin[3];
-  uint64_t candidates;  // proxy boxes entered, summed over lanes
+  uint64_t candidates;  // Gaussians tested, summed over lanes
   int queued;
-  uint32_t queue[kQueue];  // trace-data slots
+  uint32_t queue[kQueue];       // trace-data slots
+  uint32_t queue_lanes[kQueue];  // the lanes Embree reported each for (bit i: lane i)
   // Per lane: the round starts after (t_start, id_start) (id_start = -1 admits t == t_start).
   alignas(64) float t_start[SceneAccel::kMaxPacket];
-  alignas(64) int valid[SceneAccel::kMaxPacket];  // -1 for the lanes in `active`
   int64_t id_start[SceneAccel::kMaxPacket];
   KBuffer buffer[SceneAccel::kMaxPacket];
 
@@ -46,19 +49,18 @@ struct RoundContext {
     lanes = lanes_;
     active = active_;
     shared_origin = false;
+    one_octant = false;
     candidates = 0;
     queued = 0;
-    for (int l = 0; l < lanes; ++l) valid[l] = (active >> l & 1u) ? -1 : 0;
   }
 };
 
-// The intersect function of the Gaussians' user geometry (one ray or a packet):
-// it queues the Gaussian. It never reports a hit to Embree.
+// The intersect function of the Gaussians' user geometry: evaluates the Gaussian
+// against one ray, or queues it for a packet. It never reports a hit to Embree.
 void gaussian_intersect(const RTCIntersectFunctionNArguments* args);
 
-// Evaluates the queued Gaussians against the ray or packet `rayhit` (RTCRayHit when
-// lanes == 1): fills the k-buffers and shrinks tfar. Call it once more after the
-// traversal.
+// Evaluates the queued Gaussians against the packet `rayhit`: fills the k-buffers
+// and shrinks tfar. Call it once more after the traversal.
 void evaluate_queue(RoundContext* rc, void* rayhit);
 
 // The Embree objects behind a SceneAccel.

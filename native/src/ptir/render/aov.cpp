@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <mutex>
+#include <optional>
 
 #include "ptir/core/error.h"
 
@@ -33,21 +34,11 @@ const char* aov_name(Aov aov) {
 
 Encoding aov_encoding(Aov aov) { return (aov == Aov::Albedo || aov == Aov::Preview) ? Encoding::Colour : Encoding::Data; }
 
-AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
-                    bool with_preview, TraceStats* stats) {
-  const GaussianField& field = accel.field();
-  InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, pick_key);
-  Vec3 preview;
-  // Walk the Gaussians front to back: interaction sums and SH colour together.
-  WalkEnd end = accel.walk(
-      ray,
-      [&](const GaussianHit& h) {
-        if (with_preview) preview += (builder.transmittance() * h.alpha) * field.sh_colour(h.id, ray.d);
-        return builder.add(h);
-      },
-      stats, /*stop_when_opaque=*/true);
-  SurfaceInteraction si = builder.finish(ray);
+namespace {
 
+// The AOV sample of a ray from its interaction and how its walk ended.
+AovSample aov_sample(const SceneAccel& accel, const Ray& ray, const SurfaceInteraction& si, const WalkEnd& end,
+                     Vec3 preview) {
   AovSample s;
   float T = si.transmittance;
   s.opacity = si.opacity;
@@ -79,6 +70,43 @@ AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& 
     }
   }
   return s;
+}
+
+}  // namespace
+
+AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
+                    bool with_preview, TraceStats* stats) {
+  const GaussianField& field = accel.field();
+  InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, pick_key);
+  Vec3 preview;
+  // Walk the Gaussians front to back: interaction sums and SH colour together.
+  WalkEnd end = accel.walk(
+      ray,
+      [&](const GaussianHit& h) {
+        if (with_preview) preview += (builder.transmittance() * h.alpha) * field.sh_colour(h.id, ray.d);
+        return builder.add(h);
+      },
+      stats, /*stop_when_opaque=*/true);
+  return aov_sample(accel, ray, builder.finish(ray), end, preview);
+}
+
+void trace_aov_packet(const SceneAccel& accel, const Ray* rays, int n, const AovSettings& settings,
+                      const uint64_t* pick_keys, bool with_preview, AovSample* samples, TraceStats* stats) {
+  const GaussianField& field = accel.field();
+  const float min_T = accel.settings().cull.min_transmittance;
+  std::optional<InteractionBuilder> builders[SceneAccel::kMaxPacket];
+  Vec3 preview[SceneAccel::kMaxPacket];
+  for (int l = 0; l < n; ++l) builders[l].emplace(field, settings.interaction, min_T, pick_keys[l]);
+  // The same walk per lane as trace_aov, the rays traced together.
+  WalkEnd ends[SceneAccel::kMaxPacket];
+  accel.walk_packet(
+      rays, n,
+      [&](int l, const GaussianHit& h) {
+        if (with_preview) preview[l] += (builders[l]->transmittance() * h.alpha) * field.sh_colour(h.id, rays[l].d);
+        return builders[l]->add(h);
+      },
+      ends, stats, /*stop_when_opaque=*/true);
+  for (int l = 0; l < n; ++l) samples[l] = aov_sample(accel, rays[l], builders[l]->finish(rays[l]), ends[l], preview[l]);
 }
 
 namespace {
@@ -116,47 +144,61 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
   const int nc = image.channels;
   const int spp = settings.spp;
   std::atomic<int> rows_done{0};
-  std::atomic<uint64_t> rounds{0}, hits{0}, candidates{0};
+  std::atomic<uint64_t> rounds{0}, hits{0}, candidates{0}, packet_rounds{0};
   std::mutex progress_mutex;
 
   tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, 8, 0, camera.width, 8), [&](const tbb::blocked_range2d<int>& r) {
     if (control.cancel && control.cancel->load()) return;
     TraceStats local;
-    for (int y = r.rows().begin(); y < r.rows().end(); ++y) {
-      for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
-        uint64_t pixel = camera.full_pixel_index(x, y);
-        float acc[4] = {0, 0, 0, 0};
-        float coverage = 0.0f;
+    // Blocks of 4x4 pixels: their rays (sample s of each pixel) are traced together.
+    constexpr int kBlock = 4, kLanes = kBlock * kBlock;
+    for (int by = r.rows().begin(); by < r.rows().end(); by += kBlock)
+      for (int bx = r.cols().begin(); bx < r.cols().end(); bx += kBlock) {
+        int xs[kLanes], ys[kLanes], n = 0;
+        for (int y = by; y < std::min(by + kBlock, r.rows().end()); ++y)
+          for (int x = bx; x < std::min(bx + kBlock, r.cols().end()); ++x) xs[n] = x, ys[n] = y, n++;
+        float acc[kLanes][4] = {}, coverage[kLanes] = {};
         for (int s = 0; s < spp; ++s) {
           // One sample at the pixel centre, or jittered samples keyed on (seed, pixel, sample).
-          Rng rng(settings.seed, pixel, uint64_t(s));
-          float jx = spp == 1 ? 0.5f : rng.at(0), jy = spp == 1 ? 0.5f : rng.at(1);
-          Ray ray = camera.generate_ray(float(x) + jx, float(y) + jy);
-          AovSample smp = trace_aov(accel, ray, settings, rng.key(), aov == Aov::Preview, &local);
-          float v[4] = {0, 0, 0, 0};
-          aov_values(aov, smp, v);
-          // Data channels are averaged over covered samples; colour is premultiplied.
-          float weight = (aov == Aov::Preview) ? 1.0f : (smp.hit ? 1.0f : 0.0f);
-          for (int c = 0; c < nc - 1; ++c) acc[c] += weight * v[c];
-          acc[3] += weight;
-          coverage += std::min(1.0f, smp.opacity);
+          Ray rays[kLanes];
+          uint64_t keys[kLanes];
+          for (int l = 0; l < n; ++l) {
+            Rng rng(settings.seed, camera.full_pixel_index(xs[l], ys[l]), uint64_t(s));
+            float jx = spp == 1 ? 0.5f : rng.at(0), jy = spp == 1 ? 0.5f : rng.at(1);
+            rays[l] = camera.generate_ray(float(xs[l]) + jx, float(ys[l]) + jy);
+            keys[l] = rng.key();
+          }
+          AovSample smp[kLanes];
+          trace_aov_packet(accel, rays, n, settings, keys, aov == Aov::Preview, smp, &local);
+          for (int l = 0; l < n; ++l) {
+            float v[4] = {0, 0, 0, 0};
+            aov_values(aov, smp[l], v);
+            // Data channels are averaged over covered samples; colour is premultiplied.
+            float weight = (aov == Aov::Preview) ? 1.0f : (smp[l].hit ? 1.0f : 0.0f);
+            for (int c = 0; c < nc - 1; ++c) acc[l][c] += weight * v[c];
+            acc[l][3] += weight;
+            coverage[l] += std::min(1.0f, smp[l].opacity);
+          }
         }
-        float norm = aov == Aov::Preview ? 1.0f / float(spp) : (acc[3] > 0 ? 1.0f / acc[3] : 0.0f);
-        for (int c = 0; c < nc - 1; ++c) image.at(x, y, c) = acc[c] * norm;
-        // Preview: display-space composite back to linear.
-        if (aov == Aov::Preview)
-          for (int c = 0; c < 3; ++c) image.at(x, y, c) = srgb_to_linear(std::min(1.0f, image.at(x, y, c)));
-        // Normals averaged over samples are renormalised.
-        if (aov == Aov::Normal && acc[3] > 0) {
-          Vec3 n = normalize(Vec3(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2)));
-          for (int c = 0; c < 3; ++c) image.at(x, y, c) = n[c];
+        for (int l = 0; l < n; ++l) {
+          const int x = xs[l], y = ys[l];
+          float norm = aov == Aov::Preview ? 1.0f / float(spp) : (acc[l][3] > 0 ? 1.0f / acc[l][3] : 0.0f);
+          for (int c = 0; c < nc - 1; ++c) image.at(x, y, c) = acc[l][c] * norm;
+          // Preview: display-space composite back to linear.
+          if (aov == Aov::Preview)
+            for (int c = 0; c < 3; ++c) image.at(x, y, c) = srgb_to_linear(std::min(1.0f, image.at(x, y, c)));
+          // Normals averaged over samples are renormalised.
+          if (aov == Aov::Normal && acc[l][3] > 0) {
+            Vec3 nrm = normalize(Vec3(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2)));
+            for (int c = 0; c < 3; ++c) image.at(x, y, c) = nrm[c];
+          }
+          image.at(x, y, nc - 1) = coverage[l] / float(spp);
         }
-        image.at(x, y, nc - 1) = coverage / float(spp);
       }
-    }
     rounds += local.rounds;
     hits += local.hits;
     candidates += local.candidates;
+    packet_rounds += local.packet_rounds;
     int done = rows_done.fetch_add(int(r.rows().size() * r.cols().size()));
     if (control.progress) {
       std::lock_guard<std::mutex> lock(progress_mutex);
@@ -168,6 +210,7 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
     stats->rounds += rounds;
     stats->hits += hits;
     stats->candidates += candidates;
+    stats->packet_rounds += packet_rounds;
   }
   return image;
 }

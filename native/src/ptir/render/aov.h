@@ -43,6 +43,11 @@ struct AovSample {
 AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
                     bool with_preview, TraceStats* stats = nullptr);
 
+// trace_aov for n <= SceneAccel::kMaxPacket coherent rays traced together (camera
+// rays of neighbouring pixels): samples[i] is trace_aov(rays[i], pick_keys[i]).
+void trace_aov_packet(const SceneAccel& accel, const Ray* rays, int n, const AovSettings& settings,
+                      const uint64_t* pick_keys, bool with_preview, AovSample* samples, TraceStats* stats = nullptr);
+
 // Image layouts: opacity -> A; depth -> Z, A; normal -> X, Y, Z, A (world space);
 // albedo/preview -> R, G, B, A; roughness/metallic -> Y, A. Background pixels are
 // zero with A = 0. All values are linear; see aov_for_8bit for PNG output.
