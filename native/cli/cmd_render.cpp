@@ -64,7 +64,7 @@ struct RenderOptions {
   std::string env;
   float env_strength = 1.0f;
   float env_rotation = 0.0f;
-  int k = 16;
+  int k = 32;
   int threads = 0;
   std::string stats_json;
   bool quiet = false;

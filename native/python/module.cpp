@@ -84,7 +84,7 @@ struct PyScene {
   }
 };
 
-std::unique_ptr<PyScene> make_pyscene(Scene&& scene, int k = 16) {
+std::unique_ptr<PyScene> make_pyscene(Scene&& scene, int k = 32) {
   auto s = std::make_unique<PyScene>();
   s->scene = std::move(scene);
   s->build(k);
@@ -213,7 +213,7 @@ PYBIND11_MODULE(ptir, m) {
              s->build(k);
              return s;
            }),
-           py::arg("gaussians"), py::arg("meshes") = std::vector<TriangleMesh>{}, py::arg("k") = 16)
+           py::arg("gaussians"), py::arg("meshes") = std::vector<TriangleMesh>{}, py::arg("k") = 32)
       .def("orient_normals",
            [](PyScene& s, const std::vector<Camera>& cams) {
              py::gil_scoped_release release;
@@ -355,7 +355,7 @@ PYBIND11_MODULE(ptir, m) {
           orient_scene_normals(scene);
           return make_pyscene(std::move(scene), k);
         },
-        py::arg("path"), py::arg("k") = 16, py::call_guard<py::gil_scoped_release>(),
+        py::arg("path"), py::arg("k") = 32, py::call_guard<py::gil_scoped_release>(),
         "Read a scene file (docs/scene_format.md) and build its path tracer.");
   m.def("scene_from_json_string",
         [](const std::string& text, const std::string& base_dir, const std::string& name, int k) {
@@ -363,7 +363,7 @@ PYBIND11_MODULE(ptir, m) {
           orient_scene_normals(scene);
           return make_pyscene(std::move(scene), k);
         },
-        py::arg("text"), py::arg("base_dir") = "", py::arg("name") = "scene", py::arg("k") = 16,
+        py::arg("text"), py::arg("base_dir") = "", py::arg("name") = "scene", py::arg("k") = 32,
         py::call_guard<py::gil_scoped_release>(),
         "A scene from JSON text (the scene-file schema); relative paths resolve against base_dir.");
   m.def("scene_from_dict",
@@ -374,7 +374,7 @@ PYBIND11_MODULE(ptir, m) {
           orient_scene_normals(scene);
           return make_pyscene(std::move(scene), k);
         },
-        py::arg("scene"), py::arg("base_dir") = "", py::arg("name") = "scene", py::arg("k") = 16,
+        py::arg("scene"), py::arg("base_dir") = "", py::arg("name") = "scene", py::arg("k") = 32,
         "A scene from a dict with the scene-file schema (numpy arrays: call .tolist() first).");
   bind_losses(m);
   bind_optimize(m);

@@ -61,7 +61,7 @@ struct WalkEnd {
 
 struct AccelSettings {
   CullSettings cull;
-  int k = 16;  // hits collected per traversal round (1..64)
+  int k = 32;  // hits collected per traversal round (1..64); 32: one round for most camera rays
 };
 
 class SceneAccel {
