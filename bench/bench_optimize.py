@@ -20,9 +20,10 @@ Targets (ISSUE): >= 0.25 M path samples/s primal+replay on 2 cores for 100K
 Gaussians at 2 bounces; replay <= 2x primal; peak RSS <= 1 GB for 1M Gaussians at
 256x256 and <= 2 % higher at 9 bounces than at 1.
 
-The dataset: a unit sphere of N flat Gaussians (Fibonacci lattice, degree-0 SH),
-warm top / cool bottom, under a sky with a sun, 2 views rendered by ptir itself at
-each size. A benchmark, not a test; the machine is shared, so compare within a run.
+The dataset: N flat Gaussians (degree-0 SH): 80 % on a unit sphere (Fibonacci
+lattice; warm top, cool bottom), 20 % on a 5 x 5 floor just below it (so that
+light bounces between the two), under a sky with a sun; 2 views rendered by ptir
+itself at each size. A benchmark, not a test; the machine is shared, so compare within a run.
 """
 
 import argparse
@@ -56,18 +57,32 @@ def quat_z_to(n):
     return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
+def positions(n):
+    """n points: 80 % on the unit sphere, 20 % on a square floor 5 x 5 at z = -1.02 (so that
+    light bounces between them and the bounce count matters), with in-plane spacings."""
+    ns = n - n // 5
+    nf = n - ns
+    side = int(math.ceil(math.sqrt(nf)))
+    g = (np.arange(side) + 0.5) / side * 5.0 - 2.5
+    fx, fy = np.meshgrid(g, g)
+    floor = np.stack([fx.ravel(), fy.ravel(), np.full(side * side, -1.02)], 1)[:nf]
+    return np.concatenate([fibonacci(ns), floor]), ns, math.sqrt(4 * math.pi / ns), 5.0 / side
+
+
 def write_ply(path, n):
-    p = fibonacci(n)
-    spacing = math.sqrt(4 * math.pi / n)
+    p, ns, spacing, floor_spacing = positions(n)
     names = ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2", "opacity", "scale_0", "scale_1", "scale_2",
              "rot_0", "rot_1", "rot_2", "rot_3"]
     rec = np.zeros(n, dtype=[(k, "<f4") for k in names])
     for i, c in enumerate("xyz"):
         rec[c] = p[:, i]
     rec["opacity"] = math.log(0.95 / 0.05)
-    rec["scale_0"] = rec["scale_1"] = math.log(0.7 * spacing)
-    rec["scale_2"] = math.log(1e-3 * spacing)
-    q = quat_z_to(p)
+    sigma = np.where(np.arange(n) < ns, 0.7 * spacing, 0.7 * floor_spacing)
+    rec["scale_0"] = rec["scale_1"] = np.log(sigma)
+    rec["scale_2"] = np.log(1e-3 * sigma)
+    normal = p.copy()
+    normal[ns:] = (0.0, 0.0, 1.0)
+    q = quat_z_to(normal)
     for i in range(4):
         rec["rot_%d" % i] = q[:, i]
     header = "ply\nformat binary_little_endian 1.0\nelement vertex %d\n" % n
@@ -109,7 +124,8 @@ def make_dataset_here(build, root, n, res):
     import ptir
     ply, ds = dataset_paths(root, n, res)
     ds.mkdir(parents=True, exist_ok=True)
-    p = write_ply(ply, n) if not ply.exists() else fibonacci(n)
+    p = write_ply(ply, n) if not ply.exists() else positions(n)[0]
+    floor = np.arange(n) >= positions(n)[1]
     env = np.zeros((16, 32, 3), np.float32)
     for r in range(16):
         env[r] = [1.6 - 0.07 * r, 1.4 - 0.06 * r, 1.0] if r < 8 else [0.35, 0.3, 0.25]
@@ -125,8 +141,10 @@ def make_dataset_here(build, root, n, res):
     scene = ptir.scene_from_dict({"gaussians": [{"file": str(ply)}], "environment": {"type": "latlong", "file": "env.exr"},
                                   "cameras": [{"transforms": "transforms_train.json"}]}, base_dir=str(ds))
     g = scene.gaussians
-    g.albedo = np.where(p[:, 2:3] > 0, [[0.7, 0.3, 0.2]], [[0.2, 0.5, 0.7]]).astype(np.float32)
-    g.roughness = np.where(p[:, 2] > 0, 0.3, 0.7).astype(np.float32)
+    albedo = np.where(p[:, 2:3] > 0, [[0.7, 0.3, 0.2]], [[0.2, 0.5, 0.7]])
+    albedo[floor] = 0.5
+    g.albedo = albedo.astype(np.float32)
+    g.roughness = np.where(floor, 0.8, np.where(p[:, 2] > 0, 0.3, 0.7)).astype(np.float32)
     for i in range(2):
         img = scene.render(i, spp=4, bounces=2)
         (ds / ("train_%03d" % i)).mkdir(exist_ok=True)

@@ -12,13 +12,13 @@
 #                also the oracle (true materials, training light) as the ceiling the
 #                Principled-vs-Disney model mismatch leaves -> out/sample_dataset/oracle/eval/
 #   4. relight   ptir relight: the recovered asset on a floor in front of a wall, under the
-#                sunset sky plus an area and a point light, two views at 300x300 -> out/demo/relight/
+#                sunset sky plus an area and a point light, two views at 200x200 -> out/demo/relight/
 #   5. gallery   every AOV of the Suzanne splat sample (scripts/make_sample_splat.py) -> out/demo/aovs/
 #
 # Default demo settings (DEMO_* variables override them): optimise DEMO_ITERS=400
 # iterations x DEMO_SPP=16 spp x 2 bounces, one whole 100x100 view per iteration,
 # lat-long 128x64 environment, seed 0; eval DEMO_EVAL_SPP=64 spp, 4 bounces, AOVs 16 spp;
-# relight 128 spp, 4 bounces. DEMO_AOVS=0 skips the gallery. On the 2-core
+# relight 200x200, 64 spp, 3 bounces. DEMO_AOVS=0 skips the gallery. On the 2-core
 # reference machine the whole job takes about 10 minutes (most of it optimising).
 set -euo pipefail
 
@@ -122,11 +122,11 @@ end_header
 3 4 6 7
 PLY
 run_logged "ptir relight" "$PTIR" relight --result "$RESULT" --cameras "$DATA/transforms_test.json" --frame 0 --frame 7 \
-  --width 300 --height 300 \
+  --width 200 --height 200 \
   --env "$DATA/envmaps/sunset.exr" --env-strength 0.5 \
   --area "-2.5,-1.5,2.5, 0,0,0, 1.5,1.5, 150, 1,0.8,0.6" --point "2,-2,2, 120, 0.6,0.7,1" \
   --mesh "$OUT/relight/floor.ply" --mesh-color 0.7,0.7,0.7 --mesh-roughness 0.8 \
-  --albedo-scale auto --spp 128 --bounces 4 -o "$OUT/relight" -q
+  --albedo-scale auto --spp 64 --bounces 3 -o "$OUT/relight" -q
 TIMES+=("relight $(secs "$t" "$(now)") s")
 
 # 5. The AOV gallery of the splat sample (as the previous demo).

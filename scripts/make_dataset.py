@@ -208,6 +208,16 @@ def main():
             for s in o.material_slots:
                 if s.material and s.material.use_nodes:
                     dscene.ensure_roughness_aov(s.material)
+        # The environment is the only light: the file's lamps and emitters are not part of the dataset.
+        lamps = [o for o in bpy.context.scene.objects if o.type == "LIGHT" and not o.hide_render]
+        for o in lamps:
+            o.hide_render = True
+        if lamps:
+            log("the file's %d light(s) are switched off (the environment lights the dataset)" % len(lamps))
+        scale, centre = dscene.normalise_objects(objs, 1.25)
+        if abs(scale - 1.0) > 1e-4 or np.abs(centre).max() > 1e-4:
+            log("object moved by %s and scaled by %.4g into the radius-1.25 sphere at the origin"
+                % (np.round(-centre, 4).tolist(), scale))
         source = os.path.abspath(a.blend)
     else:
         dscene.clear_scene()

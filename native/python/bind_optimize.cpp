@@ -9,7 +9,8 @@
 //
 // The GIL is released while rendering; the callback runs with it held and may
 // return False to stop; opt.cancel() (e.g. from another thread) stops after the
-// current render; Ctrl-C (KeyboardInterrupt) stops too. Stopping writes the
+// current render; Ctrl-C (KeyboardInterrupt) stops after the current iteration
+// (Python sees the signal only between iterations). Stopping writes the
 // checkpoint and outputs (when out is given) before returning "cancelled" or
 // re-raising the callback's exception / KeyboardInterrupt.
 #include <pybind11/functional.h>
@@ -60,6 +61,9 @@ py::dict log_dict(const IterationLog& l) {
   d["backward_s"] = l.backward_s;
   d["regulariser_s"] = l.regulariser_s;
   d["update_s"] = l.update_s;
+  d["cpu_s"] = l.cpu_s;
+  d["primal_cpu_s"] = l.primal_cpu_s;
+  d["backward_cpu_s"] = l.backward_cpu_s;
   d["views"] = l.views;
   return d;
 }

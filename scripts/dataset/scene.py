@@ -164,7 +164,17 @@ def build_sample_object(subdiv=2, pedestal_cuts=4, radius=1.25):
         mod.levels = mod.render_levels = subdiv
 
     objs = [ped] + parts
-    # Centre and scale the whole: bounding sphere (about the box centre) of `radius`.
+    for o in objs:
+        _move_to(o, coll)
+    normalise_objects(objs, radius)
+    bpy.ops.object.select_all(action="SELECT")
+    bpy.ops.object.transform_apply(location=True, rotation=True, scale=True)
+    bpy.ops.object.select_all(action="DESELECT")
+    return objs
+
+
+def world_points(objs):
+    """World-space vertices of the evaluated (modifiers applied) meshes."""
     dg = bpy.context.evaluated_depsgraph_get()
     pts = []
     for o in objs:
@@ -173,19 +183,36 @@ def build_sample_object(subdiv=2, pedestal_cuts=4, radius=1.25):
         co = np.empty(len(m.vertices) * 3)
         m.vertices.foreach_get("co", co)
         ev.to_mesh_clear()
-        mw = np.array(o.matrix_world)
+        mw = np.array(ev.matrix_world)
         pts.append(co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3])
-    pts = np.concatenate(pts)
+    return np.concatenate(pts) if pts else np.zeros((0, 3))
+
+
+def normalise_objects(objs, radius=1.25):
+    """Moves and uniformly scales the objects (through their top-level parents) so that
+    the whole fits a sphere of `radius` about the origin, centred on its bounding box.
+    Returns (scale, centre before)."""
+    from mathutils import Matrix
+    pts = world_points(objs)
+    if len(pts) == 0:
+        return 1.0, np.zeros(3)
     centre = 0.5 * (pts.min(0) + pts.max(0))
-    scale = radius / np.linalg.norm(pts - centre, axis=1).max()
+    extent = np.linalg.norm(pts - centre, axis=1).max()
+    scale = radius / max(extent, 1e-12)
+    if abs(scale - 1.0) < 1e-6 and np.abs(centre).max() < 1e-6:
+        return 1.0, centre
+    n = Matrix.Diagonal((scale, scale, scale, 1.0)) @ Matrix.Translation((-centre[0], -centre[1], -centre[2]))
+    roots = []
     for o in objs:
-        o.location = (np.array(o.location) - centre) * scale
-        o.scale = tuple(np.array(o.scale) * scale)
-        _move_to(o, coll)
-    bpy.ops.object.select_all(action="SELECT")
-    bpy.ops.object.transform_apply(location=True, rotation=True, scale=True)
-    bpy.ops.object.select_all(action="DESELECT")
-    return objs
+        r = o
+        while r.parent is not None:
+            r = r.parent
+        if r not in roots:
+            roots.append(r)
+    for r in roots:
+        r.matrix_world = n @ r.matrix_world
+    bpy.context.view_layer.update()
+    return scale, centre
 
 
 def object_meshes():

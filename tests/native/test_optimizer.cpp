@@ -18,6 +18,7 @@
 #include "ptir/optim/checkpoint.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/optim/parameters.h"
+#include "ptir/render/aov.h"
 #include "ptir/render/render_path.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "test_scenes.h"
@@ -491,3 +492,30 @@ TEST(Optimizer, LossDecreasesAndOutputsAreWritten) {
   EXPECT_EQ(c.iteration, 60u);
 }
 
+
+TEST(Optimizer, MaterialMapsEqualTheAovRenders) {
+  const Fixture& fx = fixture();
+  Optimizer opt(input_scene(fx.n), fx.data, small_settings());
+  Parameters p = opt.parameters();
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (ParameterGroup& g : p.groups)
+    for (float& x : g.raw) x += u(rng);
+  opt.set_parameters(p);
+  for (InteractionMode mode : {InteractionMode::Aggregate, InteractionMode::Discrete}) {
+    AovSettings as;
+    as.seed = 11;
+    as.interaction.mode = mode;
+    Camera cam = fx.data->views[1].camera.crop(3, 2, 17, 15);
+    Image a, r, c;
+    render_material_maps(opt.tracer().accel(), cam, as, {}, &a, &r, &c);
+    Image ra = render_aov(opt.tracer().accel(), cam, Aov::Albedo, as);
+    Image rr = render_aov(opt.tracer().accel(), cam, Aov::Roughness, as);
+    for (int y = 0; y < cam.height; ++y)
+      for (int x = 0; x < cam.width; ++x) {
+        for (int ch = 0; ch < 3; ++ch) ASSERT_EQ(a.at(x, y, ch), ra.at(x, y, ch));
+        ASSERT_EQ(r.at(x, y, 0), rr.at(x, y, 0));
+        ASSERT_EQ(c.at(x, y, 0), ra.at(x, y, 3));
+      }
+  }
+}

@@ -188,3 +188,9 @@ def test_eval_scores_a_self_rendered_dataset(ptir, cli, tmp_path):
             assert (result / "eval" / ("test_%03d" % k) / (f + ".exr")).exists()
     assert {"sheet_nvs.png", "sheet_albedo.png", "sheet_roughness.png", "sheet_normal.png"} <= set(m["sheets"])
     assert (result / "eval" / "metrics.md").read_text().count("|") > 20
+    # The same protocol from Python, with a progress callback.
+    lines = []
+    d = ptir.evaluate(str(data), str(result), spp=4, aov_spp=16, sheet_views=0, log=lines.append)
+    assert d["albedo_scale"] == pytest.approx(m["albedo_scale"]) and d["sheets"] == []
+    assert d["roughness_mse"] == pytest.approx(m["roughness_mse"])
+    assert any(l.startswith("eval test_001") for l in lines)

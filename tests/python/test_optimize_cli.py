@@ -247,3 +247,24 @@ def test_python_optimizer_callback_and_cancel(ptir, dataset, tmp_path):
     r = ptir.optimize(str(dataset), str(dataset / "g.ply"), str(tmp_path / "fn"), iters=2, spp=2, env_size=(16, 8),
                       threads=1)
     assert r["result"] == "finished" and r["iteration"] == 2 and len(r["log"]) == 2
+
+
+def test_prior_maps_enter_the_objective(ptir, cli, dataset, tmp_path):
+    prior = tmp_path / "prior"
+    for i in range(6):
+        d = prior / ("train_%03d" % i)
+        d.mkdir(parents=True)
+        ptir.write_image(str(d / "albedo.png"), np.full((32, 32, 3), 0.5, np.float32))
+        ptir.write_image(str(d / "roughness.png"), np.full((32, 32), 0.4, np.float32), colour=False)
+    ds = ptir.load_dataset(str(dataset), prior=str(prior))
+    assert ds.prior_albedo(0).shape == (32, 32, 3) and abs(float(ds.prior_albedo(0)[5, 5, 0]) - 0.5) < 0.01
+    assert abs(float(ds.prior_roughness(0)[5, 5]) - 0.4) < 0.01  # data, not sRGB
+    out = tmp_path / "out"
+    r = optimize(cli, dataset, out, "--iters", 3, "--prior", prior)
+    assert "(with priors)" in r.stderr
+    rows = [l.split(",") for l in (out / "log.csv").read_text().splitlines()[1:]]
+    weights = [float(row[5]) for row in rows]
+    assert weights == pytest.approx([0.5 + (0.005 - 0.5) * i / 400 for i in range(3)])
+    assert all(float(row[4]) > 0 for row in rows)  # the prior term
+    r = optimize(cli, dataset, tmp_path / "o2", "--iters", 1, "--prior", tmp_path / "nothing", check=False)
+    assert r.returncode == 1 and "prior folder not found" in r.stderr

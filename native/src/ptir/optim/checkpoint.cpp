@@ -127,7 +127,7 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
   for (const IterationLog& l : c.log) {
     w.pod(int32_t(l.iteration));
     for (double d : {l.loss, l.image, l.tv, l.prior, l.prior_weight, l.seconds, l.primal_s, l.backward_s, l.regulariser_s,
-                     l.update_s})
+                     l.update_s, l.cpu_s, l.primal_cpu_s, l.backward_cpu_s})
       w.pod(d);
     w.str(l.views);
   }
@@ -177,7 +177,7 @@ Checkpoint read_checkpoint(const std::string& path) {
     IterationLog l;
     l.iteration = r.pod<int32_t>();
     for (double* d : {&l.loss, &l.image, &l.tv, &l.prior, &l.prior_weight, &l.seconds, &l.primal_s, &l.backward_s,
-                      &l.regulariser_s, &l.update_s})
+                      &l.regulariser_s, &l.update_s, &l.cpu_s, &l.primal_cpu_s, &l.backward_cpu_s})
       *d = r.pod<double>();
     l.views = r.str();
     c.log.push_back(std::move(l));

@@ -29,6 +29,9 @@ struct IterationLog {
   double prior_weight = 0;
   double seconds = 0;        // wall time of the iteration
   double primal_s = 0, backward_s = 0, regulariser_s = 0, update_s = 0;  // its parts
+  // Process CPU time (all threads) of the iteration and of its two path-tracing
+  // passes: a measure of the work that a busy, shared machine does not inflate.
+  double cpu_s = 0, primal_cpu_s = 0, backward_cpu_s = 0;
   std::string views;         // names of the views used, '+'-separated
 };
 

@@ -5,9 +5,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <functional>
 #include <sstream>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "ptir/core/error.h"
 #include "ptir/math/rng.h"
@@ -36,6 +40,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+// CPU seconds used by the whole process (every thread) so far.
+double process_cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
 // Stream tags for the keyed random numbers of the loop.
 constexpr uint64_t kTagViews = 0x7669657773ull;  // "views"
 constexpr uint64_t kTagCrop = 0x63726f70ull;     // "crop"
@@ -47,15 +58,6 @@ Image crop_image(const Image& img, int x0, int y0, int w, int h) {
   for (int y = 0; y < h; ++y)
     std::memcpy(&out.pixels[size_t(y) * w * img.channels], &img.pixels[(size_t(y + y0) * img.width + x0) * img.channels],
                 sizeof(float) * size_t(w) * img.channels);
-  return out;
-}
-
-// The first `n` channels of an image.
-Image channels(const Image& img, int n, std::vector<std::string> names) {
-  Image out(img.width, img.height, std::move(names));
-  const size_t px = size_t(img.width) * img.height;
-  for (size_t p = 0; p < px; ++p)
-    for (int c = 0; c < n; ++c) out.pixels[p * n + c] = img.pixels[p * img.channels + c];
   return out;
 }
 
@@ -81,6 +83,35 @@ bool all_zero(const Image& img) {
 }
 
 }  // namespace
+
+// The albedo and roughness AOVs (1 sample at each pixel centre) in one walk per
+// pixel: exactly what render_aov(Albedo) and render_aov(Roughness) give with
+// spp = 1 (same ray, same pick key; values where the primary ray found a valid
+// interaction or a mesh, else 0), plus the coverage min(1, opacity).
+void render_material_maps(const SceneAccel& accel, const Camera& cam, const AovSettings& as, const RenderControl& control,
+                          Image* albedo, Image* roughness, Image* coverage) {
+  *albedo = Image(cam.width, cam.height, {"R", "G", "B"});
+  *roughness = Image(cam.width, cam.height, {"Y"});
+  *coverage = Image(cam.width, cam.height, {"A"});
+  tbb::parallel_for(tbb::blocked_range<int>(0, cam.height, 4), [&](const tbb::blocked_range<int>& r) {
+    if (control.cancel && control.cancel->load()) return;
+    for (int y = r.begin(); y < r.end(); ++y)
+      for (int x = 0; x < cam.width; ++x) {
+        Rng rng(as.seed, cam.full_pixel_index(x, y), 0);
+        Ray ray = cam.generate_ray(float(x) + 0.5f, float(y) + 0.5f);
+        AovSample smp = trace_aov(accel, ray, as, rng.key(), false);
+        const size_t p = size_t(y) * cam.width + x;
+        if (smp.hit) {
+          albedo->pixels[3 * p] = smp.albedo.x;
+          albedo->pixels[3 * p + 1] = smp.albedo.y;
+          albedo->pixels[3 * p + 2] = smp.albedo.z;
+          roughness->pixels[p] = smp.roughness;
+        }
+        coverage->pixels[p] = std::min(1.0f, smp.opacity);
+      }
+  });
+  if (control.cancel && control.cancel->load()) throw Cancelled();
+}
 
 Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const OptimizerSettings& settings)
     : settings_(settings), scene_(std::make_unique<Scene>(std::move(scene))), dataset_(std::move(dataset)) {
@@ -187,6 +218,7 @@ void Optimizer::set_parameters(const Parameters& p) {
 
 IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   const auto t_start = Clock::now();
+  const double cpu_start = process_cpu_seconds();
   IterationLog log = evaluate(iteration_, true, cancel);
 
   // Adam on the raw parameters (only now does the state change).
@@ -202,6 +234,7 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   apply();
   log.update_s = seconds_since(t0);
   log.seconds = seconds_since(t_start);
+  log.cpu_s = process_cpu_seconds() - cpu_start;
   ++iteration_;
   log_.push_back(log);
   return log;
@@ -236,10 +269,14 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
     IntegratorSettings is = settings_.integrator;
     is.seed = hash_combine(hash_combine(settings_.seed, kTagPath), hash_combine(uint64_t(it), uint64_t(v)));
 
-    // Primal render and the image loss.
+    // Primal render (keeping each sample's radiance for the replay when it fits) and the image loss.
     auto t0 = Clock::now();
-    Image render = render_path(*tracer_, cam, is, control);
+    double c0 = process_cpu_seconds();
+    const bool cache = with_gradients && px * size_t(is.spp) * sizeof(Vec3) <= settings_.sample_cache_bytes;
+    std::vector<Vec3> sample_radiance;
+    Image render = render_path(*tracer_, cam, is, control, nullptr, cache ? &sample_radiance : nullptr);
     log.primal_s += seconds_since(t0);
+    log.primal_cpu_s += process_cpu_seconds() - c0;
     Image pred(pk.w, pk.h, {"R", "G", "B"}), target(pk.w, pk.h, {"R", "G", "B"}), mask(pk.w, pk.h, {"A"});
     size_t masked = 0;
     for (size_t p = 0; p < px; ++p) {
@@ -264,8 +301,10 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
             d_render.pixels[p * 3 + c] = inv_k * d_pred.pixels[p * d_pred.channels + c] * encode_d(render.pixels[p * 4 + c]);
         if (!all_zero(d_render)) {
           t0 = Clock::now();
-          render_path_backward(*tracer_, cam, is, d_render, grads_, control);
+          c0 = process_cpu_seconds();
+          render_path_backward(*tracer_, cam, is, d_render, grads_, control, cache ? &sample_radiance : nullptr);
           log.backward_s += seconds_since(t0);
+          log.backward_cpu_s += process_cpu_seconds() - c0;
         }
       }
     }
@@ -284,13 +323,12 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
       as.interaction = is.interaction;
       as.spp = 1;
       as.seed = is.seed;
-      Image alb4 = render_aov(tracer_->accel(), cam, Aov::Albedo, as, control);
-      Image rough2 = render_aov(tracer_->accel(), cam, Aov::Roughness, as, control);
-      Image alb = channels(alb4, 3, {"R", "G", "B"}), rough = channels(rough2, 1, {"Y"});
+      Image alb, rough, coverage;
+      render_material_maps(tracer_->accel(), cam, as, control, &alb, &rough, &coverage);
       Image aov_mask(pk.w, pk.h, {"A"});
       size_t n_aov = 0;
       for (size_t p = 0; p < px; ++p) {
-        bool in = target_alpha.pixels[p] >= settings_.mask_threshold && alb4.pixels[p * 4 + 3] > is.interaction.tau_g;
+        bool in = target_alpha.pixels[p] >= settings_.mask_threshold && coverage.pixels[p] > is.interaction.tau_g;
         aov_mask.pixels[p] = in ? 1.0f : 0.0f;
         n_aov += in;
       }
@@ -435,11 +473,13 @@ void Optimizer::restore(const Checkpoint& c, const std::string& path) {
 
 std::string Optimizer::log_csv() const {
   std::ostringstream s;
-  s << "iteration,loss,image,tv,prior,prior_weight,seconds,primal_s,backward_s,regulariser_s,update_s,views\n";
+  s << "iteration,loss,image,tv,prior,prior_weight,seconds,primal_s,backward_s,regulariser_s,update_s,cpu_s,primal_cpu_s,"
+       "backward_cpu_s,views\n";
   for (const IterationLog& l : log_) {
     s << l.iteration << ',' << num(l.loss) << ',' << num(l.image) << ',' << num(l.tv) << ',' << num(l.prior) << ','
       << num(l.prior_weight) << ',' << num(l.seconds) << ',' << num(l.primal_s) << ',' << num(l.backward_s) << ','
-      << num(l.regulariser_s) << ',' << num(l.update_s) << ',' << l.views << '\n';
+      << num(l.regulariser_s) << ',' << num(l.update_s) << ',' << num(l.cpu_s) << ',' << num(l.primal_cpu_s) << ','
+      << num(l.backward_cpu_s) << ',' << l.views << '\n';
   }
   return s.str();
 }

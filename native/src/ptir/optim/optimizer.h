@@ -56,6 +56,7 @@
 #include "ptir/optim/checkpoint.h"
 #include "ptir/optim/losses.h"
 #include "ptir/optim/parameters.h"
+#include "ptir/render/aov.h"
 #include "ptir/scene/scene.h"
 #include "ptir/transport/gradients.h"
 #include "ptir/transport/path_tracer.h"
@@ -77,6 +78,10 @@ struct OptimizerSettings {
   ParameterSettings params;
   AdamSettings adam;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
+  // The primal pass keeps every sample's radiance (12 bytes per pixel and sample)
+  // so the replay need not recompute it, while that fits this budget; beyond it
+  // the replay recomputes each sample (one more primal pass, no memory).
+  size_t sample_cache_bytes = size_t(256) << 20;
   AccelSettings accel;
 };
 
@@ -170,6 +175,13 @@ enum class RunResult { Finished, Cancelled };
 // Runs until settings().iterations; on cancel (flag or callback) stops after the
 // last completed iteration. Either way writes OUT/checkpoint.bin and the outputs.
 RunResult run_optimizer(Optimizer& opt, const RunOptions& options);
+
+// The albedo (RGB) and roughness (Y) maps of the primary hits, one ray through each
+// pixel centre, in one walk per pixel: the values render_aov(Albedo / Roughness)
+// gives with spp = 1 (and what render_aov_backward differentiates), and the
+// coverage min(1, opacity) (A).
+void render_material_maps(const SceneAccel& accel, const Camera& camera, const AovSettings& settings,
+                          const RenderControl& control, Image* albedo, Image* roughness, Image* coverage);
 
 // The sRGB encoding extended above 1 (no clamp) and its derivative.
 float srgb_encode_unclamped(float c);
