@@ -26,7 +26,8 @@ demo: build install-addon
 	./scripts/demo.sh $(BUILD)
 
 test-native: build
-	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+	# Serial: some test fixtures share folders under build/test_tmp.
+	cd $(BUILD) && ctest --output-on-failure
 
 test-python: build install-addon
 	$(PYTHON) -m pytest -q tests/python tests/blender

@@ -132,14 +132,16 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   const std::array<double, 3> scale = albedo_scale_of(o);
 
   Scene scene;
-  std::vector<Camera> cameras;
+  std::vector<Camera> cameras, all_cameras;
   if (!o.scene.empty()) {
     scene = load_scene_json(o.scene);
     if (!o.camera.empty()) cameras.push_back(scene.camera(o.camera));
     else cameras = scene.cameras;
     if (cameras.empty()) throw Error(o.scene, "the scene has no camera (add one, or use --cameras)");
+    all_cameras = scene.cameras;
   } else {
     cameras = load_transforms_json(o.cameras);
+    all_cameras = cameras;
     if (!o.frames.empty()) {
       std::vector<Camera> picked;
       for (int f : o.frames) {
@@ -163,7 +165,6 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
     }
   GaussianField asset = load_gaussians(ply.string());
   eval::scale_albedo(asset, scale);
-  const bool asset_normals = asset.normals_from_file;
   if (scene.gaussians->size() == 0) *scene.gaussians = std::move(asset);
   else append_gaussians(*scene.gaussians, std::move(asset));
   if (!o.env.empty()) {
@@ -189,7 +190,9 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
     throw Error("no light: give --env, --point or --area (or a scene file with lights or an environment)");
 
   PathTracer tracer(scene);
-  if (!asset_normals && o.scene.empty()) orient_normals_to_cameras(*scene.gaussians, tracer.accel(), cameras);
+  // Gaussians without normals from their files (a trainer's PLY, or scene-file Gaussians) face
+  // the cameras that see them, as `ptir render` does.
+  if (!scene.gaussians->normals_from_file) orient_normals_to_cameras(*scene.gaussians, tracer.accel(), all_cameras);
   IntegratorSettings is = scene.integrator;
   if (o.scene.empty() || cmd.count("--spp")) is.spp = o.spp;
   if (o.scene.empty() || cmd.count("--bounces")) is.max_bounces = o.bounces;

@@ -7,6 +7,11 @@
 
 namespace ptir {
 
+namespace {
+// Hits vote only while the ray is still mostly transparent (the first surface).
+constexpr float kVisibleTransmittance = 0.5f;
+}  // namespace
+
 OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& accel, const std::vector<Camera>& cameras,
                                       int rays_per_camera) {
   OrientStats stats;
@@ -25,12 +30,14 @@ OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& ac
       for (int rx = 0; rx < cols; ++rx) {
         Ray ray = cam.generate_ray((rx + 0.5f) * stride, (ry + 0.5f) * stride);
         float T = 1.0f;
-        // Each hit votes with its compositing weight for the side facing the camera.
+        // Each hit of the first surface votes with its compositing weight for the
+        // side facing the camera. Hits behind it (T <= 0.5) belong to surfaces the
+        // camera sees through another one and do not vote: they would face inward.
         accel.walk(ray, [&](const GaussianHit& h) {
           float w = T * h.alpha;
-          votes[h.id] += dot(field.normal[h.id], ray.d) < 0.0f ? w : -w;
+          if (T > kVisibleTransmittance) votes[h.id] += dot(field.normal[h.id], ray.d) < 0.0f ? w : -w;
           T *= 1.0f - h.alpha;
-          return T >= min_T;
+          return T > kVisibleTransmittance && T >= min_T;
         }, nullptr, /*stop_when_opaque=*/true);
       }
     });

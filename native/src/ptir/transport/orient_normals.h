@@ -1,7 +1,8 @@
 // Orienting initial normals toward the cameras that see them (METHOD §1).
 //
 // A trainer's PLY has no normals; the shortest axis is a good normal up to its
-// sign. Each camera traces primary rays and every Gaussian it reaches votes with
+// sign. Each camera traces primary rays and every Gaussian of the first surface
+// it reaches (while the ray is still more than half transparent) votes with
 // its compositing weight T_i alpha_i for the sign that faces that camera. Normals
 // with a negative vote are flipped; Gaussians no ray reached fall back to facing
 // away from the field's centroid.
