@@ -1,71 +1,19 @@
 #include "ptir/eval/relight.h"
 
-#include <tbb/blocked_range2d.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <mutex>
 #include <sstream>
 #include <vector>
 
 #include "ptir/core/error.h"
-#include "ptir/math/rng.h"
+#include "ptir/render/render_path.h"
 
 namespace ptir::eval {
 
 Image render_transparent(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                          const RenderControl& control, PathStats* stats) {
-  if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
-  if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
-  Image image(camera.width, camera.height, {"R", "G", "B", "A"});
-  const size_t pixels = size_t(camera.width) * size_t(camera.height);
-  std::atomic<size_t> done{0};
-  std::atomic<uint64_t> paths{0}, vertices{0}, shadow_rays{0};
-  std::mutex progress_mutex;
-  tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, 8, 0, camera.width, 8), [&](const tbb::blocked_range2d<int>& r) {
-    if (control.cancel && control.cancel->load()) return;
-    PathStats local;
-    for (int y = r.rows().begin(); y < r.rows().end(); ++y)
-      for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
-        Vec3 sum(0.0f);
-        float covered = 0.0f;
-        const uint64_t pixel = camera.full_pixel_index(x, y);
-        for (int s = 0; s < settings.spp; ++s) {
-          // Same jitter keys as render_path's camera_sample.
-          Rng jitter(hash_combine(hash_combine(settings.seed, pixel), uint64_t(s)), 0, 0);
-          Ray ray = camera.generate_ray(float(x) + jitter.at(0), float(y) + jitter.at(1));
-          float c = 0.0f;
-          Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
-          if (c > 0.0f) {
-            sum += L;
-            covered += 1.0f;
-          }
-        }
-        const float inv = 1.0f / float(settings.spp);
-        image.at(x, y, 0) = sum.x * inv;
-        image.at(x, y, 1) = sum.y * inv;
-        image.at(x, y, 2) = sum.z * inv;
-        image.at(x, y, 3) = covered * inv;
-      }
-    paths += local.paths;
-    vertices += local.vertices;
-    shadow_rays += local.shadow_rays;
-    size_t n = r.rows().size() * r.cols().size();
-    size_t now = done.fetch_add(n) + n;
-    if (control.progress) {
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      control.progress(float(now) / float(pixels));
-    }
-  });
-  if (control.cancel && control.cancel->load()) throw Cancelled();
-  if (stats) {
-    stats->paths += paths;
-    stats->vertices += vertices;
-    stats->shadow_rays += shadow_rays;
-  }
-  return image;
+  return render_path(tracer, camera, settings, control, stats, nullptr, /*transparent_film=*/true);
 }
 
 void scale_albedo(GaussianField& field, const std::array<double, 3>& s) {

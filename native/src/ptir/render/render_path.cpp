@@ -27,7 +27,8 @@ Ray camera_sample(const Camera& camera, uint64_t seed, int x, int y, int s, uint
 }  // namespace
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
-                  const RenderControl& control, PathStats* stats, std::vector<Vec3>* sample_radiance) {
+                  const RenderControl& control, PathStats* stats, std::vector<Vec3>* sample_radiance,
+                  bool transparent_film) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
   if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
   Image image(camera.width, camera.height, {"R", "G", "B", "A"});
@@ -50,7 +51,7 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
           float c = 0.0f;
           Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
           if (sample_radiance) (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s] = L;
-          sum += L;
+          if (!transparent_film || c > 0.0f) sum += L;
           covered += c;
         }
         float inv = 1.0f / float(settings.spp);

@@ -15,9 +15,11 @@ namespace ptir {
 // When sample_radiance is given, it receives every sample's radiance
 // (width * height * spp, index (y * width + x) * spp + s) for a later
 // render_path_backward, which then skips recomputing them.
+// transparent_film (Cycles' Film > Transparent): samples whose camera ray finds no
+// surface add nothing to RGB, so RGB is premultiplied by the coverage A.
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control = {}, PathStats* stats = nullptr,
-                  std::vector<Vec3>* sample_radiance = nullptr);
+                  std::vector<Vec3>* sample_radiance = nullptr, bool transparent_film = false);
 
 // Path replay backpropagation of a whole image: d_image (same size as the image,
 // >= 3 channels: the adjoint dLoss/dI of each pixel's RGB) is pushed through every
