@@ -32,6 +32,7 @@
 #include <optional>
 #include <string>
 
+#include "brdf_option.h"
 #include "commands.h"
 #include "ptir/core/error.h"
 #include "ptir/io/dataset.h"
@@ -46,6 +47,7 @@ namespace {
 
 struct OptimizeOptions {
   std::string dataset, gaussians, scene, out;
+  std::string brdf;  // --brdf (empty: the scene file's, else principled)
   std::string split = "train";
   std::string prior;
   int iters = 800;
@@ -141,9 +143,11 @@ int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
     s.integrator.self_range_scale = scene.integrator.self_range_scale;
     s.integrator.fixed_offset = scene.integrator.fixed_offset;
     s.integrator.fixed_range = scene.integrator.fixed_range;
+    s.integrator.brdf = scene.integrator.brdf;
   } else if (o.optimize_meshes) {
     throw Error("--optimize-meshes needs --scene (the meshes come from the scene file)");
   }
+  cli::apply_brdf_option(o.brdf, s.integrator.brdf);
   scene.gaussians = std::make_shared<GaussianField>(load_gaussians(o.gaussians));
   scene.source_path = o.scene.empty() ? "command line" : o.scene;
 
@@ -220,6 +224,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-init", o->env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
   cmd->add_flag("--fix-env", o->fix_env, "keep the --env-init environment fixed (known lighting)");
   cmd->add_option("--seed", o->seed, "random seed (views, crops, paths)")->capture_default_str();
+  cli::add_brdf_option(cmd, &o->brdf);
   cmd->add_flag("--resume", o->resume, "continue from OUT/checkpoint.bin");
   cmd->add_option("--split", o->split, "dataset split (transforms_<split>.json)")->capture_default_str();
   cmd->add_option("--prior", o->prior, "folder of prior albedo/roughness maps in the dataset's layout");

@@ -189,6 +189,7 @@ EvalReport evaluate(const EvalSettings& s) {
   IntegratorSettings is = scene.integrator;
   is.spp = s.spp;
   is.max_bounces = s.bounces;
+  if (s.brdf) is.brdf = *s.brdf;
   is.seed = s.seed;
   AovSettings as;
   as.spp = s.aov_spp;

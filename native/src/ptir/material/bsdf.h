@@ -11,25 +11,16 @@
 
 #include <cstdint>
 #include <optional>
-#include <string>
 
 #include "ptir/material/disney_brdf.h"
 #include "ptir/material/material_params.h"
 #include "ptir/material/oren_nayar.h"
 #include "ptir/material/principled_bsdf.h"
+#include "ptir/scene/shading_model.h"
 
 namespace ptir {
 
-// The scene-wide choice of model (scene JSON "brdf", CLI --brdf).
-enum class BsdfModel : uint8_t { Principled, DisneySimplified };
-// What a surface asks for (meshes: from their Blender node; Gaussians: the field's setting).
-enum class SurfaceShader : uint8_t { PrincipledGGX, PrincipledMultiGGX, Diffuse };
 enum class BsdfKind : uint8_t { PrincipledGGX, PrincipledMultiGGX, OrenNayar, DisneySimplified };
-
-// Names as written in scene files and on the command line.
-const char* to_string(BsdfModel m);       // "principled" | "disney-simplified"
-std::optional<BsdfModel> parse_bsdf_model(const std::string& name);
-const char* to_string(SurfaceShader s);   // "principled" | "principled-multiscatter" | "diffuse"
 
 // The kind a surface gets under the scene's model: the simplified Disney model
 // replaces every surface (paper parity); otherwise each surface keeps its shader.

@@ -105,11 +105,14 @@ PrincipledBsdf::PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatt
     ms_dk_dr_ = -e.dE_dr / (e.E * e.E);
   }
 
-  // Lobe selection weights (Cycles: the Fresnel colour at n.wo, and the diffuse weight).
+  // Lobe selection weights, as Cycles' (the Fresnel colour at n.wo, and the diffuse
+  // weight) but with the base colour replaced by a nominal 1/2 (F0 colour 0.08 s (1 - m) + m):
+  // the albedo then changes no sampling decision, so its gradient (PRB holds
+  // sampling fixed) equals the difference quotient of the estimator exactly.
   const float FH_n = (fresnel_dielectric(wo.z, eta_) - F0_) * inv_1m_F0_;
-  const Vec3 F_n = cspec0_ * (1.0f - FH_n) + Vec3(FH_n);
-  const float w_s = (F_n.x + F_n.y + F_n.z) / 3.0f * (1.0f + ms_k_);
-  const float w_d = (diffuse_weight_.x + diffuse_weight_.y + diffuse_weight_.z) / 3.0f;
+  const float c0 = std::clamp(0.08f * p.specular * (1.0f - m) + m, 0.0f, 1.0f);
+  const float w_s = (c0 * (1.0f - FH_n) + FH_n) * (1.0f + c0 * ms_k_);
+  const float w_d = 0.5f * (1.0f - m);
   p_spec_ = (w_s + w_d) > 0.0f ? std::clamp(w_s / (w_s + w_d), kMinLobeProb, 1.0f - kMinLobeProb) : 0.5f;
 }
 

@@ -18,13 +18,14 @@
 //   f_spec *= 1 + cspec0 (1 - E(n.wo, r)) / E(n.wo, r)       (ggx_energy.h)
 // and, as in Cycles, plain GGX is used whenever r <= 0.075.
 //
-// Sampling (Cycles picks a closure by its sample weight; we use the same weights
-// as a one-sample mixture): the specular lobe by GGX visible normals (pdf
-// G1(wo) D / (4 n.wo)) with probability P_spec = w_s / (w_s + w_d), w_s = the mean
-// Fresnel colour at n.wo (as Cycles' bsdf_microfacet_fresnel_color), w_d = the mean
-// diffuse weight (1 - m) b; P_spec is kept within [0.1, 0.9] so both lobes always
-// have density (the derivative of either lobe is then estimated everywhere). The
-// diffuse lobe is cosine-weighted.
+// Sampling (Cycles picks a closure by its sample weight; we use alike weights as
+// a one-sample mixture): the specular lobe by GGX visible normals (pdf
+// G1(wo) D / (4 n.wo)) with probability P_spec = w_s / (w_s + w_d), w_s = the
+// Fresnel value at n.wo (as Cycles' bsdf_microfacet_fresnel_color), w_d = the
+// diffuse weight (1 - m) b — both with a nominal base colour b = 1/2, so that the
+// albedo changes no sampling decision; P_spec is kept within [0.1, 0.9] so both
+// lobes always have density (the derivative of either lobe is then estimated
+// everywhere). The diffuse lobe is cosine-weighted.
 //
 // Roughness below kPrincipledMinRoughness is clamped for the specular lobe (Cycles
 // switches to a delta mirror when alpha^2 <= 1e-7, i.e. r < 0.018; our transport

@@ -1,4 +1,4 @@
-#include "ptir/material/bsdf.h"
+#include "ptir/scene/shading_model.h"
 
 namespace ptir {
 
@@ -6,7 +6,7 @@ const char* to_string(BsdfModel m) { return m == BsdfModel::DisneySimplified ? "
 
 std::optional<BsdfModel> parse_bsdf_model(const std::string& name) {
   if (name == "principled") return BsdfModel::Principled;
-  if (name == "disney-simplified" || name == "disney") return BsdfModel::DisneySimplified;
+  if (name == "disney-simplified") return BsdfModel::DisneySimplified;
   return std::nullopt;
 }
 
@@ -16,6 +16,13 @@ const char* to_string(SurfaceShader s) {
     case SurfaceShader::Diffuse: return "diffuse";
     default: return "principled";
   }
+}
+
+std::optional<SurfaceShader> parse_surface_shader(const std::string& name) {
+  if (name == "principled") return SurfaceShader::PrincipledGGX;
+  if (name == "principled-multiscatter") return SurfaceShader::PrincipledMultiGGX;
+  if (name == "diffuse") return SurfaceShader::Diffuse;
+  return std::nullopt;
 }
 
 }  // namespace ptir
