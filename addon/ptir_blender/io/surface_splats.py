@@ -17,15 +17,12 @@ scales as log, rotation as w,x,y,z, opacity as logit; albedo linear RGB.
 import math
 
 import numpy as np
+from ..errors import SplatError
 
 SH_C0 = 0.28209479177387814  # degree-0 real spherical harmonic
 SPREAD = 0.6                 # in-plane sigma / polygon extent: neighbours overlap to O > 0.8 at seams
 THIN = 1e-3                  # normal-axis sigma / in-plane sigma
 OPACITY = 0.95
-
-
-class SplatError(ValueError):
-    """Bad input for the conversion or the writer; the message says what."""
 
 
 def matrices_to_quaternions(r):
