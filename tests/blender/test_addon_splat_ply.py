@@ -7,7 +7,6 @@ the engine uses is not correctly rounded, so the engine may differ by 1 ulp.
 """
 
 import math
-import sys
 
 import numpy as np
 import pytest
@@ -15,15 +14,6 @@ import pytest
 import addon_common as ac
 from ptir_blender.io import splat_ply as sp
 from ptir_blender.io import splat_transform as st
-
-
-@pytest.fixture(scope="module")
-def ptir():
-    if not any(ac.MODULE_DIR.glob("ptir*.so")):
-        pytest.fail("no native module in %s (run 'make build' or set PTIR_BUILD_DIR)" % ac.MODULE_DIR)
-    sys.path.insert(0, str(ac.MODULE_DIR))
-    import ptir as module
-    return module
 
 
 def _check_against_native(d, g, exact_fields=("position", "albedo", "roughness", "metallic")):
