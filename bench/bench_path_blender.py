@@ -31,6 +31,7 @@ REPO = os.path.dirname(HERE)
 for p in (os.path.join(REPO, "scripts"), os.path.join(REPO, "tests", "blender"), os.path.join(REPO, "addon")):
     sys.path.insert(0, p)
 
+import blender_kit as kit  # noqa: E402
 import cycles_compare_scenes as ccs  # noqa: E402  (scene helpers and Cycles settings)
 import make_sample_splat as sample  # noqa: E402  (the sample object)
 from ptir_blender.blender import scene_export  # noqa: E402
@@ -85,7 +86,7 @@ def object_gaussians(parts):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     pieces = []
     for obj in parts:
-        loops, start, total, mat = sample.world_polygons(obj, depsgraph)
+        loops, start, total, mat = kit.world_polygons(obj, depsgraph)
         g = surface_splats.polygons_to_gaussians(loops, start, total)
         names = [s.material.name for s in obj.material_slots]
         g["albedo"] = np.array([MATERIALS[names[i]][0] for i in mat])

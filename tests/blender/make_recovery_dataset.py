@@ -26,9 +26,10 @@ box pixel filter of width 1 (our camera samples are uniform in the pixel),
 environment texture with Closest interpolation (our lookup is nearest-texel),
 no glossy filter, no clamping, no denoiser.
 
-The faces -> Gaussians conversion reuses scripts/make_sample_splat.py (the
-bundled sample's converter): each Gaussian lies in its face, spans it
-(sigma = 0.6 x the face extent) and is 1000x thinner along the normal.
+The faces -> Gaussians conversion is the add-on's surface-splat builder
+(addon/ptir_blender/io/surface_splats.py, written as scripts/make_sample_splat.py
+writes the bundled sample): each Gaussian lies in its face, spans it (sigma = 0.6
+x the face extent) and is 1000x thinner along the normal.
 """
 
 import argparse
@@ -43,7 +44,9 @@ from mathutils import Matrix
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
-import make_sample_splat as splat  # noqa: E402  (Blender-only module: bpy, bmesh)
+import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
+import make_sample_splat as splat  # noqa: E402  (its trainer-style PLY writer)
+from ptir_blender.io import surface_splats  # noqa: E402
 
 ENV_W, ENV_H = 64, 32
 FOV_X = 0.75
@@ -267,7 +270,7 @@ def main():
 
     frames = []
     for i, eye in enumerate(camera_positions(args.views)):
-        m = splat.look_at(eye, TARGET)
+        m = kit.look_at(eye, TARGET)
         cam.matrix_world = Matrix(m.tolist())
         bpy.context.view_layer.update()
         name = "train_%03d" % i
@@ -282,9 +285,9 @@ def main():
     depsgraph = bpy.context.evaluated_depsgraph_get()
     pieces, ranges, start = [], {}, 0
     for ob in objects:
-        loops, st, total, _ = splat.world_polygons(ob, depsgraph)
-        colour = np.tile(np.array(PARTS[ob.name]["albedo"]) ** (1 / 2.2), (len(st), 1))  # display colour for the preview
-        g = splat.polygons_to_gaussians(loops, st, total, colour)
+        loops, st, total, _ = kit.world_polygons(ob, depsgraph)
+        g = surface_splats.polygons_to_gaussians(loops, st, total)
+        g["colour"] = np.tile(np.array(PARTS[ob.name]["albedo"]) ** (1 / 2.2), (len(st), 1))  # preview colour
         pieces.append(g)
         ranges[ob.name] = [start, start + len(st)]
         start += len(st)
