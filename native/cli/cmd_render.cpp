@@ -10,6 +10,9 @@
 // --spp, --bounces, --seed, --interaction aggregate|discrete, --tau-g,
 // --no-geometric-criterion, --self-intersection backface|fixed. --threads N limits
 // TBB: the image does not depend on it (random numbers are keyed per pixel/sample).
+// -o is .exr or .png; an output (or --stats-json) that is an input file is refused
+// unless --force (cli/output_guard.h); sizes past --max-memory are refused before
+// anything is allocated (cli/image_budget.h).
 #include <tbb/global_control.h>
 
 #include <algorithm>
