@@ -84,6 +84,25 @@ TEST(ImageIo, TruncatedFilesAreErrors) {
   }
 }
 
+// 8-bit round trip: colour goes through the sRGB curve and back, alpha is stored
+// as is. Opaque linear 0.5 is byte 188; alpha 0.5 is byte 128 (OIIO stores PNG
+// colour unassociated, dividing by alpha on write and multiplying on read).
+TEST(ImageIo, PngKeepsAlphaLinear) {
+  Image img(2, 1, {"R", "G", "B", "A"});
+  const float opaque[4] = {0.5f, 0.5f, 0.5f, 1.0f}, half[4] = {0.1f, 0.1f, 0.1f, 0.5f};
+  for (int c = 0; c < 4; ++c) img.at(0, 0, c) = opaque[c], img.at(1, 0, c) = half[c];
+  const fs::path path = image_tmp("alpha.png");
+  write_image(path.string(), img);
+  const Image back = read_image(path.string());
+  ASSERT_EQ(back.channels, 4);
+  EXPECT_NEAR(back.at(0, 0, 0), srgb_to_linear(188.0f / 255.0f), 1e-5f);
+  EXPECT_NEAR(back.at(0, 0, 3), 1.0f, 1e-6f);
+  EXPECT_NEAR(back.at(1, 0, 3), 128.0f / 255.0f, 1e-5f);  // not sRGB-decoded
+  EXPECT_NEAR(back.at(1, 0, 0), 0.1f, 0.004f);
+  const Image data = read_image(path.string(), Encoding::Data);
+  EXPECT_NEAR(data.at(0, 0, 0), 188.0f / 255.0f, 1e-5f);
+}
+
 TEST(ImageIo, WritesAtomically) {
   const fs::path dir = image_tmp("atomic");
   fs::remove_all(dir);

@@ -83,15 +83,14 @@ Image read_image(const std::string& path, Encoding encoding) {
   Image image(spec.width, spec.height, spec.channelnames);
   if (int(image.channel_names.size()) != spec.nchannels) image = Image(spec.width, spec.height, std::vector<std::string>(spec.nchannels, "?"));
   // A short or corrupt file is an error, never an image with its tail missing:
-  // OIIO reports a truncated PNG/JPEG/EXR through the return value or, for some
-  // readers, only through has_error().
+  // OIIO reports a cut PNG or EXR through the return value, but a cut JPEG or
+  // TIFF (decoded as far as it goes) only through has_error().
   const bool ok = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data());
   if (!ok || in->has_error()) {
     std::string why = in->geterror();
     if (why.empty()) why = OIIO::geterror();
     throw Error(path, "cannot decode image data (is the file truncated or corrupt?): " + (why.empty() ? "read failed" : why));
   }
-  in->close();
   bool eight_bit = !is_float_format(lower_extension(path)) && spec.format.basetype != OIIO::TypeDesc::FLOAT &&
                    spec.format.basetype != OIIO::TypeDesc::HALF;
   if (eight_bit && encoding == Encoding::Colour) {
