@@ -52,7 +52,7 @@ int run_eval(const EvalOptions& o) {
   const std::string out = o.result + "/eval";
   Inputs in{{}, {o.dataset, o.result}, {o.scene}};
   for (const eval::RelightEnv& r : s.relight) in.files.push_back(r.path);
-  guard_outputs(in, {{}, {out}, {}}, o.force);
+  guard_outputs(in, {{}, {out}}, o.force);
   remove_stale_outputs({out}, o.quiet, /*with_subfolders=*/true);
   s.spp = o.spp;
   s.bounces = o.bounces;

@@ -93,7 +93,7 @@ int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   if (o.iters < 0) throw Error("--iters must be >= 0");
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
-  guard_outputs({{o.gaussians, o.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}, {}}, o.force);
+  guard_outputs({{o.gaussians, o.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
   remove_stale_outputs({o.out}, o.quiet);
 
   OptimizerSettings s;

@@ -135,7 +135,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   if (!fs::exists(ply)) throw Error(ply.string(), "no such file (the result folder of `ptir optimize`)");
   Inputs in{{ply.string(), o.cameras, o.env}, {o.result}, {o.scene}};
   in.files.insert(in.files.end(), o.meshes.begin(), o.meshes.end());
-  guard_outputs(in, {{}, {o.output}, {}}, o.force);
+  guard_outputs(in, {{}, {o.output}}, o.force);
   remove_stale_outputs({o.output}, o.quiet);
   const std::array<double, 3> scale = albedo_scale_of(o);
 

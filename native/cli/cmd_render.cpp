@@ -167,7 +167,7 @@ void check_render_outputs(const RenderOptions& o) {
   in.files = {o.gaussians, o.cameras, o.env};
   in.files.insert(in.files.end(), o.meshes.begin(), o.meshes.end());
   in.scenes = {o.scene};
-  guard_outputs(in, Outputs{{o.output, o.stats_json}, {}, {}}, o.force);
+  guard_outputs(in, Outputs{{o.output, o.stats_json}, {}}, o.force);
   std::vector<std::string> folders;
   for (const std::string& file : {o.output, o.stats_json}) {
     const std::filesystem::path p(file);

@@ -82,9 +82,6 @@ void guard_outputs(const Inputs& inputs, const Outputs& outputs, bool force) {
     for (const std::string& in : direct)
       if (same_entry(dir, folder_of(in)))
         refuse(dir, "holds the input file " + in + " (outputs would be written beside and over the inputs)");
-    for (const std::string& in : named)
-      for (const std::string& name : outputs.names)
-        if (same_entry(fs::path(dir) / name, in)) refuse((fs::path(dir) / name).string(), "is an input file (" + in + ")");
   }
 }
 

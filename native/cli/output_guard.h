@@ -11,8 +11,8 @@
 // Inputs given as a scene file also bring the files the scene names (any string
 // in the JSON that names an existing file beside the scene or at an absolute
 // path), so `render scene.json -o env.exr` cannot replace the scene's map; for
-// those only the exact files count (a scene's folder usually holds its assets,
-// and writing beside them is fine).
+// those only output files count, not output folders (a scene's folder usually
+// holds its assets, and writing beside them is fine).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -31,7 +31,6 @@ struct Inputs {
 struct Outputs {
   std::vector<std::string> files;    // files written
   std::vector<std::string> folders;  // folders written into
-  std::vector<std::string> names;    // file names written in those folders, where known
 };
 
 // Adds --force (write even over the inputs) to a command.
