@@ -34,8 +34,9 @@
 
 #include "brdf_option.h"
 #include "commands.h"
+#include "output_guard.h"
 #include "ptir/core/error.h"
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
@@ -68,6 +69,7 @@ struct OptimizeOptions {
   bool optimize_metallic = false;
   bool optimize_meshes = false;
   bool quiet = false;
+  bool force = false;
 };
 
 std::atomic<bool> g_interrupted{false};
@@ -93,6 +95,8 @@ int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   if (o.iters < 0) throw Error("--iters must be >= 0");
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
+  guard_outputs({{o.gaussians, o.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
+  remove_stale_outputs({o.out}, o.quiet);
 
   OptimizerSettings s;
   s.iterations = o.iters;
@@ -238,6 +242,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_flag("--optimize-metallic", o->optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
+  add_force_flag(cmd, o->force);
   return [o, cmd] { return run_optimize(*o, *cmd); };
 }
 
