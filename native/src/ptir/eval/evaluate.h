@@ -35,7 +35,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/render_control.h"
-#include "ptir/scene/shading_model.h"
+#include "ptir/material/shading_model.h"
 
 namespace ptir::eval {
 

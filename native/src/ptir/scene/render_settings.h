@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "ptir/scene/shading_model.h"
+#include "ptir/material/shading_model.h"
 
 namespace ptir {
 
