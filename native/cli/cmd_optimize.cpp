@@ -34,7 +34,7 @@
 
 #include "commands.h"
 #include "ptir/core/error.h"
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
