@@ -175,8 +175,7 @@ int run_render(const RenderOptions& o, const CLI::App& cmd) {
       // Resize keeping the horizontal field of view (and the aspect ratio when only one is given).
       int w = o.width > 0 ? o.width : int(std::lround(double(o.height) * camera.width / camera.height));
       int h = o.height > 0 ? o.height : int(std::lround(double(o.width) * camera.height / camera.width));
-      camera.width = std::max(1, w);
-      camera.height = std::max(1, h);
+      camera = camera.resized(std::max(1, w), std::max(1, h));
     }
   } else {
     if (cmd.count("--camera")) throw Error("--camera picks a camera of a scene file; in the flag form use --cameras/--frame or --c2w");
