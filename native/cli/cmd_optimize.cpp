@@ -75,15 +75,20 @@ struct OptimizeOptions {
 // Defaults that depend on the dataset: the environment model (24 SGs for real
 // captures, as the paper does; a lat-long map for synthetic sets) and the
 // Gaussians a 3DGS output folder names (point_cloud/iteration_N, largest N).
-void resolve_dataset_defaults(OptimizeOptions& o) {
+// Returns false (a usage error) when --gaussians is missing and the dataset names none.
+bool resolve_dataset_defaults(OptimizeOptions& o) {
   const std::string layout = o.layout == "auto" ? detect_layout(o.dataset) : o.layout;
   if (o.env == "auto") o.env = (layout == "nerf" || layout.empty()) ? "latlong" : "sg";
   if (o.gaussians.empty()) {
     o.gaussians = layout_gaussians(o.dataset);
-    if (o.gaussians.empty())
-      throw Error(o.dataset, "--gaussians is required (this dataset names no trained Gaussians; a 3DGS output folder does)");
+    if (o.gaussians.empty()) {
+      std::fprintf(stderr, "ptir: error: --gaussians is required (%s names no trained Gaussians; a 3DGS output folder does)\n",
+                   o.dataset.c_str());
+      return false;
+    }
     if (!o.quiet) std::fprintf(stderr, "optimize: Gaussians from the dataset: %s\n", o.gaussians.c_str());
   }
+  return true;
 }
 
 std::atomic<bool> g_interrupted{false};
@@ -277,7 +282,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--world", o->world, "nerfstudio world frame: auto, data, dataparser, colmap")->capture_default_str();
   cmd->add_flag("--black-background", o->black_background, "pixels that are exactly black are background (not supervised)");
   return [o, cmd] {
-    resolve_dataset_defaults(*o);
+    if (!resolve_dataset_defaults(*o)) return 2;
     return run_optimize(*o, *cmd);
   };
 }
