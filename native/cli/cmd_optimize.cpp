@@ -1,8 +1,10 @@
 // `ptir optimize`: recover per-Gaussian materials and the environment from
 // posed images (METHOD §6; src/ptir/optim/optimizer.h).
 //
-//   ptir optimize --dataset DIR --gaussians IN.ply [--scene scene.json] --out OUT
-//       [--iters N] [--spp N] [--bounces N] [--env latlong|sg] [--seed S] [--resume]
+//   ptir optimize --dataset DIR [--gaussians IN.ply] [--scene scene.json] --out OUT
+//       [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg] [--seed S] [--resume]
+//       [--layout L] [--images images_4] [--holdout 8 | --test-list F] [--undistort-cache D]
+//       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
 //       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [-q]

@@ -42,8 +42,10 @@ std::unique_ptr<Dataset> load_nerf_dataset(const std::string& dir, const Dataset
         std::string n = e.path().filename().string();
         if (n.rfind("transforms_", 0) == 0 && e.path().extension() == ".json") found += (found.empty() ? "" : ", ") + n;
       }
-      throw Error(dir, "no transforms_" + split + ".json" + (found.empty() ? std::string(" (no transforms_*.json at all)")
-                                                                          : " (found: " + found + ")"));
+      const std::string none =
+          " (no transforms_*.json at all; nor a COLMAP sparse/0 model, a 3DGS output's cameras.json + cfg_args or a "
+          "nerfstudio transforms.json)";
+      throw Error(dir, "no transforms_" + split + ".json" + (found.empty() ? none : " (found: " + found + ")"));
     }
   }
   data->root = root.string();
