@@ -376,3 +376,25 @@ def test_test_list_selects_the_test_views(tmp_path):
     assert sorted(load(root, "test", test_list=str(tmp_path / "list.txt")).view_names) == ["view_03", "view_05"]
     assert len(load(root, "train", test_list=str(tmp_path / "list.txt"))) == 8
     assert len(load(root, "train", holdout=0)) == 10
+
+
+def test_shared_mask_of_a_distorted_capture_is_undistorted_once(tmp_path):
+    """nerfstudio mask_path: every frame names one mask; it is resampled with the lens, once."""
+    lens = DISTORTED[0]
+    root = write_nerfstudio(tmp_path / "ns", lens)
+    (root / "masks").mkdir()
+    m = np.ones((H, W), np.float32)
+    m[:, : W // 2] = 0
+    ptir.write_image(str(root / "masks" / "all.png"), m, colour=False)
+    d = json.loads((root / "transforms.json").read_text())
+    for f in d["frames"]:
+        f["mask_path"] = "masks/all.png"
+    (root / "transforms.json").write_text(json.dumps(d))
+    ds = load(root, "all")
+    masks = {ds.files(i)["mask"] for i in range(len(ds))}
+    assert len(masks) == 1 and "ptir_undistorted/images/masks/all." in masks.pop()
+    rgb, alpha, has_alpha = ds.target(0)
+    # The mask's edge (source x = W/2) lands where the image's source x is W/2.
+    src_x = rgb[..., 0]
+    assert has_alpha
+    assert np.all(alpha[src_x < W / 2 - 1] == 0) and np.all(alpha[src_x > W / 2 + 1] == 1)

@@ -3,7 +3,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cctype>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -129,17 +132,11 @@ std::vector<std::string> view_names(const Capture& c) {
   return unique ? stems : paths;
 }
 
-}  // namespace
-
-std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o) {
-  if (c.views.empty()) throw Error(c.camera_file, "no images");
-  {
-    std::set<std::string> seen;
-    for (const CaptureView& v : c.views)
-      if (!seen.insert(v.name).second) throw Error(c.camera_file, "image '" + v.name + "' appears twice");
-  }
-  // Lenses at the actual image size, and their pinhole windows -- for every view,
-  // so the common size below does not depend on the split.
+// Every view's lens at its image's actual size, and its pinhole window; for every
+// view, so the common size does not depend on the split. One image size for the
+// whole capture (the optimiser's assumption): the smallest window, each view's
+// window shrunk to it about its own centre.
+std::vector<PinholeWindow> plan_windows(Capture& c) {
   const size_t n = c.views.size();
   std::vector<PinholeWindow> windows(n);
   std::map<std::string, PinholeWindow> planned;  // views sharing a lens share a plan
@@ -159,8 +156,6 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
     if (it == planned.end()) it = planned.emplace(key, plan_undistortion(v.lens, v.image)).first;
     windows[i] = it->second;
   }
-  // One image size for the whole capture (the optimiser's assumption): the
-  // smallest window, each view's window shrunk to it about its own centre.
   int W = windows[0].width, H = windows[0].height;
   for (const PinholeWindow& w : windows) W = std::min(W, w.width), H = std::min(H, w.height);
   for (size_t i = 0; i < n; ++i) {
@@ -179,6 +174,59 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
     w.height = H;
   }
 
+  return windows;
+}
+
+// The image and mask files of the picked views: undistorted (cached) where the lens
+// is distorted. Each file once (views may share a mask file), in parallel.
+std::vector<std::array<std::string, 2>> undistort_views(const Capture& c, const std::vector<size_t>& picked,
+                                                        const std::vector<PinholeWindow>& windows, const fs::path& cache) {
+  struct Job {
+    std::string src, dir, out;
+    size_t view;
+  };
+  std::vector<Job> jobs;
+  std::map<std::string, size_t> job_of;
+  auto job = [&](const std::string& src, const fs::path& dir, size_t view) {
+    const PinholeWindow& w = windows[view];
+    const std::string key = src + "|" + dir.string() + "|" + c.views[view].lens.describe() + "|" + std::to_string(w.x0) +
+                            " " + std::to_string(w.y0) + " " + std::to_string(w.width) + " " + std::to_string(w.height);
+    auto it = job_of.emplace(key, jobs.size()).first;
+    if (it->second == jobs.size()) jobs.push_back({src, dir.string(), "", view});
+    return it->second;
+  };
+  std::vector<std::array<size_t, 2>> view_jobs(picked.size(), {SIZE_MAX, SIZE_MAX});
+  for (size_t k = 0; k < picked.size(); ++k) {
+    const CaptureView& v = c.views[picked[k]];
+    if (!v.lens.distorted()) continue;
+    view_jobs[k][0] = job(v.image, cache, picked[k]);
+    if (!v.mask.empty()) view_jobs[k][1] = job(v.mask, cache / "masks", picked[k]);
+  }
+  tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
+    Job& jb = jobs[j];
+    jb.out = undistorted_image(jb.src, c.views[jb.view].lens, windows[jb.view], jb.dir);
+  });
+
+  std::vector<std::array<std::string, 2>> files(picked.size());
+  for (size_t k = 0; k < picked.size(); ++k) {
+    const CaptureView& v = c.views[picked[k]];
+    files[k][0] = view_jobs[k][0] != SIZE_MAX ? jobs[view_jobs[k][0]].out : v.image;
+    files[k][1] = view_jobs[k][1] != SIZE_MAX ? jobs[view_jobs[k][1]].out : v.mask;
+  }
+  return files;
+}
+
+}  // namespace
+
+std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o) {
+  if (c.views.empty()) throw Error(c.camera_file, "no images");
+  {
+    std::set<std::string> seen;
+    for (const CaptureView& v : c.views)
+      if (!seen.insert(v.name).second) throw Error(c.camera_file, "image '" + v.name + "' appears twice");
+  }
+  const std::vector<PinholeWindow> windows = plan_windows(c);
+  const int W = windows[0].width, H = windows[0].height;
   const std::vector<size_t> picked = split_views(c, o);
   const std::vector<std::string> names = view_names(c);
   const fs::path cache = !o.undistort_dir.empty() ? fs::path(o.undistort_dir)
@@ -194,16 +242,13 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
   data->width = W;
   data->height = H;
   data->views.resize(picked.size());
-  tbb::parallel_for(size_t(0), picked.size(), [&](size_t k) {
+  const std::vector<std::array<std::string, 2>> files = undistort_views(c, picked, windows, cache);
+  for (size_t k = 0; k < picked.size(); ++k) {
     const CaptureView& v = c.views[picked[k]];
     const PinholeWindow& w = windows[picked[k]];
     DatasetView& dv = data->views[k];
-    dv.files.image = v.image;
-    dv.files.mask = v.mask;
-    if (v.lens.distorted()) {
-      dv.files.image = undistorted_image(v.image, v.lens, w, cache.string());
-      if (!v.mask.empty()) dv.files.mask = undistorted_image(v.mask, v.lens, w, (cache / "masks").string());
-    }
+    dv.files.image = files[k][0];
+    dv.files.mask = files[k][1];
     float m[16] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
     for (int e = 0; e < 12; ++e) m[e] = float(v.cam_to_world[size_t(e)]);
     try {
@@ -217,7 +262,7 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
       dv.files.prior_albedo = first_existing(fs::path(o.prior_dir) / (stem + "_albedo"));
       dv.files.prior_roughness = first_existing(fs::path(o.prior_dir) / (stem + "_roughness"));
     }
-  });
+  }
   if (!o.prior_dir.empty() && !data->has_priors())
     throw Error(o.prior_dir, "no prior maps found for any view (expected e.g. " +
                                  (fs::path(o.prior_dir) / (fs::path(c.views[picked[0]].name).stem().string() + "_albedo.png"))
