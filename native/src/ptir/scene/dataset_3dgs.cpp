@@ -5,7 +5,8 @@
 //   DIR/cfg_args       Namespace(..., source_path='...', images='images', eval=True, ...)
 //   DIR/point_cloud/iteration_N/point_cloud.ply
 // Images come from <source_path>/<images>/<img_name>.<ext>. The principal point is
-// the image centre, as 3DGS renders (its Gaussians were fitted that way).
+// the image centre, as 3DGS renders (its Gaussians were fitted that way), unless the
+// entry has cx, cy (forks with off-centre projection write them).
 #include <cctype>
 #include <filesystem>
 #include <fstream>
@@ -139,8 +140,9 @@ Capture read_3dgs_capture(const std::string& root, const DatasetOptions& o) {
     v.lens.height = h;
     v.lens.fx = number(e, "fx", cams_path, where);
     v.lens.fy = number(e, "fy", cams_path, where);
-    v.lens.cx = 0.5 * w;
-    v.lens.cy = 0.5 * h;
+    // Centred, as INRIA's 3DGS renders; forks that fit an off-centre principal point write cx, cy.
+    v.lens.cx = e.contains("cx") && e["cx"].is_number() ? e["cx"].get<double>() : 0.5 * w;
+    v.lens.cy = e.contains("cy") && e["cy"].is_number() ? e["cy"].get<double>() : 0.5 * h;
     if (!(w > 0 && h > 0 && v.lens.fx > 0 && v.lens.fy > 0)) throw Error(cams_path, where + " has a non-positive size or focal length");
     const auto& pos = e.value("position", nlohmann::json());
     const auto& rot = e.value("rotation", nlohmann::json());
