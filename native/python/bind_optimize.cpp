@@ -1,7 +1,7 @@
 // Python bindings of the inversion: datasets and the optimiser (the same loop as
 // `ptir optimize`), with a per-iteration callback and cancellation.
 //
-//   ds = ptir.load_dataset("DIR", split="train", prior=None)
+//   ds = ptir.load_dataset("DIR", split="train", prior=None, layout="auto", images="", holdout=8, ...)
 //   opt = ptir.Optimizer(ds or "DIR", "in.ply" or field, scene=None, iters=800, spp=32, ...)
 //   opt.run(out="OUT", callback=lambda info: True, checkpoint_every=50)   # "finished" | "cancelled"
 //   opt.step(); opt.cancel(); opt.load_checkpoint(p); opt.write_outputs(d)
@@ -194,7 +194,7 @@ std::string run(PyOptimizer& p, std::optional<std::string> out, py::object callb
 
 void bind_optimize(py::module_& m) {
   py::class_<Dataset, std::shared_ptr<Dataset>>(m, "Dataset",
-                                                "Posed training images (NeRF-synthetic / TensoIR layout); see load_dataset.")
+                                                "Posed training images (NeRF-synthetic/TensoIR set or a real capture); see load_dataset.")
       .def("__len__", &Dataset::size)
       .def_readonly("root", &Dataset::root)
       .def_readonly("split", &Dataset::split)
