@@ -194,8 +194,7 @@ void load_scene_form(const RenderOptions& o, const CLI::App& cmd, Scene& scene, 
     const int64_t w = o.width > 0 ? o.width : std::llround(double(o.height) * camera.width / camera.height);
     const int64_t h = o.height > 0 ? o.height : std::llround(double(o.width) * camera.height / camera.width);
     check_image_budget(w, h, o.max_memory_gib, "--width/--height");
-    camera.width = int(std::max<int64_t>(1, w));
-    camera.height = int(std::max<int64_t>(1, h));
+    camera = camera.resized(int(std::max<int64_t>(1, w)), int(std::max<int64_t>(1, h)));
   }
 }
 
