@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "filter_flags.h"
 #include "ptir/core/error.h"
 #include "ptir/eval/evaluate.h"
 
@@ -32,10 +33,11 @@ struct EvalOptions {
   uint64_t seed = 0;
   int sheet_views = 8;
   int threads = 0;
+  FilterFlags filter;
   bool quiet = false;
 };
 
-int run_eval(const EvalOptions& o) {
+int run_eval(const EvalOptions& o, const CLI::App& cmd) {
   std::optional<tbb::global_control> limit;
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
@@ -52,6 +54,13 @@ int run_eval(const EvalOptions& o) {
   s.aov_spp = o.aov_spp;
   s.seed = o.seed;
   s.sheet_views = o.sheet_views;
+  {
+    // Switches not given keep the dataset's value (or Blender's default).
+    PixelFilter f;
+    apply_filter_flags(o.filter, cmd, f);
+    if (cmd.count("--pixel-filter")) s.filter_type = f.type;
+    if (cmd.count("--filter-width")) s.filter_width = f.width;
+  }
   if (!o.quiet) s.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   eval::EvalReport r = eval::evaluate(s);
   std::printf("%s", eval::metrics_markdown(r.metrics).c_str());
@@ -80,7 +89,8 @@ Runner add_eval_command(CLI::App& app) {
   cmd->add_option("--sheet-views", o->sheet_views, "views shown in the contact sheets (0: no sheets)")->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
-  return [o] { return run_eval(*o); };
+  add_filter_flags(cmd, &o->filter);
+  return [o, cmd] { return run_eval(*o, *cmd); };
 }
 
 }  // namespace ptir::cli

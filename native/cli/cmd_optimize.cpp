@@ -33,6 +33,7 @@
 #include <string>
 
 #include "commands.h"
+#include "filter_flags.h"
 #include "ptir/core/error.h"
 #include "ptir/io/dataset.h"
 #include "ptir/optim/optimizer.h"
@@ -65,6 +66,7 @@ struct OptimizeOptions {
   float lambda_tv = 0.095f;
   bool optimize_metallic = false;
   bool optimize_meshes = false;
+  FilterFlags filter;
   bool quiet = false;
 };
 
@@ -127,6 +129,9 @@ int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
   dopt.split = o.split;
   dopt.prior_dir = o.prior;
   std::shared_ptr<const Dataset> data = load_dataset(o.dataset, dopt);
+  // The filter the views were rendered with (dataset.json), else Blender's default; the switches override it.
+  s.integrator.filter = dataset_pixel_filter(*data);
+  apply_filter_flags(o.filter, cmd, s.integrator.filter);
   Scene scene;
   if (!o.scene.empty()) {
     scene = load_scene_json(o.scene);
@@ -232,6 +237,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--lambda-tv", o->lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->optimize_meshes, "also optimise the --scene meshes' materials");
+  add_filter_flags(cmd, &o->filter);
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   return [o, cmd] { return run_optimize(*o, *cmd); };
 }

@@ -38,6 +38,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "filter_flags.h"
 #include "progress.h"
 #include "ptir/core/error.h"
 #include "ptir/eval/relight.h"
@@ -69,6 +70,7 @@ struct RelightOptions {
   bool transparent = false;
   uint64_t seed = 0;
   int threads = 0;
+  FilterFlags filter;
   bool quiet = false;
 };
 
@@ -197,6 +199,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   if (o.scene.empty() || cmd.count("--spp")) is.spp = o.spp;
   if (o.scene.empty() || cmd.count("--bounces")) is.max_bounces = o.bounces;
   if (cmd.count("--seed")) is.seed = o.seed;
+  apply_filter_flags(o.filter, cmd, is.filter);
 
   fs::create_directories(o.output);
   for (size_t i = 0; i < cameras.size(); ++i) {
@@ -259,6 +262,7 @@ Runner add_relight_command(CLI::App& app) {
   cmd->add_option("--bounces", o->bounces, "indirect bounces")->capture_default_str();
   cmd->add_flag("--transparent", o->transparent, "leave the directly seen environment out (alpha = coverage)");
   cmd->add_option("--seed", o->seed, "random seed");
+  add_filter_flags(cmd, &o->filter);
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_option("-o,--output", o->output, "output folder")->required();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");

@@ -12,7 +12,7 @@ import os
 FORMAT_VERSION = 1
 TOP_LEVEL_KEYS = ("version", "comment", "gaussians", "meshes", "lights", "environment", "cameras", "integrator")
 INTEGRATOR_KEYS = ("spp", "bounces", "seed", "interaction", "tau_g", "geometric_criterion", "self_intersection",
-                   "self_range_scale", "fixed_offset", "fixed_range", "min_throughput")
+                   "self_range_scale", "fixed_offset", "fixed_range", "min_throughput", "pixel_filter", "filter_width")
 
 
 class SceneFileError(ValueError):

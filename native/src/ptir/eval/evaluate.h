@@ -28,12 +28,14 @@
 
 #include <array>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/render_control.h"
+#include "ptir/math/pixel_filter.h"
 
 namespace ptir::eval {
 
@@ -52,6 +54,9 @@ struct EvalSettings {
   int bounces = 4;                // indirect bounces (the dataset maker's Cycles limit)
   int aov_spp = 16;               // jittered AOV samples (GT passes are pixel averages)
   uint64_t seed = 0;
+  // Pixel filter; what is unset comes from the dataset (dataset.json), else Blender's default.
+  std::optional<PixelFilterType> filter_type;
+  std::optional<float> filter_width;
   int sheet_views = 8;            // contact sheets show the first N views (0: no sheets)
   std::function<void(const std::string&)> log;  // progress lines (optional)
   RenderControl control;          // cancel / progress of each render

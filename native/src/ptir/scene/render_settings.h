@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <limits>
 
+#include "ptir/math/pixel_filter.h"
+
 namespace ptir {
 
 enum class InteractionMode { Aggregate, Discrete };
@@ -24,6 +26,7 @@ struct IntegratorSettings {
   int spp = 32;
   int max_bounces = 2;  // indirect bounces, as Cycles counts them (0: direct light only)
   uint64_t seed = 0;
+  PixelFilter filter;                    // camera-sample offsets (Blender default: Blackman-Harris 1.5 px)
   InteractionSettings interaction;       // aggregate/discrete, tau_g
   bool geometric_criterion = true;       // chi_geom gate; off: every hit with O > 0 is an interaction
   SelfIntersection self_intersection = SelfIntersection::BackfaceAware;
