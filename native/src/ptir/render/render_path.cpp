@@ -9,6 +9,7 @@
 #include <mutex>
 
 #include "ptir/core/error.h"
+#include "ptir/math/path_sampler.h"
 #include "ptir/math/pixel_filter.h"
 #include "ptir/math/rng.h"
 
@@ -23,7 +24,8 @@ namespace {
 Ray camera_sample(const Camera& camera, const PixelFilterSampler& filter, uint64_t seed, int x, int y, int s,
                   uint64_t* pixel) {
   *pixel = camera.full_pixel_index(x, y);
-  Rng jitter(hash_combine(hash_combine(seed, *pixel), uint64_t(s)), 0, 0);
+  // The camera's own dimension group (no bounce uses this index), stratified over the pixel's samples.
+  PathRng jitter(make_path_key(seed, *pixel, uint32_t(s)), ~uint64_t(0), 0);
   return camera.generate_ray(filter.position(x, jitter.at(0)), filter.position(y, jitter.at(1)));
 }
 
