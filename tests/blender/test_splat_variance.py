@@ -16,7 +16,9 @@ Measured (Blender 3.4.1, 128 x 128, 16 spp, 6 seeds; 2 shared cores):
   stratified (math/path_sampler.h)      1.50          1.51        0.99
   and at 64 spp: before 6.96 / 6.93, after 1.49 / 1.57; at 1 spp (no stratification
   possible) both samplers give 1.50: the remaining factor is the estimator itself,
-  the same for the mesh twin (BRDF model and sampling differ from Cycles' Principled BSDF).
+  the same for the mesh twin -- mostly the BRDF's fixed 50/50 choice between its
+  diffuse and specular lobes: with a specular probability of 0.25 (an experiment
+  in material/disney_brdf.h, not committed) splat/Cycles is 1.07 at 16 spp.
 The splat twin adds no variance of its own: splat/mesh is 0.95-1.03 here and on
 the glossy sphere of test_cycles_compare.py (environment only, or a point light),
 and dark outliers relative to the 3 x 3 median are no more frequent than on the mesh.
