@@ -37,6 +37,7 @@
 #include "brdf_option.h"
 #include "commands.h"
 #include "output_guard.h"
+#include "filter_flags.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
@@ -70,6 +71,7 @@ struct OptimizeOptions {
   float lambda_tv = 0.095f;
   bool optimize_metallic = false;
   bool optimize_meshes = false;
+  FilterFlags filter;
   bool quiet = false;
   bool force = false;
   // Real captures (docs/dataset_format.md).
@@ -166,6 +168,9 @@ int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
   dopt.world = o.world;
   dopt.black_background = o.black_background;
   std::shared_ptr<const Dataset> data = load_dataset(o.dataset, dopt);
+  // The filter the views were rendered with (dataset.json), else Blender's default; the switches override it.
+  s.integrator.filter = dataset_pixel_filter(*data);
+  apply_filter_flags(o.filter, cmd, s.integrator.filter);
   Scene scene;
   if (!o.scene.empty()) {
     scene = load_scene_json(o.scene);
@@ -280,6 +285,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--lambda-tv", o->lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->optimize_meshes, "also optimise the --scene meshes' materials");
+  add_filter_flags(cmd, &o->filter);
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);
   cmd->add_option("--layout", o->layout, "dataset layout: auto, nerf, colmap, 3dgs, nerfstudio")->capture_default_str();

@@ -125,6 +125,7 @@ std::unique_ptr<PyOptimizer> make_optimizer(py::object dataset, py::object gauss
   if (threads && *threads < 1) throw Error("threads must be at least 1");
 
   auto data = dataset_from(dataset, split, prior);
+  s.integrator.filter = dataset_pixel_filter(*data);  // the views' own filter, else Blender's default
   std::shared_ptr<GaussianField> field;
   if (py::isinstance<GaussianField>(gaussians)) field = std::make_shared<GaussianField>(gaussians.cast<const GaussianField&>());
   else if (py::isinstance<py::str>(gaussians) || py::hasattr(gaussians, "__fspath__")) {

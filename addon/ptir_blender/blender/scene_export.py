@@ -439,12 +439,27 @@ def _visible_objects(scene, view_layer):
         yield obj
 
 
+# Cycles' Film > Pixel Filter (Blender's default: Blackman-Harris, 1.5 px): the
+# engine draws its camera samples from the same filter, with Cycles' width convention.
+_PIXEL_FILTERS = {"BLACKMAN_HARRIS": "blackman_harris", "GAUSSIAN": "gaussian", "BOX": "box"}
+
+
+def film_filter(scene):
+    """{"pixel_filter", "filter_width"} of the scene's Cycles film; {} without the Cycles add-on."""
+    cy = getattr(scene, "cycles", None)
+    if cy is None or not hasattr(cy, "filter_width"):
+        return {}
+    return {"pixel_filter": _PIXEL_FILTERS.get(getattr(cy, "pixel_filter_type", ""), "blackman_harris"),
+            "filter_width": float(cy.filter_width)}
+
+
 def export_scene(context_or_scene, out_dir, scene_name="scene.json", integrator=None, objects=None,
                  warnings=None, include_cameras=True):
     """Exports the Blender scene to out_dir (created); returns the scene file's path.
 
     context_or_scene: bpy.context (its scene and view layer) or a bpy.types.Scene.
-    integrator: dict of integrator settings to write (spp, bounces, ...); None: none.
+    integrator: dict of integrator settings to write (spp, bounces, ...); the film's pixel filter is
+        always added (the dict's own pixel_filter / filter_width win).
     objects: restrict mesh/light export to these objects (default: all visible).
     warnings: a list that receives messages about approximations and skipped items.
     """
@@ -494,8 +509,9 @@ def export_scene(context_or_scene, out_dir, scene_name="scene.json", integrator=
             doc["cameras"] = cams
         else:
             warnings.append("no (perspective) camera: the scene file has none")
+    integrator = {**film_filter(scene), **(integrator or {})}
     if integrator:
-        doc["integrator"] = dict(integrator)
+        doc["integrator"] = integrator
     path = scene_file.write_scene(os.path.join(out_dir, scene_name), doc)
     for w in warnings:
         print("ptir export: warning: %s" % w)

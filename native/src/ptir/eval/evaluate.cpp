@@ -191,7 +191,12 @@ EvalReport evaluate(const EvalSettings& s) {
   is.max_bounces = s.bounces;
   if (s.brdf) is.brdf = *s.brdf;
   is.seed = s.seed;
+  is.filter = dataset_pixel_filter(*data);
+  if (s.filter_type) is.filter.type = *s.filter_type;
+  if (s.filter_width) is.filter.width = *s.filter_width;
+  PixelFilterSampler{is.filter};  // validates the width before any rendering
   AovSettings as;
+  as.filter = is.filter;
   as.spp = s.aov_spp;
   as.seed = s.seed;
   as.interaction = is.interaction;

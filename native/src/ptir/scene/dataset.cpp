@@ -214,7 +214,43 @@ bool Dataset::has_priors() const {
   return false;
 }
 
-std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptions& options) {
+namespace {
+
+// The "pixel_filter" that DIR/dataset.json records under "cycles" (see dataset.h);
+// no file or no entry: unset. A malformed entry is an error naming the file.
+std::optional<PixelFilter> read_dataset_filter(const fs::path& root) {
+  const fs::path meta = root / "dataset.json";
+  if (!fs::exists(meta)) return std::nullopt;
+  nlohmann::json j;
+  try {
+    std::ifstream in(meta);
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw Error(meta.string(), std::string("not valid JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("cycles") || !j["cycles"].is_object() || !j["cycles"].contains("pixel_filter"))
+    return std::nullopt;
+  const nlohmann::json& f = j["cycles"]["pixel_filter"];
+  try {
+    if (f.is_string() && f.get<std::string>() == "box 1px") return PixelFilter{PixelFilterType::Box, 1.0f};
+    if (f.is_object() && f.contains("type") && f["type"].is_string() && f.contains("width") && f["width"].is_number()) {
+      PixelFilter pf{parse_pixel_filter(f["type"].get<std::string>()), f["width"].get<float>()};
+      PixelFilterSampler check(pf);  // validates the width
+      return pf;
+    }
+  } catch (const Error& e) {
+    throw Error(meta.string(), std::string("cycles.pixel_filter: ") + e.what());
+  }
+  throw Error(meta.string(), "cycles.pixel_filter must be {\"type\": \"blackman_harris\"|\"gaussian\"|\"box\", \"width\": pixels}");
+}
+
+}  // namespace
+
+PixelFilter dataset_pixel_filter(const Dataset& data) { return data.pixel_filter.value_or(PixelFilter{}); }
+
+namespace {
+
+std::unique_ptr<Dataset> load_layout(const std::string& dir, const DatasetOptions& options) {
   if (!options.prior_dir.empty() && !fs::is_directory(options.prior_dir))
     throw Error(options.prior_dir, "prior folder not found");
   std::string layout = options.layout;
@@ -224,6 +260,14 @@ std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptio
   if (layout == "3dgs") return dataset_from_capture(read_3dgs_capture(dir, options), options);
   if (layout == "nerfstudio") return dataset_from_capture(read_nerfstudio_capture(dir, options), options);
   throw Error(dir, "unknown dataset layout '" + options.layout + "' (auto, nerf, colmap, 3dgs, nerfstudio)");
+}
+
+}  // namespace
+
+std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptions& options) {
+  std::unique_ptr<Dataset> data = load_layout(dir, options);
+  data->pixel_filter = read_dataset_filter(data->root);
+  return data;
 }
 
 }  // namespace ptir

@@ -43,9 +43,11 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "ptir/io/image.h"
+#include "ptir/math/pixel_filter.h"
 #include "ptir/scene/camera.h"
 
 namespace ptir {
@@ -101,6 +103,10 @@ class Dataset {
   bool black_background = false;
   int width = 0, height = 0;    // every view has this size
   std::vector<DatasetView> views;
+  // The pixel filter its images were rendered with, from DIR/dataset.json
+  // ("cycles": {"pixel_filter": {"type": "box", "width": 1.0}}, or the older text
+  // "box 1px"); unset when the dataset does not say (photographs, other makers).
+  std::optional<PixelFilter> pixel_filter;
 
   size_t size() const { return views.size(); }
   std::vector<Camera> cameras() const;
@@ -130,6 +136,10 @@ class Dataset {
 // decoding pixels: every image exists and has the camera's size; every optional
 // map has the image's size.
 std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptions& options = {});
+
+// The filter to render a dataset's views with: the dataset's own when it records
+// one (DIR/dataset.json), else Blender's default (Blackman-Harris, 1.5 px).
+PixelFilter dataset_pixel_filter(const Dataset& data);
 
 // One RGB(A) image as a TrainingImage (see above for the encodings). With a mask
 // file, its first channel (8/16-bit: v / max; float: as is), clamped to [0, 1],
