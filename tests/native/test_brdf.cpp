@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "bsdf_test_directions.h"
 #include "chi2_test.h"
 #include "ptir/material/disney_brdf.h"
 #include "ptir/math/rng.h"
@@ -77,18 +78,8 @@ double ref_adjoint(const RefParams& p, D3 wo, D3 wi, const double adj[3]) {
 
 // ---------------------------------------------------------------------------
 
-Vec3 dir_at(float theta_deg, float phi = 0.3f) {
-  float t = theta_deg * kPi / 180.0f;
-  return spherical_direction(std::sin(t), std::cos(t), phi);
-}
-
-// Random upper-hemisphere direction with cos theta in [z_min, 1], uniform in cos.
-Vec3 random_dir(Rng& rng, float z_min = 0.0f) {
-  float z = z_min + (1.0f - z_min) * rng.next();
-  float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-  float phi = 2 * kPi * rng.next();
-  return {r * std::cos(phi), r * std::sin(phi), z};
-}
+using ptir::test::dir_at;
+using ptir::test::random_dir;
 
 DisneyParams random_params(Rng& rng, float r_min = 0.0f, float r_max = 1.0f) {
   DisneyParams p;

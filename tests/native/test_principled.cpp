@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "bsdf_test_directions.h"
 #include "chi2_test.h"
 #include "ptir/material/bsdf.h"
 #include "ptir/material/ggx_energy.h"
@@ -101,17 +102,8 @@ std::array<double, 3> ref_oren_nayar(const MaterialParams& p, D3 V, D3 L) {
   return {p.albedo.x * v, p.albedo.y * v, p.albedo.z * v};
 }
 
-Vec3 dir_at(float theta_deg, float phi = 0.3f) {
-  float t = theta_deg * kPi / 180.0f;
-  return spherical_direction(std::sin(t), std::cos(t), phi);
-}
-
-Vec3 random_dir(Rng& rng, float z_min = 0.0f) {
-  float z = z_min + (1.0f - z_min) * rng.next();
-  float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-  float phi = 2 * kPi * rng.next();
-  return {r * std::cos(phi), r * std::sin(phi), z};
-}
+using ptir::test::dir_at;
+using ptir::test::random_dir;
 
 MaterialParams random_material(Rng& rng) {
   MaterialParams p;
