@@ -98,9 +98,9 @@ TIMES+=("eval $(secs "$t" "$(now)") s")
 # area light on the left and a cool point light on the right.
 echo "demo: 4/5 relighting with near-field lights, a floor and a wall"
 t=$(now)
-mkdir -p "$OUT/relight"
+mkdir -p "$OUT/relight" "$OUT/relight_inputs"
 zmin=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['bbox'][0][2])" "$DATA/dataset.json")
-cat >"$OUT/relight/floor.ply" <<PLY
+cat >"$OUT/relight_inputs/floor.ply" <<PLY
 ply
 format ascii 1.0
 element vertex 8
@@ -127,7 +127,7 @@ run_logged "ptir relight" "$PTIR" relight --result "$RESULT" --cameras "$DATA/tr
   --width 200 --height 200 \
   --env "$DATA/envmaps/sunset.exr" --env-strength 0.5 \
   --area "-2.5,-1.5,2.5, 0,0,0, 1.5,1.5, 150, 1,0.8,0.6" --point "2,-2,2, 120, 0.6,0.7,1" \
-  --mesh "$OUT/relight/floor.ply" --mesh-color 0.7,0.7,0.7 --mesh-roughness 0.8 \
+  --mesh "$OUT/relight_inputs/floor.ply" --mesh-color 0.7,0.7,0.7 --mesh-roughness 0.8 \
   --albedo-scale auto --spp 64 --bounces 3 -o "$OUT/relight" -q
 TIMES+=("relight $(secs "$t" "$(now)") s")
 

@@ -15,7 +15,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from conftest import look_down_minus_z, write_splat_ply, write_transforms
+from ptir_testing import look_down_minus_z, write_splat_ply, write_transforms
 from test_optimize_cli import dataset, optimize  # noqa: F401  (the module's dataset fixture)
 
 DEAD_PID = 2147483646  # above any Linux pid_max: no such process

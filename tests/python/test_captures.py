@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import CLI, MODULE_DIR, REPO, write_splat_ply
+from ptir_testing import CLI, MODULE_DIR, REPO, write_splat_ply
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(MODULE_DIR))

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import skimage.io
 
-from conftest import write_splat_ply
+from ptir_testing import write_splat_ply
 
 
 def run(cli, *args):

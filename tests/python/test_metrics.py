@@ -11,7 +11,7 @@ import pytest
 import skimage.metrics
 
 from blender_kit import look_at
-from conftest import write_splat_ply
+from ptir_testing import write_splat_ply
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import look_down_minus_z, write_quad_ply, write_splat_ply, write_transforms
+from ptir_testing import look_down_minus_z, write_quad_ply, write_splat_ply, write_transforms
 
 # Channels per AOV (the last one is always coverage).
 LAYOUT = {"opacity": 1, "depth": 2, "normal": 4, "albedo": 4, "roughness": 2, "metallic": 2, "preview": 4}

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from blender_kit import look_at
-from conftest import write_splat_ply
+from ptir_testing import write_splat_ply
 
 
 def fibonacci(n):

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from blender_kit import look_at
-from conftest import write_quad_ply, write_splat_ply
+from ptir_testing import write_quad_ply, write_splat_ply
 
 
 def run(cli, *args, timeout=120):
