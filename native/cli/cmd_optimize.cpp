@@ -2,7 +2,7 @@
 // posed images (METHOD §6; src/ptir/optim/optimizer.h).
 //
 //   ptir optimize --dataset DIR --gaussians IN.ply [--scene scene.json] --out OUT
-//       [--iters N] [--spp N] [--bounces N] [--env latlong|sg] [--seed S] [--resume]
+//       [--iters N] [--spp N] [--bounces N] [--env latlong|sg|color] [--seed S] [--resume]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
 //       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [-q]
@@ -36,36 +36,25 @@
 #include "ptir/core/error.h"
 #include "ptir/io/dataset.h"
 #include "ptir/optim/optimizer.h"
+#include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
-#include "ptir/scene/scene_json.h"
 
 namespace ptir::cli {
 
 namespace {
 
-struct OptimizeOptions {
+// The command's own options around the set-up shared with the Python module.
+struct OptimizeCommand {
   std::string dataset, gaussians, scene, out;
   std::string split = "train";
   std::string prior;
-  int iters = 800;
-  int spp = 32;
-  int bounces = 2;
-  std::string env = "latlong";
   std::string env_size = "128x64";
-  std::string env_init;
-  bool fix_env = false;
-  uint64_t seed = 0;
   bool resume = false;
-  int views_per_iter = 1;
-  int crop = 0;
   int checkpoint_every = 50;
   int threads = 0;
-  std::string loss_space = "srgb";
-  float lambda_tv = 0.095f;
-  bool optimize_metallic = false;
-  bool optimize_meshes = false;
   bool quiet = false;
+  OptimizeOptions opt;
 };
 
 std::atomic<bool> g_interrupted{false};
@@ -85,82 +74,50 @@ std::string duration_text(double s) {
   return b;
 }
 
-int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
-  std::optional<tbb::global_control> limit;
-  if (o.threads < 0) throw Error("--threads must be positive");
-  if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
-  if (o.iters < 0) throw Error("--iters must be >= 0");
-  if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
+// The optimiser for the command's options (inputs loaded; resumed when asked).
+std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, std::shared_ptr<const Dataset>* data) {
+  OptimizeOptions opt = o.opt;
+  char extra = 0;
+  if (std::sscanf(o.env_size.c_str(), "%dx%d%c", &opt.env_width, &opt.env_height, &extra) != 2 || opt.env_width < 1 ||
+      opt.env_height < 1)
+    throw Error("--env-size must be WIDTHxHEIGHT (e.g. 128x64), got '" + o.env_size + "'");
+  OptimizerSettings s = optimizer_settings(opt, cli_option_name);
 
-  OptimizerSettings s;
-  s.iterations = o.iters;
-  s.integrator.spp = o.spp;
-  s.integrator.max_bounces = o.bounces;
-  s.seed = o.seed;
-  s.views_per_iteration = o.views_per_iter;
-  s.crop_size = o.crop;
-  s.lambda_tv = o.lambda_tv;
-  if (o.loss_space == "srgb") s.srgb_loss = true;
-  else if (o.loss_space == "linear") s.srgb_loss = false;
-  else throw Error("--loss-space must be 'srgb' or 'linear', got '" + o.loss_space + "'");
-  if (o.env == "latlong") s.params.env = EnvMode::LatLong;
-  else if (o.env == "sg") s.params.env = EnvMode::SG;
-  else throw Error("--env must be 'latlong' or 'sg', got '" + o.env + "'");
-  {
-    int w = 0, h = 0;
-    char extra = 0;
-    if (std::sscanf(o.env_size.c_str(), "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1)
-      throw Error("--env-size must be WIDTHxHEIGHT (e.g. 128x64), got '" + o.env_size + "'");
-    s.params.env_width = w;
-    s.params.env_height = h;
-  }
-  s.params.env_init_path = o.env_init;
-  s.params.optimize_env = !o.fix_env;
-  if (o.fix_env && o.env_init.empty()) throw Error("--fix-env needs --env-init (the known environment map)");
-  s.params.optimize_metallic = o.optimize_metallic;
-  s.params.optimize_meshes = o.optimize_meshes;
-  if (o.spp < 1) throw Error("--spp must be at least 1");
-  if (o.bounces < 0) throw Error("--bounces must be at least 0");
-
-  // Inputs.
   DatasetOptions dopt;
   dopt.split = o.split;
   dopt.prior_dir = o.prior;
-  std::shared_ptr<const Dataset> data = load_dataset(o.dataset, dopt);
-  Scene scene;
-  if (!o.scene.empty()) {
-    scene = load_scene_json(o.scene);
-    if (scene.gaussians && scene.gaussians->size() > 0)
-      throw Error(o.scene, "the scene file has Gaussians; give them with --gaussians instead (the optimiser's Gaussians "
-                           "come from one PLY)");
-    if (scene.environment.present() && !o.quiet)
-      std::fprintf(stderr, "note: the scene's environment is ignored: the environment is what gets recovered\n");
-    s.integrator.interaction = scene.integrator.interaction;
-    s.integrator.geometric_criterion = scene.integrator.geometric_criterion;
-    s.integrator.self_intersection = scene.integrator.self_intersection;
-    s.integrator.self_range_scale = scene.integrator.self_range_scale;
-    s.integrator.fixed_offset = scene.integrator.fixed_offset;
-    s.integrator.fixed_range = scene.integrator.fixed_range;
-  } else if (o.optimize_meshes) {
-    throw Error("--optimize-meshes needs --scene (the meshes come from the scene file)");
-  }
-  scene.gaussians = std::make_shared<GaussianField>(load_gaussians(o.gaussians));
-  scene.source_path = o.scene.empty() ? "command line" : o.scene;
-
-  Optimizer opt(std::move(scene), data, s);
+  *data = load_dataset(o.dataset, dopt);
+  auto note = [&](const std::string& line) {
+    if (!o.quiet) std::fprintf(stderr, "note: %s\n", line.c_str());
+  };
+  Scene scene = prepare_optimizer_scene(o.scene, std::make_shared<GaussianField>(load_gaussians(o.gaussians)), s,
+                                        cli_option_name, note);
+  auto optimizer = std::make_unique<Optimizer>(std::move(scene), *data, s);
   const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (o.resume) {
-    if (!std::filesystem::exists(ckpt)) throw Error(ckpt, "--resume: no checkpoint to continue from");
-    opt.load_checkpoint(ckpt);
-    if (!o.quiet)
-      std::fprintf(stderr, "resumed from %s at iteration %d\n", ckpt.c_str(), opt.iteration());
+    std::error_code ec;
+    if (!std::filesystem::exists(ckpt, ec)) throw Error(ckpt, "--resume: no checkpoint to continue from");
+    optimizer->load_checkpoint(ckpt);
+    if (!o.quiet) std::fprintf(stderr, "resumed from %s at iteration %d\n", ckpt.c_str(), optimizer->iteration());
   }
+  return optimizer;
+}
+
+int run_optimize(const OptimizeCommand& o) {
+  std::optional<tbb::global_control> limit;
+  if (o.threads < 0) throw Error("--threads must be positive");
+  if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
+  std::shared_ptr<const Dataset> data;
+  std::unique_ptr<Optimizer> optimizer = make_optimizer(o, &data);
+  Optimizer& opt = *optimizer;
+  const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (!o.quiet)
     std::fprintf(stderr,
                  "optimize: %zu Gaussians, %zu %s views %dx%d%s, %d iterations, %d spp, %d bounces, env %s, seed %llu\n",
                  opt.scene().gaussians->size(), data->size(), data->split.c_str(), data->width, data->height,
-                 data->has_priors() ? " (with priors)" : "", o.iters, o.spp, o.bounces, o.env.c_str(),
-                 (unsigned long long)o.seed);
+                 data->has_priors() ? " (with priors)" : "", o.opt.iters, o.opt.spp, o.opt.bounces, o.opt.env.c_str(),
+                 (unsigned long long)o.opt.seed);
 
   g_interrupted.store(false);
   auto previous = std::signal(SIGINT, on_sigint);
@@ -198,42 +155,41 @@ int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
   }
   if (!o.quiet)
     std::fprintf(stderr, "wrote %s/gaussians.ply, env.exr, log.csv (%d iterations)\n", o.out.c_str(), opt.iteration());
-  (void)cmd;
   return 0;
 }
 
 }  // namespace
 
 Runner add_optimize_command(CLI::App& app) {
-  auto o = std::make_shared<OptimizeOptions>();
+  auto o = std::make_shared<OptimizeCommand>();
   CLI::App* cmd = app.add_subcommand("optimize", "Recover materials and lighting from posed images (inverse rendering)");
   cmd->add_option("--dataset", o->dataset, "dataset folder (NeRF-synthetic / TensoIR layout: transforms_<split>.json)")
       ->required();
   cmd->add_option("--gaussians", o->gaussians, "input 3DGS .ply (geometry, fixed)")->required();
   cmd->add_option("--scene", o->scene, "scene file with meshes and lights to include (docs/scene_format.md)");
   cmd->add_option("--out", o->out, "output folder")->required();
-  cmd->add_option("--iters", o->iters, "iterations")->capture_default_str();
-  cmd->add_option("--spp", o->spp, "samples per pixel per iteration")->capture_default_str();
-  cmd->add_option("--bounces", o->bounces, "indirect bounces")->capture_default_str();
-  cmd->add_option("--env", o->env, "environment model: latlong (texels) or sg (24 spherical Gaussians)")->capture_default_str();
+  cmd->add_option("--iters", o->opt.iters, "iterations")->capture_default_str();
+  cmd->add_option("--spp", o->opt.spp, "samples per pixel per iteration")->capture_default_str();
+  cmd->add_option("--bounces", o->opt.bounces, "indirect bounces")->capture_default_str();
+  cmd->add_option("--env", o->opt.env, "environment model: latlong (texels), sg (24 spherical Gaussians) or color (one constant colour)")->capture_default_str();
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();
-  cmd->add_option("--env-init", o->env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
-  cmd->add_flag("--fix-env", o->fix_env, "keep the --env-init environment fixed (known lighting)");
-  cmd->add_option("--seed", o->seed, "random seed (views, crops, paths)")->capture_default_str();
+  cmd->add_option("--env-init", o->opt.env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
+  cmd->add_flag("--fix-env", o->opt.fix_env, "keep the --env-init environment fixed (known lighting)");
+  cmd->add_option("--seed", o->opt.seed, "random seed (views, crops, paths)")->capture_default_str();
   cmd->add_flag("--resume", o->resume, "continue from OUT/checkpoint.bin");
   cmd->add_option("--split", o->split, "dataset split (transforms_<split>.json)")->capture_default_str();
   cmd->add_option("--prior", o->prior, "folder of prior albedo/roughness maps in the dataset's layout");
-  cmd->add_option("--views-per-iter", o->views_per_iter, "training views per iteration")->capture_default_str();
-  cmd->add_option("--crop", o->crop, "random square crops of this side (0: whole images)")->capture_default_str();
+  cmd->add_option("--views-per-iter", o->opt.views_per_iter, "training views per iteration")->capture_default_str();
+  cmd->add_option("--crop", o->opt.crop, "random square crops of this side (0: whole images)")->capture_default_str();
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "iterations between checkpoints (0: only at the end)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all); resumed runs are bit-identical on the same count");
-  cmd->add_option("--loss-space", o->loss_space, "compare images in srgb or linear space")->capture_default_str();
-  cmd->add_option("--lambda-tv", o->lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
-  cmd->add_flag("--optimize-metallic", o->optimize_metallic, "also optimise metallic (default: fixed 0)");
-  cmd->add_flag("--optimize-meshes", o->optimize_meshes, "also optimise the --scene meshes' materials");
+  cmd->add_option("--loss-space", o->opt.loss_space, "compare images in srgb or linear space")->capture_default_str();
+  cmd->add_option("--lambda-tv", o->opt.lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
+  cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
+  cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
-  return [o, cmd] { return run_optimize(*o, *cmd); };
+  return [o] { return run_optimize(*o); };
 }
 
 }  // namespace ptir::cli

@@ -168,8 +168,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   if (scene.gaussians->size() == 0) *scene.gaussians = std::move(asset);
   else append_gaussians(*scene.gaussians, std::move(asset));
   if (!o.env.empty()) {
-    scene.environment = SceneEnvironment();
-    scene.environment.latlong = Environment::load(o.env, o.env_strength, o.env_rotation);
+    scene.environment = Environment::load(o.env, o.env_strength, o.env_rotation);
   }
   for (const std::string& p : o.points) scene.emitters.emplace_back(eval::parse_point_light(p));
   for (const std::string& a : o.areas) scene.emitters.emplace_back(eval::parse_area_light(a));

@@ -184,7 +184,7 @@ int run_render(const RenderOptions& o, const CLI::App& cmd) {
     if (!o.gaussians.empty()) *scene.gaussians = load_gaussians(o.gaussians);
     for (const auto& m : o.meshes) scene.meshes.push_back(load_mesh(m));
     if (scene.gaussians->size() == 0 && scene.meshes.empty()) throw Error("nothing to render: give --gaussians and/or --mesh");
-    if (!o.env.empty()) scene.environment.latlong = Environment::load(o.env, o.env_strength, o.env_rotation);
+    if (!o.env.empty()) scene.environment = Environment::load(o.env, o.env_strength, o.env_rotation);
     else if (cmd.count("--env-strength") || cmd.count("--env-rotation")) throw Error("--env-strength/--env-rotation need --env");
     scene.cameras.push_back(camera);
     scene.source_path = "command line";

@@ -1,0 +1,76 @@
+// Python bindings of datasets: ptir.Dataset (posed training images with their
+// optional ground-truth and prior maps) and ptir.load_dataset.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ptir/io/dataset.h"
+#include "py_arrays.h"
+
+namespace py = pybind11;
+using namespace ptir;
+using namespace ptir::py_bind;
+
+void bind_dataset(py::module_& m) {
+  py::class_<Dataset, std::shared_ptr<Dataset>>(m, "Dataset",
+                                                "Posed training images (NeRF-synthetic / TensoIR layout); see load_dataset.")
+      .def("__len__", &Dataset::size)
+      .def_readonly("root", &Dataset::root)
+      .def_readonly("split", &Dataset::split)
+      .def_readonly("transforms_path", &Dataset::transforms_path)
+      .def_readonly("width", &Dataset::width)
+      .def_readonly("height", &Dataset::height)
+      .def_property_readonly("cameras", &Dataset::cameras)
+      .def_property_readonly("view_names",
+                             [](const Dataset& d) {
+                               std::vector<std::string> n;
+                               for (const DatasetView& v : d.views) n.push_back(v.camera.name);
+                               return n;
+                             })
+      .def("files",
+           [](const Dataset& d, size_t i) {
+             const ViewFiles& f = d.views.at(i).files;
+             py::dict r;
+             r["image"] = f.image;
+             r["gt_albedo"] = f.gt_albedo;
+             r["gt_roughness"] = f.gt_roughness;
+             r["gt_normal"] = f.gt_normal;
+             r["prior_albedo"] = f.prior_albedo;
+             r["prior_roughness"] = f.prior_roughness;
+             return r;
+           },
+           py::arg("index"), "Paths of view i's files ('' where absent).")
+      .def("target",
+           [](const Dataset& d, size_t i) {
+             std::shared_ptr<const TrainingImage> t;
+             {
+               py::gil_scoped_release release;
+               t = d.target(i);
+             }
+             return py::make_tuple(image_or_none(t->rgb, false), image_or_none(t->alpha, true), t->has_alpha);
+           },
+           py::arg("index"), "(rgb (h, w, 3) linear straight colour, alpha (h, w), has_alpha) of view i.")
+      .def("gt_albedo", [](const Dataset& d, size_t i) { return image_or_none(d.gt_albedo(i), false); }, py::arg("index"))
+      .def("gt_roughness", [](const Dataset& d, size_t i) { return image_or_none(d.gt_roughness(i), true); }, py::arg("index"))
+      .def("gt_normal", [](const Dataset& d, size_t i) { return image_or_none(d.gt_normal(i), false); }, py::arg("index"))
+      .def("prior_albedo", [](const Dataset& d, size_t i) { return image_or_none(d.prior_albedo(i), false); }, py::arg("index"))
+      .def("prior_roughness", [](const Dataset& d, size_t i) { return image_or_none(d.prior_roughness(i), true); },
+           py::arg("index"));
+
+  m.def("load_dataset",
+        [](const std::string& path, const std::string& split, std::optional<std::string> prior) {
+          DatasetOptions o;
+          o.split = split;
+          if (prior) o.prior_dir = *prior;
+          py::gil_scoped_release release;
+          return std::shared_ptr<Dataset>(load_dataset(path, o));
+        },
+        py::arg("path"), py::arg("split") = "train", py::arg("prior") = py::none(),
+        "Read a dataset folder (transforms_<split>.json and its images; optional GT maps and prior maps).");
+
+}
