@@ -120,18 +120,11 @@ void apply_integrator_flags(const RenderOptions& o, const CLI::App& cmd, Integra
   if (cmd.count("--spp")) s.spp = o.spp;
   if (cmd.count("--bounces")) s.max_bounces = o.bounces;
   if (cmd.count("--seed")) s.seed = o.seed;
-  if (cmd.count("--interaction")) {
-    if (o.interaction == "discrete") s.interaction.mode = InteractionMode::Discrete;
-    else if (o.interaction == "aggregate") s.interaction.mode = InteractionMode::Aggregate;
-    else throw Error("--interaction must be 'aggregate' or 'discrete', got '" + o.interaction + "'");
-  }
+  if (cmd.count("--interaction")) s.interaction.mode = parse_interaction_mode(o.interaction, "--interaction");
   if (cmd.count("--tau-g")) s.interaction.tau_g = o.tau_g;
   if (o.no_geometric_criterion) s.geometric_criterion = false;
-  if (cmd.count("--self-intersection")) {
-    if (o.self_intersection == "backface") s.self_intersection = SelfIntersection::BackfaceAware;
-    else if (o.self_intersection == "fixed") s.self_intersection = SelfIntersection::FixedOffset;
-    else throw Error("--self-intersection must be 'backface' or 'fixed', got '" + o.self_intersection + "'");
-  }
+  if (cmd.count("--self-intersection"))
+    s.self_intersection = parse_self_intersection(o.self_intersection, "--self-intersection");
   if (s.spp < 1) throw Error("--spp must be at least 1");
   if (s.max_bounces < 0) throw Error("--bounces must be at least 0");
 }

@@ -64,6 +64,12 @@ void SgEnvironment::update() {
   const int n = size();
   if (int(raw_.size()) != n || int(sharpness_.size()) != n)
     throw Error("SgEnvironment: raw, axes and sharpness must have the same length");
+  for (Vec3& a : axes_) a = normalize(a);
+  update_amplitudes();
+}
+
+void SgEnvironment::update_amplitudes() {
+  const int n = size();
   amplitude_.resize(size_t(n));
   lobe_prob_.assign(size_t(n), 0.0f);
   lobe_cdf_.assign(size_t(n) + 1, 0.0f);
@@ -71,7 +77,6 @@ void SgEnvironment::update() {
   double total = 0.0;
   for (int i = 0; i < n; ++i) {
     if (!(sharpness_[i] > 0.0f)) throw Error("SgEnvironment: lobe sharpness must be positive");
-    axes_[i] = normalize(axes_[i]);
     amplitude_[i] = amplitude_from_raw(raw_[i], gamma_);
     energy[i] = std::max(0.0, double(luminance(amplitude_[i]))) * lobe_integral(sharpness_[i]);
     if (!std::isfinite(energy[i])) energy[i] = 0.0;
@@ -185,7 +190,10 @@ void SgEnvironment::get_raw(float* raw) const {
 
 void SgEnvironment::set_raw(const float* raw) {
   for (size_t i = 0; i < raw_.size(); ++i) raw_[i] = Vec3(raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]);
-  update();
+  // Not update(): the axes are unchanged, and renormalising them again would move
+  // them by an ulp per call, so a resumed optimisation (fewer calls on a fresh
+  // object) would drift apart from an uninterrupted one.
+  update_amplitudes();
 }
 
 void SgEnvironment::raw_gradient(const float* /*raw*/, const float* d_value, float* d_raw) const {

@@ -100,6 +100,7 @@ class SgEnvironment final : public EnvironmentLight {
   bool parameters_json(nlohmann::ordered_json* out) const override;
 
  private:
+  void update_amplitudes();  // c_i and the lobe selection (update() without renormalising axes)
   float gamma_;
   std::vector<Vec3> raw_, axes_;
   std::vector<float> sharpness_;

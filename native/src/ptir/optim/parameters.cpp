@@ -57,7 +57,7 @@ const char* env_mode_name(EnvMode m) {
 EnvMode parse_env_mode(const std::string& name, const std::string& what) {
   for (EnvMode m : {EnvMode::LatLong, EnvMode::SG, EnvMode::Constant})
     if (name == env_mode_name(m)) return m;
-  throw Error(what + " must be 'latlong', 'sg' or 'color', got '" + name + "'");
+  throw Error(what + " must be 'latlong' or 'sg' or 'color', got '" + name + "'");
 }
 
 void install_environment(Scene& scene, const ParameterSettings& s) {

@@ -26,7 +26,8 @@ namespace ptir {
 
 // The learnable environment model: lat-long map, spherical Gaussians, or one colour.
 enum class EnvMode { LatLong, SG, Constant };
-// "latlong", "sg", "color" (the scene-JSON type names); parse throws Error listing them.
+// "latlong", "sg", "color" (the scene-JSON type names); parse throws Error
+// "<what> must be 'latlong' or 'sg' or 'color', got 'x'".
 const char* env_mode_name(EnvMode m);
 EnvMode parse_env_mode(const std::string& name, const std::string& what = "env");
 
