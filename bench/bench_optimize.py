@@ -38,6 +38,8 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scripts"))
+from blender_kit import look_at  # noqa: E402
 
 
 def fibonacci(n):
@@ -89,16 +91,6 @@ def write_ply(path, n):
     header += "".join("property float %s\n" % k for k in names) + "end_header\n"
     Path(path).write_bytes(header.encode("ascii") + rec.tobytes())
     return p
-
-
-def look_at(eye, target):
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    back = (eye - target) / np.linalg.norm(eye - target)
-    right = np.cross([0, 0, 1.0], back)
-    right /= np.linalg.norm(right)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
-    return m
 
 
 def dataset_paths(root, n, res):

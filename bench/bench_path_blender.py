@@ -31,6 +31,7 @@ REPO = os.path.dirname(HERE)
 for p in (os.path.join(REPO, "scripts"), os.path.join(REPO, "tests", "blender"), os.path.join(REPO, "addon")):
     sys.path.insert(0, p)
 
+import blender_kit as kit  # noqa: E402
 import cycles_compare_scenes as ccs  # noqa: E402  (scene helpers and Cycles settings)
 import make_sample_splat as sample  # noqa: E402  (the sample object)
 from ptir_blender.blender import scene_export  # noqa: E402
@@ -72,11 +73,11 @@ def build(args):
     ccs.quad(scene, "floor", [(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], floor_mat)
     ccs.quad(scene, "wall_back", [(-5, 3, 0), (5, 3, 0), (5, 3, 4), (-5, 3, 4)], wall_mat)
     ccs.quad(scene, "wall_left", [(-3, -5, 0), (-3, 5, 0), (-3, 5, 4), (-3, -5, 4)], wall_mat)
-    light = ccs.add_light(scene, "AREA", 150.0, location=(1.5, -1.5, 3.2), rotation=(math.radians(25), 0, 0),
+    light = kit.add_light(scene, "AREA", 150.0, location=(1.5, -1.5, 3.2), rotation=(math.radians(25), 0, 0),
                           shape="RECTANGLE", size=1.2, size_y=0.8)
     light.visible_camera = True
     ccs.add_camera(scene, (2.6, -4.2, 2.2), (0.0, 0.0, 0.8), math.radians(40.0))
-    ccs.set_environment(scene, args.env, 0.0, strength=0.6)
+    kit.set_environment(scene, args.env, 0.0, strength=0.6)
     ccs.setup_cycles(scene, args.res, args.spp, args.bounces, args.threads)
     return scene, parts
 
@@ -85,7 +86,7 @@ def object_gaussians(parts):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     pieces = []
     for obj in parts:
-        loops, start, total, mat = sample.world_polygons(obj, depsgraph)
+        loops, start, total, mat = kit.world_polygons(obj, depsgraph)
         g = surface_splats.polygons_to_gaussians(loops, start, total)
         names = [s.material.name for s in obj.material_slots]
         g["albedo"] = np.array([MATERIALS[names[i]][0] for i in mat])
@@ -129,9 +130,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except Exception:
-        import traceback
-        traceback.print_exc()
-        sys.exit(1)
+    kit.run_main(main)

@@ -40,6 +40,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
 from dataset import envmaps, exr, png, scene as dscene, splat  # noqa: E402
 
 
@@ -89,7 +90,7 @@ def train_poses(n, distance):
         el = np.arcsin(s0 + (s1 - s0) * (i + 0.5) / n)
         az = np.radians(137.50776 * i + 10.0)
         eye = distance * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-        out.append(dscene.look_at(eye))
+        out.append(kit.look_at(eye))
     return out
 
 
@@ -100,7 +101,7 @@ def test_poses(n, distance):
         el = np.radians(15.0 if j % 2 == 0 else 35.0)
         az = np.radians(360.0 * j / n + 22.5) - 0.5 * np.pi
         eye = distance * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-        out.append(dscene.look_at(eye))
+        out.append(kit.look_at(eye))
     return out
 
 
@@ -254,7 +255,7 @@ def main():
     n_renders = 0
     jobs = [(a.train_env, "train"), (a.train_env, "test")] + [(e, "test") for e in a.relight_envs]
     for env, split in jobs:
-        dscene.set_environment(scene, env_files[env])
+        kit.set_environment(scene, env_files[env])
         for i, m in enumerate(poses[split]):
             view_dir = os.path.join(out, "%s_%03d" % (split, i))
             os.makedirs(view_dir, exist_ok=True)
@@ -317,12 +318,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except SystemExit:
-        raise
-    except Exception as e:  # blender -b would otherwise exit 0 after a traceback
-        import traceback
-        traceback.print_exc()
-        print("make_dataset: error: %s" % e, file=sys.stderr)
-        sys.exit(1)
+    kit.run_main(main, "make_dataset")

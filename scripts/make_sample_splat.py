@@ -6,7 +6,8 @@ Run inside Blender (3.4+):
 
 Scene: Suzanne (head and eyes in distinct colours) resting on a box pedestal,
 standing on a floor plane. The object's SURFACE becomes flat Gaussians, one per
-face, exactly as a 3DGS trainer would store them (INRIA layout: log scales,
+face (the add-on's surface-splat builder, addon/ptir_blender/io/surface_splats.py),
+exactly as a 3DGS trainer would store them (INRIA layout: log scales,
 w,x,y,z quaternion, logit opacity, degree-3 SH with f_rest zero, nx,ny,nz = 0).
 Each Gaussian lies in its face's plane (local z = face normal), spans the face in
 plane so that neighbours overlap into an opaque shell, and is very thin along the
@@ -31,7 +32,10 @@ import bmesh
 import bpy
 import numpy as np
 
-SH_C0 = 0.28209479177387814  # degree-0 real spherical harmonic
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
+from ptir_blender.io import surface_splats  # noqa: E402
+
 SH_REST = 45                 # f_rest count of a degree-3 trainer file (15 coefficients x 3)
 OPACITY = 0.95
 SPREAD = 0.6                 # in-plane sigma / face extent: neighbours overlap to O > 0.8 at seams
@@ -121,118 +125,22 @@ def make_suzanne(level, rest_z):
 
 # ---------------------------------------------------------------- faces -> Gaussians
 
-def world_polygons(obj, depsgraph):
-    """Evaluated (modifiers applied) world-space loop positions and polygon layout."""
-    ev = obj.evaluated_get(depsgraph)
-    mesh = ev.to_mesh()
-    co = np.empty(len(mesh.vertices) * 3, np.float64)
-    mesh.vertices.foreach_get("co", co)
-    m = np.array(obj.matrix_world)
-    co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-    n_poly = len(mesh.polygons)
-    start = np.empty(n_poly, np.int64)
-    total = np.empty(n_poly, np.int64)
-    mat = np.empty(n_poly, np.int64)
-    mesh.polygons.foreach_get("loop_start", start)
-    mesh.polygons.foreach_get("loop_total", total)
-    mesh.polygons.foreach_get("material_index", mat)
-    loop_vert = np.empty(len(mesh.loops), np.int64)
-    mesh.loops.foreach_get("vertex_index", loop_vert)
-    ev.to_mesh_clear()
-    # Loops are stored polygon by polygon, so reduceat over `start` sums per polygon.
-    order = np.argsort(start)
-    return co[loop_vert], start[order], total[order], mat[order]
-
-
-def matrices_to_quaternions(r):
-    """(n, 3, 3) rotation matrices (columns = local axes) -> (n, 4) unit w, x, y, z.
-
-    Shepperd's method: build the quaternion from its largest component for accuracy.
-    """
-    m = r
-    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
-    cand = np.stack([1 + tr, 1 + 2 * m[:, 0, 0] - tr, 1 + 2 * m[:, 1, 1] - tr, 1 + 2 * m[:, 2, 2] - tr], axis=1)
-    big = np.argmax(cand, axis=1)
-    s = 2.0 * np.sqrt(np.maximum(cand[np.arange(len(m)), big], 1e-12))
-    a21, a12 = m[:, 2, 1], m[:, 1, 2]
-    a02, a20 = m[:, 0, 2], m[:, 2, 0]
-    a10, a01 = m[:, 1, 0], m[:, 0, 1]
-    q = np.empty((len(m), 4))
-    rows = [  # (w, x, y, z) * s for each choice of largest component
-        (s * s / 4, a21 - a12, a02 - a20, a10 - a01),
-        (a21 - a12, s * s / 4, a01 + a10, a02 + a20),
-        (a02 - a20, a01 + a10, s * s / 4, a12 + a21),
-        (a10 - a01, a02 + a20, a12 + a21, s * s / 4),
-    ]
-    for k, row in enumerate(rows):
-        sel = big == k
-        for c in range(4):
-            q[sel, c] = row[c][sel] / s[sel]
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)  # canonical sign: w >= 0
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def polygons_to_gaussians(loops, start, total, colour_of_poly):
-    """One flat Gaussian per polygon: centre, in-plane frame and extents, colour."""
-    n = len(start)
-    poly_of_loop = np.repeat(np.arange(n), total)
-    centre = np.add.reduceat(loops, start, axis=0) / total[:, None]
-    # Newell's normal: robust for any (even non-planar) polygon.
-    nxt = np.arange(len(loops)) + 1
-    last = start + total - 1
-    nxt[last] = start
-    normal = np.add.reduceat(np.cross(loops, loops[nxt]), start, axis=0)
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    # Tangent along the first edge, made orthogonal to the normal.
-    t = loops[start + 1] - loops[start]
-    t -= normal * np.sum(t * normal, axis=1, keepdims=True)
-    t /= np.linalg.norm(t, axis=1, keepdims=True)
-    b = np.cross(normal, t)
-    # Extent of the polygon along t and b.
-    d = loops - centre[poly_of_loop]
-    pt = np.sum(d * t[poly_of_loop], axis=1)
-    pb = np.sum(d * b[poly_of_loop], axis=1)
-    ext_t = np.maximum.reduceat(pt, start) - np.minimum.reduceat(pt, start)
-    ext_b = np.maximum.reduceat(pb, start) - np.minimum.reduceat(pb, start)
-    sigma_t, sigma_b = SPREAD * ext_t, SPREAD * ext_b
-    sigma_n = THIN * np.maximum(sigma_t, sigma_b)
-    rot = matrices_to_quaternions(np.stack([t, b, normal], axis=2))
-    return {
-        "position": centre,
-        "scale": np.stack([sigma_t, sigma_b, sigma_n], axis=1),
-        "rotation": rot,
-        "colour": colour_of_poly,
-    }
-
-
 def object_gaussians(obj, depsgraph):
-    loops, start, total, mat = world_polygons(obj, depsgraph)
+    """One flat Gaussian per face (the add-on's surface-splat builder), coloured by the face's material."""
+    loops, start, total, mat = kit.world_polygons(obj, depsgraph)
+    g = surface_splats.polygons_to_gaussians(loops, start, total, spread=SPREAD, thin=THIN)
     palette = np.array([m.diffuse_color[:3] for m in obj.data.materials])
-    return polygons_to_gaussians(loops, start, total, palette[mat])
+    g["colour"] = palette[mat]
+    return g
 
 
 # ---------------------------------------------------------------- files
 
 def write_gaussians_ply(path, g):
-    """INRIA 3DGS layout, binary little-endian float32, written in one block."""
-    names = (["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"]
-             + ["f_rest_%d" % i for i in range(SH_REST)]
-             + ["opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"])
-    n = len(g["position"])
-    rec = np.zeros(n, dtype=[(name, "<f4") for name in names])
-    for i, axis in enumerate("xyz"):
-        rec[axis] = g["position"][:, i]
-    for i in range(3):
-        rec["f_dc_%d" % i] = (g["colour"][:, i] - 0.5) / SH_C0
-        rec["scale_%d" % i] = np.log(g["scale"][:, i])
-    for i in range(4):
-        rec["rot_%d" % i] = g["rotation"][:, i]
-    rec["opacity"] = math.log(OPACITY / (1.0 - OPACITY))
-    header = "ply\nformat binary_little_endian 1.0\nelement vertex %d\n" % n
-    header += "".join("property float %s\n" % name for name in names) + "end_header\n"
-    with open(path, "wb") as f:
-        f.write(header.encode("ascii"))
-        f.write(rec.tobytes())
+    """INRIA 3DGS layout, binary little-endian float32, written in one block: no normals (the engine
+    takes each Gaussian's shortest axis) and no material, as a trainer writes it."""
+    surface_splats.write_gaussians_ply(path, g, opacity=OPACITY, write_normals=False, sh_rest=SH_REST,
+                                       display_colour=g["colour"])
 
 
 def write_floor_ply(path, half_size):
@@ -250,19 +158,6 @@ def write_floor_ply(path, half_size):
             f.write("3 %d %d %d\n" % tri)
 
 
-def look_at(eye, target):
-    """Camera-to-world 4x4 (NeRF/Blender: camera looks down -z, +y up, world z up)."""
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    back = eye - target
-    back /= np.linalg.norm(back)
-    right = np.cross([0.0, 0.0, 1.0], back)
-    right /= np.linalg.norm(right)
-    up = np.cross(back, right)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, up, back, eye
-    return m
-
-
 def write_transforms(path, views, res, target, radius, height):
     frames = []
     for i in range(views):
@@ -270,7 +165,7 @@ def write_transforms(path, views, res, target, radius, height):
         phi = -0.5 * math.pi + 2.0 * math.pi * i / views
         eye = (radius * math.cos(phi), radius * math.sin(phi), height)
         frames.append({"file_path": "./test_%03d/rgba" % i,
-                       "transform_matrix": look_at(eye, target).round(6).tolist()})
+                       "transform_matrix": kit.look_at(eye, target).round(6).tolist()})
     with open(path, "w") as f:
         json.dump({"camera_angle_x": FOV_X, "w": res, "h": res, "frames": frames}, f, indent=1)
 
@@ -293,10 +188,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except Exception as e:  # blender -b would otherwise exit 0 after a traceback
-        import traceback
-        traceback.print_exc()
-        print("make_sample_splat: error: %s" % e, file=sys.stderr)
-        sys.exit(1)
+    kit.run_main(main, "make_sample_splat")

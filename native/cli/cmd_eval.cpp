@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "brdf_option.h"
 #include "commands.h"
 #include "ptir/core/error.h"
 #include "ptir/eval/evaluate.h"
@@ -27,6 +28,7 @@ namespace {
 
 struct EvalOptions {
   std::string dataset, result, split = "test", scene;
+  std::string brdf;  // --brdf (empty: the scene file's, else principled)
   std::vector<std::string> relight;
   int spp = 64, bounces = 4, aov_spp = 16;
   uint64_t seed = 0;
@@ -51,6 +53,11 @@ int run_eval(const EvalOptions& o) {
   s.bounces = o.bounces;
   s.aov_spp = o.aov_spp;
   s.seed = o.seed;
+  if (!o.brdf.empty()) {
+    BsdfModel m = BsdfModel::Principled;
+    cli::apply_brdf_option(o.brdf, m);
+    s.brdf = m;
+  }
   s.sheet_views = o.sheet_views;
   if (!o.quiet) s.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   eval::EvalReport r = eval::evaluate(s);
@@ -77,6 +84,7 @@ Runner add_eval_command(CLI::App& app) {
   cmd->add_option("--split", o->split, "dataset split to evaluate (transforms_<split>.json)")->capture_default_str();
   cmd->add_option("--scene", o->scene, "scene file whose meshes and lights join the asset (as in optimize --scene)");
   cmd->add_option("--seed", o->seed, "random seed")->capture_default_str();
+  cli::add_brdf_option(cmd, &o->brdf);
   cmd->add_option("--sheet-views", o->sheet_views, "views shown in the contact sheets (0: no sheets)")->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");

@@ -32,6 +32,7 @@
 #include <optional>
 #include <string>
 
+#include "brdf_option.h"
 #include "commands.h"
 #include "ptir/core/error.h"
 #include "ptir/io/dataset.h"
@@ -47,6 +48,7 @@ namespace {
 // The command's own options around the set-up shared with the Python module.
 struct OptimizeCommand {
   std::string dataset, gaussians, scene, out;
+  std::string brdf;  // --brdf (empty: the scene file's, else principled)
   std::string split = "train";
   std::string prior;
   std::string env_size = "128x64";
@@ -92,6 +94,7 @@ std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, std::shared_
   };
   Scene scene = prepare_optimizer_scene(o.scene, std::make_shared<GaussianField>(load_gaussians(o.gaussians)), s,
                                         cli_option_name, note);
+  cli::apply_brdf_option(o.brdf, s.integrator.brdf);
   auto optimizer = std::make_unique<Optimizer>(std::move(scene), *data, s);
   const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (o.resume) {

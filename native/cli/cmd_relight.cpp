@@ -37,6 +37,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "brdf_option.h"
 #include "commands.h"
 #include "progress.h"
 #include "ptir/core/error.h"
@@ -58,6 +59,7 @@ namespace {
 
 struct RelightOptions {
   std::string result, scene, camera, cameras, env, output;
+  std::string brdf;  // --brdf (empty: the scene file's, else principled)
   std::vector<int> frames;
   int width = 0, height = 0;
   float env_strength = 1.0f, env_rotation = 0.0f;
@@ -196,6 +198,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   if (o.scene.empty() || cmd.count("--spp")) is.spp = o.spp;
   if (o.scene.empty() || cmd.count("--bounces")) is.max_bounces = o.bounces;
   if (cmd.count("--seed")) is.seed = o.seed;
+  cli::apply_brdf_option(o.brdf, is.brdf);
 
   fs::create_directories(o.output);
   for (size_t i = 0; i < cameras.size(); ++i) {
@@ -258,6 +261,7 @@ Runner add_relight_command(CLI::App& app) {
   cmd->add_option("--bounces", o->bounces, "indirect bounces")->capture_default_str();
   cmd->add_flag("--transparent", o->transparent, "leave the directly seen environment out (alpha = coverage)");
   cmd->add_option("--seed", o->seed, "random seed");
+  cli::add_brdf_option(cmd, &o->brdf);
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_option("-o,--output", o->output, "output folder")->required();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");

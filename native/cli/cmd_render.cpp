@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "brdf_option.h"
 #include "commands.h"
 #include "ptir/accel/scene_accel.h"
 #include "ptir/core/error.h"
@@ -44,6 +45,7 @@ namespace {
 
 struct RenderOptions {
   std::string scene;  // positional scene file
+  std::string brdf;   // --brdf (empty: the scene's)
   std::string camera_name;
   std::string gaussians;
   std::vector<std::string> meshes;
@@ -120,6 +122,7 @@ void apply_integrator_flags(const RenderOptions& o, const CLI::App& cmd, Integra
   if (cmd.count("--spp")) s.spp = o.spp;
   if (cmd.count("--bounces")) s.max_bounces = o.bounces;
   if (cmd.count("--seed")) s.seed = o.seed;
+  cli::apply_brdf_option(o.brdf, s.brdf);
   if (cmd.count("--interaction")) s.interaction.mode = parse_interaction_mode(o.interaction, "--interaction");
   if (cmd.count("--tau-g")) s.interaction.tau_g = o.tau_g;
   if (o.no_geometric_criterion) s.geometric_criterion = false;
@@ -293,6 +296,7 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--bounces", o->bounces, "indirect bounces (0: direct light only; default: the scene's, 2)");
   cmd->add_option("--seed", o->seed, "random seed (same seed, same image, on any thread count)");
   cmd->add_option("--interaction", o->interaction, "Gaussian interaction: aggregate or discrete");
+  cli::add_brdf_option(cmd, &o->brdf);
   cmd->add_option("--tau-g", o->tau_g, "validity threshold on accumulated opacity");
   cmd->add_flag("--no-geometric-criterion", o->no_geometric_criterion,
                 "ablation: every Gaussian hit with O > 0 is an interaction (no chi_geom gate)");

@@ -1,11 +1,13 @@
 """Blender side of the dataset maker: the sample object, materials with a
-roughness AOV, the environment world, cameras, Cycles settings and the
-compositor that writes every pass as an uncompressed float EXR.
+roughness AOV, the camera, Cycles settings and the compositor that writes every
+pass as an uncompressed float EXR (the environment world and look_at are
+scripts/blender_kit.py's).
 """
 
 import math
 import os
 
+import blender_kit as kit
 import bmesh
 import bpy
 import numpy as np
@@ -223,41 +225,7 @@ def object_meshes():
     return [o for o in objs if o.type == "MESH" and not o.hide_render]
 
 
-# ---------------------------------------------------------------- world, cameras, Cycles
-
-def set_environment(scene, exr_path):
-    """World = Environment Texture (Closest, equirectangular, default mapping) x strength 1."""
-    world = scene.world or bpy.data.worlds.new("World")
-    scene.world = world
-    world.use_nodes = True
-    world.cycles.sampling_method = "MANUAL"
-    world.cycles.sample_map_resolution = 256
-    nt = world.node_tree
-    nt.nodes.clear()
-    env = nt.nodes.new("ShaderNodeTexEnvironment")
-    env.interpolation = "Closest"  # = ptir's nearest lookup: both renderers see the same function
-    env.projection = "EQUIRECTANGULAR"
-    env.image = bpy.data.images.load(os.path.abspath(exr_path), check_existing=True)
-    env.image.colorspace_settings.name = "Linear"
-    bg = nt.nodes.new("ShaderNodeBackground")
-    bg.inputs["Strength"].default_value = 1.0
-    out = nt.nodes.new("ShaderNodeOutputWorld")
-    nt.links.new(env.outputs["Color"], bg.inputs["Color"])
-    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
-
-
-def look_at(eye, target=(0.0, 0.0, 0.0)):
-    """Camera-to-world 4x4 (camera looks down -z, +y up, world z up)."""
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    back = eye - target
-    back /= np.linalg.norm(back)
-    right = np.cross([0.0, 0.0, 1.0], back)
-    right /= np.linalg.norm(right)
-    up = np.cross(back, right)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, up, back, eye
-    return m
-
+# ---------------------------------------------------------------- camera, Cycles
 
 def camera_object(scene, fov_x=FOV_X):
     cam = bpy.data.objects.get("PTIR_Camera")
@@ -276,45 +244,12 @@ def camera_object(scene, fov_x=FOV_X):
 
 
 def setup_cycles(scene, res, samples, bounces, threads):
-    """Cycles computing the expectation ptir's estimator computes: no denoising, no
-    adaptive sampling, no clamping, no glossy filter, no light threshold, caustics
-    on, Box filter of 1 px (= uniform jitter in the pixel), transparent film
-    (alpha = coverage), every bounce limit = bounces."""
-    scene.render.engine = "CYCLES"
-    cy = scene.cycles
-    cy.device = "CPU"
-    cy.samples = samples
-    cy.use_adaptive_sampling = False
-    cy.use_denoising = False
-    cy.max_bounces = bounces
-    cy.diffuse_bounces = bounces
-    cy.glossy_bounces = bounces
-    cy.transmission_bounces = bounces
-    cy.volume_bounces = 0
-    cy.transparent_max_bounces = 8
-    cy.sample_clamp_direct = 0.0
-    cy.sample_clamp_indirect = 0.0
-    cy.blur_glossy = 0.0
-    cy.light_sampling_threshold = 0.0
-    cy.caustics_reflective = True
-    cy.caustics_refractive = True
-    cy.pixel_filter_type = "BOX"
-    cy.filter_width = 1.0
-    cy.use_animated_seed = False
-    scene.render.threads_mode = "FIXED" if threads > 0 else "AUTO"
-    if threads > 0:
-        scene.render.threads = threads
-    scene.render.resolution_x = res
-    scene.render.resolution_y = res
-    scene.render.resolution_percentage = 100
-    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
-    scene.render.film_transparent = True
-    scene.render.use_compositing = True
-    scene.render.use_sequencer = False
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.view_settings.exposure = 0.0
-    scene.view_settings.gamma = 1.0
+    """Cycles computing the expectation ptir's estimator computes (blender_kit.plain_cycles and
+    match_estimator: no denoising, adaptive sampling, clamping, glossy filter or light threshold,
+    caustics on, Box filter of 1 px, every bounce limit = bounces), transparent film (alpha =
+    coverage), the compositor on (it writes the passes), no shadow terminator offsets."""
+    kit.plain_cycles(scene, res, samples, threads, transparent=True, compositing=True)
+    kit.match_estimator(scene, bounces)
     scene.frame_current = 1
     for o in object_meshes():
         o.cycles.shadow_terminator_geometry_offset = 0.0

@@ -16,6 +16,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.environ.get("PTIR_TEST_REPO") or os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(REPO, "addon"))
+sys.path.insert(0, os.path.join(REPO, "scripts"))  # blender_kit: the shared Blender helpers
 
 
 def argv():

@@ -24,6 +24,7 @@ BLENDER = os.environ.get("BLENDER", "blender")
 SH_C0 = 0.28209479177387814
 
 sys.path.insert(0, str(ADDON_PARENT))
+sys.path.insert(0, str(REPO / "scripts"))  # blender_kit: the shared Blender/scene helpers
 
 
 def have_blender():

@@ -23,7 +23,7 @@ import addon_common as ac  # noqa: E402
 
 h.enable_addon()
 from ptir_blender.blender import splat_object  # noqa: E402
-from ptir_blender.io import splat_ply  # noqa: E402
+from ptir_blender.io import splat_ply, splat_transform  # noqa: E402
 
 ATTRS = ("scale", "rotation", "opacity", "radiance:base", "ptir_albedo", "ptir_roughness", "ptir_metallic",
          "ptir_normal")
@@ -142,8 +142,8 @@ def check_transform(tmp, obj):
     h.check(np.max(np.abs(d.position - want)) < 1e-5, "positions moved by the object transform")
     h.check(np.max(np.abs(d.scale / local.scale - 2.0)) < 1e-5, "scales times the object scale")
     r = m[:3, :3] / 2.0
-    rl = splat_ply.quat_to_matrix(local.rotation)
-    rw = splat_ply.quat_to_matrix(d.rotation)
+    rl = splat_transform.quat_to_matrix(local.rotation)
+    rw = splat_transform.quat_to_matrix(d.rotation)
     h.check(np.max(np.abs(np.einsum("ij,njk->nik", r, rl) - rw)) < 1e-5, "rotations composed with the object's")
     h.check(np.max(np.abs(d.normal - local.normal @ r.T)) < 1e-5, "normals rotated")
     np.testing.assert_array_equal(d.albedo, local.albedo)

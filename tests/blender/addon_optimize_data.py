@@ -19,6 +19,7 @@ import subprocess
 
 import numpy as np
 
+from blender_kit import look_at
 from ptir_blender.io import mesh_ply, surface_splats
 
 ALBEDO_GT = (0.70, 0.25, 0.10)
@@ -52,19 +53,6 @@ def icosphere(subdiv=2):
             nf += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
         f = nf
     return np.array(verts), np.array(f)
-
-
-def look_at(eye, target, up=(0.0, 0.0, 1.0)):
-    """Camera-to-world 4x4 (camera looks down -z, y up), row-major."""
-    eye, target, up = (np.asarray(x, np.float64) for x in (eye, target, up))
-    z = eye - target
-    z /= np.linalg.norm(z)
-    x = np.cross(up, z)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, y, z, eye
-    return m
 
 
 def cameras():

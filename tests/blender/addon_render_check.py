@@ -28,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import addon_blender_harness as h  # noqa: E402
+import blender_kit as kit  # noqa: E402  (scripts/, put on sys.path by the harness)
 
 h.enable_addon()
 from ptir_blender.blender import scene_bridge  # noqa: E402
@@ -49,12 +50,8 @@ def render_result(path):
 
 
 def load_exr(path):
-    img = bpy.data.images.load(path, check_existing=False)
-    w, hgt = img.size
-    px = np.empty(w * hgt * 4, np.float32)
-    img.pixels.foreach_get(px)
-    bpy.data.images.remove(img)
-    return px.reshape(hgt, w, 4)[::-1].copy()
+    """(h, w, 4) float32 RGBA, row 0 = top."""
+    return kit.read_pixels(path)[::-1].copy()
 
 
 def cli_render(scene_json, out, camera, settings):

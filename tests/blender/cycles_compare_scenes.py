@@ -46,13 +46,14 @@ import time
 
 import bpy
 import numpy as np
-from mathutils import Matrix, Vector
+from mathutils import Vector
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, HERE)
-sys.path.insert(0, os.path.join(REPO, "addon"))
+sys.path.insert(0, os.path.join(REPO, "scripts"))
 
+import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
 import disney_match  # noqa: E402
 from ptir_blender.blender import scene_export  # noqa: E402
 
@@ -75,66 +76,14 @@ def parse_args():
 # ---------------------------------------------------------------- scene basics
 
 def reset_scene():
-    for ob in list(bpy.data.objects):
-        bpy.data.objects.remove(ob, do_unlink=True)
-    for coll in (bpy.data.lights, bpy.data.meshes, bpy.data.cameras, bpy.data.materials, bpy.data.images):
-        for block in list(coll):
-            coll.remove(block)
-    scene = bpy.context.scene
-    world = scene.world or bpy.data.worlds.new("World")
-    scene.world = world
-    world.use_nodes = True
-    nt = world.node_tree
-    nt.nodes.clear()
-    bg = nt.nodes.new("ShaderNodeBackground")
-    out = nt.nodes.new("ShaderNodeOutputWorld")
-    bg.inputs["Color"].default_value = (0, 0, 0, 1)
-    bg.inputs["Strength"].default_value = 0.0
-    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
-    return scene
+    return kit.reset_scene(images=True)
 
 
 def setup_cycles(scene, res, samples, bounces, threads):
-    scene.render.engine = "CYCLES"
-    cy = scene.cycles
-    cy.device = "CPU"
-    cy.samples = samples
-    cy.use_adaptive_sampling = False
-    cy.use_denoising = False
-    cy.max_bounces = bounces
-    cy.diffuse_bounces = bounces
-    cy.glossy_bounces = bounces
-    cy.transmission_bounces = bounces
-    cy.volume_bounces = 0
-    cy.transparent_max_bounces = 8
-    cy.sample_clamp_direct = 0.0
-    cy.sample_clamp_indirect = 0.0
-    cy.blur_glossy = 0.0
-    cy.light_sampling_threshold = 0.0
-    cy.caustics_reflective = True
-    cy.caustics_refractive = True
-    cy.pixel_filter_type = "BOX"
-    cy.filter_width = 1.0
-    cy.use_animated_seed = False
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = max(1, threads)
-    scene.render.resolution_x = res
-    scene.render.resolution_y = res
-    scene.render.resolution_percentage = 100
-    scene.render.pixel_aspect_x = 1.0
-    scene.render.pixel_aspect_y = 1.0
-    scene.render.use_compositing = False
-    scene.render.use_sequencer = False
-    scene.render.film_transparent = False
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.view_settings.exposure = 0.0
-    scene.view_settings.gamma = 1.0
-    st = scene.render.image_settings
-    st.file_format = "OPEN_EXR"
-    st.color_mode = "RGB"
-    st.color_depth = "32"
-    st.exr_codec = "ZIP"
+    """Cycles computing what PTIR's estimator computes (see the module notes), opaque film, EXR output."""
+    kit.plain_cycles(scene, res, samples, max(1, threads))
+    kit.match_estimator(scene, bounces)
+    kit.exr_output(scene)
 
 
 def matched_material(name, base_color, roughness, metallic):
@@ -244,57 +193,7 @@ def box(scene, name, centre, size, angle_z, material):
 
 
 def add_camera(scene, location, target, fov_x):
-    data = bpy.data.cameras.new("camera")
-    data.type = "PERSP"
-    data.sensor_fit = "HORIZONTAL"
-    data.angle = fov_x
-    data.clip_start = 0.01
-    data.clip_end = 1000.0
-    cam = bpy.data.objects.new("camera", data)
-    scene.collection.objects.link(cam)
-    cam.location = location
-    direction = Vector(target) - Vector(location)
-    cam.rotation_mode = "QUATERNION"
-    cam.rotation_quaternion = direction.to_track_quat("-Z", "Y")
-    scene.camera = cam
-    return cam
-
-
-def add_light(scene, kind, energy, location=(0, 0, 0), rotation=(0, 0, 0), **props):
-    data = bpy.data.lights.new(kind.lower(), kind)
-    data.energy = energy
-    data.color = (1, 1, 1)
-    for k, v in props.items():
-        setattr(data, k, v)
-    ob = bpy.data.objects.new(kind.lower(), data)
-    scene.collection.objects.link(ob)
-    ob.location = location
-    ob.rotation_euler = rotation
-    return ob
-
-
-def set_environment(scene, env_path, rotation_z, strength=1.0):
-    world = scene.world
-    world.cycles.sampling_method = "MANUAL"
-    world.cycles.sample_map_resolution = 256
-    nt = world.node_tree
-    nt.nodes.clear()
-    texco = nt.nodes.new("ShaderNodeTexCoord")
-    mapping = nt.nodes.new("ShaderNodeMapping")
-    mapping.vector_type = "POINT"
-    mapping.inputs["Rotation"].default_value = (0.0, 0.0, rotation_z)
-    env = nt.nodes.new("ShaderNodeTexEnvironment")
-    env.interpolation = "Closest"
-    env.projection = "EQUIRECTANGULAR"
-    env.image = bpy.data.images.load(env_path, check_existing=True)
-    env.image.colorspace_settings.name = "Linear"
-    bg = nt.nodes.new("ShaderNodeBackground")
-    bg.inputs["Strength"].default_value = strength
-    out = nt.nodes.new("ShaderNodeOutputWorld")
-    nt.links.new(texco.outputs["Generated"], mapping.inputs["Vector"])
-    nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
-    nt.links.new(env.outputs["Color"], bg.inputs["Color"])
-    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
+    return kit.add_camera(scene, location, Vector(target) - Vector(location), fov_x=fov_x, name="camera")
 
 
 # ---------------------------------------------------------------- scenes
@@ -318,7 +217,7 @@ def build_cornell(scene, hole=False):
     quad(scene, "right", [(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], green)
     box(scene, "tall_box", (-0.35, 0.3, 0.6), (0.6, 0.6, 1.2), math.radians(20.0), white)
     box(scene, "short_box", (0.4, -0.3, 0.3), (0.6, 0.6, 0.6), math.radians(-20.0), white)
-    light = add_light(scene, "AREA", 40.0, location=(0.0, 0.0, 1.98), shape="RECTANGLE", size=0.6, size_y=0.5)
+    light = kit.add_light(scene, "AREA", 40.0, location=(0.0, 0.0, 1.98), shape="RECTANGLE", size=0.6, size_y=0.5)
     light.visible_camera = True  # Blender 3.4's default is False; our engine shows lights to camera rays
     add_camera(scene, (0.0, -3.9, 1.0), (0.0, 0.0, 1.0), math.radians(38.0))
     return 3
@@ -337,23 +236,14 @@ def build_glossy(scene, metallic, env_path):
     sphere.data.materials.append(obj_mat)
     sphere.cycles.shadow_terminator_geometry_offset = 0.0
     add_camera(scene, (0.0, -2.6, 0.95), (0.0, 0.0, 0.42), math.radians(40.0))
-    set_environment(scene, env_path, ENV_ROTATION_Z)
+    kit.set_environment(scene, env_path, ENV_ROTATION_Z)
     return 2
 
 
 def render_to_array(scene, path, seed):
-    scene.cycles.seed = seed
-    scene.render.filepath = path
-    t0 = time.time()
-    bpy.ops.render.render(write_still=True)
-    secs = time.time() - t0
-    img = bpy.data.images.load(path, check_existing=False)
-    img.colorspace_settings.name = "Linear"
-    w, h = img.size
-    px = np.empty(w * h * img.channels, np.float32)
-    img.pixels.foreach_get(px)
-    bpy.data.images.remove(img)
-    arr = px.reshape(h, w, -1)[::-1, :, :3]  # Blender rows are bottom-up
+    """Renders with Cycles to path (EXR); returns (linear RGB float32 (h, w, 3), row 0 = top; seconds)."""
+    secs = kit.render_still(scene, path, seed)
+    arr = kit.read_pixels(path)[::-1, :, :3]  # Blender rows are bottom-up
     return np.ascontiguousarray(arr), secs
 
 
@@ -391,11 +281,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except SystemExit:
-        raise
-    except Exception:
-        import traceback
-        traceback.print_exc()
-        sys.exit(1)
+    kit.run_main(main)

@@ -14,23 +14,12 @@ import pytest
 import skimage.io
 
 REPO = Path(__file__).resolve().parents[2]
-BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
 BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
 sys.path.insert(0, str(REPO / "scripts"))
 
 from dataset import envmaps, exr, png  # noqa: E402
 
 needs_blender = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
-
-
-@pytest.fixture(scope="module")
-def ptir():
-    module_dir = BUILD / "python"
-    if not any(module_dir.glob("ptir*.so")):
-        pytest.fail(f"no native module in {module_dir} (run 'make build')")
-    sys.path.insert(0, str(module_dir))
-    import ptir as module
-    return module
 
 
 def make_dataset(out, *args, timeout=300):

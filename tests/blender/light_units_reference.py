@@ -35,7 +35,10 @@ import sys
 import time
 
 import bpy
-from mathutils import Vector
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                "scripts"))
+import blender_kit as kit  # noqa: E402
 
 ALBEDO = 0.8
 ENV_W, ENV_H = 16, 8
@@ -50,63 +53,21 @@ def parse_args():
     return ap.parse_args(argv)
 
 
-def reset_scene():
-    for ob in list(bpy.data.objects):
-        bpy.data.objects.remove(ob, do_unlink=True)
-    for coll in (bpy.data.lights, bpy.data.meshes, bpy.data.cameras, bpy.data.materials):
-        for block in list(coll):
-            coll.remove(block)
-    scene = bpy.context.scene
-    world = scene.world or bpy.data.worlds.new("World")
-    scene.world = world
-    world.use_nodes = True
-    nt = world.node_tree
-    nt.nodes.clear()
-    bg = nt.nodes.new("ShaderNodeBackground")
-    out = nt.nodes.new("ShaderNodeOutputWorld")
-    bg.inputs["Color"].default_value = (0, 0, 0, 1)
-    bg.inputs["Strength"].default_value = 0.0
-    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
-    return scene
-
-
 def setup_render(scene, res, samples):
-    scene.render.engine = "CYCLES"
+    """Cycles, direct light only (camera ray -> surface -> light sample / BSDF ray to the light), EXR."""
+    kit.plain_cycles(scene, res, samples, threads=max(1, min(2, os.cpu_count() or 1)))
     cy = scene.cycles
-    cy.device = "CPU"
-    cy.samples = samples
-    cy.use_adaptive_sampling = False
-    cy.use_denoising = False
     cy.seed = 1
-    # Direct light only: camera ray -> surface -> light sample / BSDF ray to the light.
     cy.max_bounces = 0
     cy.diffuse_bounces = 0
     cy.glossy_bounces = 0
     cy.transmission_bounces = 0
     cy.volume_bounces = 0
     cy.transparent_max_bounces = 0
-    cy.sample_clamp_direct = 0.0
-    cy.sample_clamp_indirect = 0.0
     cy.caustics_reflective = True
     cy.caustics_refractive = True
     cy.filter_width = 1.5
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = max(1, min(2, os.cpu_count() or 1))
-    scene.render.resolution_x = res
-    scene.render.resolution_y = res
-    scene.render.resolution_percentage = 100
-    scene.render.use_compositing = False
-    scene.render.use_sequencer = False
-    scene.render.film_transparent = False
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.view_settings.exposure = 0.0
-    scene.view_settings.gamma = 1.0
-    settings = scene.render.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_mode = "RGB"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
+    kit.exr_output(scene)
 
 
 def add_plane(scene):
@@ -125,91 +86,53 @@ def add_plane(scene):
     return plane
 
 
-def add_camera(scene, location, direction, ortho_scale=None, fov=None):
-    cam_data = bpy.data.cameras.new("cam")
-    if ortho_scale is not None:
-        cam_data.type = "ORTHO"
-        cam_data.ortho_scale = ortho_scale
-    else:
-        cam_data.type = "PERSP"
-        cam_data.sensor_fit = "HORIZONTAL"
-        cam_data.angle = fov
-    cam_data.clip_start = 0.01
-    cam_data.clip_end = 1000.0
-    cam = bpy.data.objects.new("cam", cam_data)
-    scene.collection.objects.link(cam)
-    cam.location = location
-    up = "Y" if abs(Vector(direction).normalized().z) < 0.999 else "X"
-    cam.rotation_mode = "QUATERNION"
-    cam.rotation_quaternion = Vector(direction).to_track_quat("-Z", up)
-    scene.camera = cam
-    return cam
-
-
-def add_light(scene, kind, energy, location=(0, 0, 0), rotation=(0, 0, 0), **props):
-    data = bpy.data.lights.new(kind.lower(), kind)
-    data.energy = energy
-    data.color = (1, 1, 1)
-    for k, v in props.items():
-        setattr(data, k, v)
-    ob = bpy.data.objects.new(kind.lower(), data)
-    scene.collection.objects.link(ob)
-    ob.location = location
-    ob.rotation_euler = rotation
-    return ob
-
-
 def render_mean(scene, path):
-    scene.render.filepath = path
-    bpy.ops.render.render(write_still=True)
-    img = bpy.data.images.load(path, check_existing=False)
-    img.colorspace_settings.name = "Linear"
-    w, h = img.size
-    ch = img.channels
-    px = list(img.pixels[:])
+    kit.render_still(scene, path)
+    pixels = kit.read_pixels(path)
+    h, w, ch = pixels.shape
+    px = pixels.ravel().tolist()
     n = w * h
     mean = [sum(px[i * ch + c] for i in range(n)) / n for c in range(3)]
     # Per-pixel spread of the red channel: a noise estimate for the mean.
     reds = [px[i * ch] for i in range(n)]
     var = sum((r - mean[0]) ** 2 for r in reds) / max(1, n - 1)
-    bpy.data.images.remove(img)
     return mean, math.sqrt(var / n)
 
 
 def lambert_cases(args):
     """(name, builder) pairs; builder(scene) adds the light(s) and returns a params dict."""
     def point(scene):
-        add_light(scene, "POINT", 100.0, location=(0, 0, 2.0), shadow_soft_size=0.0)
+        kit.add_light(scene, "POINT", 100.0, location=(0, 0, 2.0), shadow_soft_size=0.0)
         return {"power": 100.0, "height": 2.0, "radius": 0.0}
 
     def point_radius(scene):
-        add_light(scene, "POINT", 100.0, location=(0, 0, 1.0), shadow_soft_size=0.5)
+        kit.add_light(scene, "POINT", 100.0, location=(0, 0, 1.0), shadow_soft_size=0.5)
         return {"power": 100.0, "height": 1.0, "radius": 0.5}
 
     def area_square(scene):
-        add_light(scene, "AREA", 50.0, location=(0, 0, 2.0), shape="SQUARE", size=1.0)
+        kit.add_light(scene, "AREA", 50.0, location=(0, 0, 2.0), shape="SQUARE", size=1.0)
         return {"power": 50.0, "height": 2.0, "size_x": 1.0, "size_y": 1.0}
 
     def area_rect(scene):
-        add_light(scene, "AREA", 80.0, location=(0, 0, 1.5), shape="RECTANGLE", size=2.0,
+        kit.add_light(scene, "AREA", 80.0, location=(0, 0, 1.5), shape="RECTANGLE", size=2.0,
                   size_y=0.5)
         return {"power": 80.0, "height": 1.5, "size_x": 2.0, "size_y": 0.5}
 
     def area_disk(scene):
-        add_light(scene, "AREA", 50.0, location=(0, 0, 2.0), shape="DISK", size=1.0)
+        kit.add_light(scene, "AREA", 50.0, location=(0, 0, 2.0), shape="DISK", size=1.0)
         return {"power": 50.0, "height": 2.0, "diameter": 1.0}
 
     def sun(scene):
-        add_light(scene, "SUN", 3.0, angle=0.0)
+        kit.add_light(scene, "SUN", 3.0, angle=0.0)
         return {"strength": 3.0, "zenith": 0.0}
 
     def sun_tilted(scene):
         # Rotated 40 degrees about x: the light direction is 40 degrees off vertical.
-        add_light(scene, "SUN", 3.0, rotation=(math.radians(40.0), 0, 0), angle=0.0)
+        kit.add_light(scene, "SUN", 3.0, rotation=(math.radians(40.0), 0, 0), angle=0.0)
         return {"strength": 3.0, "zenith": math.radians(40.0)}
 
     def sun_angle(scene):
-        add_light(scene, "SUN", 3.0, angle=math.radians(60.0))
+        kit.add_light(scene, "SUN", 3.0, angle=math.radians(60.0))
         return {"strength": 3.0, "zenith": 0.0, "angle": math.radians(60.0)}
 
     def world(scene):
@@ -223,35 +146,12 @@ def lambert_cases(args):
             ("sun_tilted", sun_tilted), ("sun_angle", sun_angle), ("world", world)]
 
 
-def write_rgbe(path, width, height, texel):
-    """Writes a flat (uncompressed) Radiance .hdr file in pure Python.
-
-    texel(col, row) -> (r, g, b); row 0 is the top scanline of the file. The values
-    used here ((2k+1)/32 and 0.25) are exact in RGBE. (Blender 3.4's Image.save()
-    writes generated float images to EXR display-encoded, so we avoid it.)"""
-    with open(path, "wb") as f:
-        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n")
-        f.write(("-Y %d +X %d\n" % (height, width)).encode("ascii"))
-        for row in range(height):
-            line = bytearray()
-            for col in range(width):
-                rgb = texel(col, row)
-                v = max(rgb)
-                if v < 1e-32:
-                    line += bytes((0, 0, 0, 0))
-                    continue
-                m, e = math.frexp(v)
-                scale = m * 256.0 / v
-                line += bytes([int(c * scale) for c in rgb] + [e + 128])
-            f.write(bytes(line))
-
-
 def env_texel(col, row):
     return ((col + 0.5) / ENV_W, (row + 0.5) / ENV_H, 0.25)
 
 
 def make_env_image(path):
-    write_rgbe(path, ENV_W, ENV_H, env_texel)
+    kit.write_rgbe_texels(path, ENV_W, ENV_H, env_texel)
 
 
 # (Mapping-node Z rotation in radians, Background strength) pairs.
@@ -269,31 +169,13 @@ def env_directions():
 
 
 def env_case(args, scene, env_path, azimuth, elevation, rotation_z, strength, idx):
-    world = scene.world
-    world.cycles.sampling_method = "NONE"  # camera rays only: no importance map to build
-    nt = world.node_tree
-    nt.nodes.clear()
-    texco = nt.nodes.new("ShaderNodeTexCoord")
-    mapping = nt.nodes.new("ShaderNodeMapping")
-    mapping.vector_type = "POINT"
-    mapping.inputs["Rotation"].default_value = (0.0, 0.0, rotation_z)
-    env = nt.nodes.new("ShaderNodeTexEnvironment")
-    env.interpolation = "Closest"
-    env.projection = "EQUIRECTANGULAR"
-    env.image = bpy.data.images.load(env_path, check_existing=True)
-    env.image.colorspace_settings.name = "Linear"
-    bg = nt.nodes.new("ShaderNodeBackground")
-    bg.inputs["Strength"].default_value = strength
-    out = nt.nodes.new("ShaderNodeOutputWorld")
-    nt.links.new(texco.outputs["Generated"], mapping.inputs["Vector"])
-    nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
-    nt.links.new(env.outputs["Color"], bg.inputs["Color"])
-    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
+    # camera rays only: no importance map to build
+    kit.set_environment(scene, env_path, rotation_z, strength, sampling="NONE")
     az, el = math.radians(azimuth), math.radians(elevation)
     d = (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
     for ob in list(bpy.data.objects):
         bpy.data.objects.remove(ob, do_unlink=True)
-    add_camera(scene, (0, 0, 0), d, fov=math.radians(0.5))
+    kit.add_camera(scene, (0, 0, 0), d, fov_x=math.radians(0.5), name="cam")
     mean, _ = render_mean(scene, os.path.join(args.out_dir, "env_%02d.exr" % idx))
     return {"direction": list(d), "rotation_z": rotation_z, "strength": strength, "rgb": mean}
 
@@ -306,15 +188,15 @@ def main():
               "lambert": {}, "env": [], "env_size": [ENV_W, ENV_H]}
 
     for name, build in lambert_cases(args):
-        scene = reset_scene()
+        scene = kit.reset_scene()
         setup_render(scene, args.res, args.samples)
         add_plane(scene)
-        add_camera(scene, (0, 0, 5.0), (0, 0, -1), ortho_scale=0.05)
+        kit.add_camera(scene, (0, 0, 5.0), (0, 0, -1), ortho_scale=0.05, name="cam")
         params = build(scene)
         mean, sem = render_mean(scene, os.path.join(args.out_dir, name + ".exr"))
         result["lambert"][name] = {"params": params, "rgb": mean, "sem": sem}
 
-    scene = reset_scene()
+    scene = kit.reset_scene()
     setup_render(scene, 4, 4)
     env_path = os.path.join(args.out_dir, "env_coded.hdr")
     make_env_image(env_path)
@@ -330,9 +212,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except Exception:
-        import traceback
-        traceback.print_exc()
-        sys.exit(1)
+    kit.run_main(main)

@@ -26,9 +26,10 @@ box pixel filter of width 1 (our camera samples are uniform in the pixel),
 environment texture with Closest interpolation (our lookup is nearest-texel),
 no glossy filter, no clamping, no denoiser.
 
-The faces -> Gaussians conversion reuses scripts/make_sample_splat.py (the
-bundled sample's converter): each Gaussian lies in its face, spans it
-(sigma = 0.6 x the face extent) and is 1000x thinner along the normal.
+The faces -> Gaussians conversion is the add-on's surface-splat builder
+(addon/ptir_blender/io/surface_splats.py, written as scripts/make_sample_splat.py
+writes the bundled sample): each Gaussian lies in its face, spans it (sigma = 0.6
+x the face extent) and is 1000x thinner along the normal.
 """
 
 import argparse
@@ -43,7 +44,9 @@ from mathutils import Matrix
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
-import make_sample_splat as splat  # noqa: E402  (Blender-only module: bpy, bmesh)
+import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
+import make_sample_splat as splat  # noqa: E402  (its trainer-style PLY writer)
+from ptir_blender.io import surface_splats  # noqa: E402
 
 ENV_W, ENV_H = 64, 32
 FOV_X = 0.75
@@ -81,43 +84,6 @@ def env_texel(col, row):
     if col in (19, 20) and row in (5, 6):
         rgb = [30.0, 27.0, 22.0]
     return rgb
-
-
-def write_rgbe(path, width, height, texel):
-    """Flat (uncompressed) Radiance .hdr in pure Python; row 0 is the top scanline.
-    (Blender 3.4's Image.save() writes generated float images display-encoded.)"""
-    with open(path, "wb") as f:
-        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n")
-        f.write(("-Y %d +X %d\n" % (height, width)).encode("ascii"))
-        for row in range(height):
-            line = bytearray()
-            for col in range(width):
-                rgb = texel(col, row)
-                v = max(rgb)
-                if v < 1e-32:
-                    line += bytes((0, 0, 0, 0))
-                    continue
-                m, e = math.frexp(v)
-                scale = m * 256.0 / v
-                line += bytes([min(255, int(c * scale)) for c in rgb] + [e + 128])
-            f.write(bytes(line))
-
-
-def setup_world(scene, hdr_path):
-    world = scene.world or bpy.data.worlds.new("World")
-    scene.world = world
-    world.use_nodes = True
-    nt = world.node_tree
-    nt.nodes.clear()
-    tex = nt.nodes.new("ShaderNodeTexEnvironment")
-    tex.image = bpy.data.images.load(hdr_path)
-    tex.interpolation = "Closest"
-    tex.projection = "EQUIRECTANGULAR"
-    bg = nt.nodes.new("ShaderNodeBackground")
-    bg.inputs["Strength"].default_value = 1.0
-    out = nt.nodes.new("ShaderNodeOutputWorld")
-    nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
-    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
 
 
 # ---------------------------------------------------------------- objects
@@ -210,31 +176,16 @@ def camera_positions(views):
 
 
 def setup_render(scene, res, samples):
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = samples
-    scene.cycles.use_adaptive_sampling = False
-    scene.cycles.use_denoising = False
-    scene.cycles.seed = 1
-    scene.cycles.max_bounces = 4
-    scene.cycles.diffuse_bounces = 4
-    scene.cycles.glossy_bounces = 4
-    scene.cycles.transparent_max_bounces = 8
-    scene.cycles.sample_clamp_direct = 0.0
-    scene.cycles.sample_clamp_indirect = 0.0
-    scene.cycles.blur_glossy = 0.0
-    scene.cycles.pixel_filter_type = "BOX"
-    scene.cycles.filter_width = 1.0
-    scene.render.resolution_x = res
-    scene.render.resolution_y = res
-    scene.render.resolution_percentage = 100
-    scene.render.film_transparent = True
-    scene.render.use_compositing = False
-    scene.render.use_sequencer = False
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.view_settings.exposure = 0.0
-    scene.view_settings.gamma = 1.0
+    kit.plain_cycles(scene, res, samples, transparent=True)
+    cy = scene.cycles
+    cy.seed = 1
+    cy.max_bounces = 4
+    cy.diffuse_bounces = 4
+    cy.glossy_bounces = 4
+    cy.transparent_max_bounces = 8
+    cy.blur_glossy = 0.0
+    cy.pixel_filter_type = "BOX"
+    cy.filter_width = 1.0
     scene.display_settings.display_device = "sRGB"
     s = scene.render.image_settings
     s.file_format = "PNG"
@@ -251,8 +202,8 @@ def main():
     os.makedirs(out, exist_ok=True)
     scene = bpy.context.scene
     hdr = os.path.join(out, "env.hdr")
-    write_rgbe(hdr, ENV_W, ENV_H, env_texel)
-    setup_world(scene, hdr)
+    kit.write_rgbe_texels(hdr, ENV_W, ENV_H, env_texel)
+    kit.set_environment(scene, hdr, sampling=None, linear=False)
     objects = make_objects()
     setup_render(scene, args.res, args.samples)
 
@@ -267,7 +218,7 @@ def main():
 
     frames = []
     for i, eye in enumerate(camera_positions(args.views)):
-        m = splat.look_at(eye, TARGET)
+        m = kit.look_at(eye, TARGET)
         cam.matrix_world = Matrix(m.tolist())
         bpy.context.view_layer.update()
         name = "train_%03d" % i
@@ -282,9 +233,9 @@ def main():
     depsgraph = bpy.context.evaluated_depsgraph_get()
     pieces, ranges, start = [], {}, 0
     for ob in objects:
-        loops, st, total, _ = splat.world_polygons(ob, depsgraph)
-        colour = np.tile(np.array(PARTS[ob.name]["albedo"]) ** (1 / 2.2), (len(st), 1))  # display colour for the preview
-        g = splat.polygons_to_gaussians(loops, st, total, colour)
+        loops, st, total, _ = kit.world_polygons(ob, depsgraph)
+        g = surface_splats.polygons_to_gaussians(loops, st, total)
+        g["colour"] = np.tile(np.array(PARTS[ob.name]["albedo"]) ** (1 / 2.2), (len(st), 1))  # preview colour
         pieces.append(g)
         ranges[ob.name] = [start, start + len(st)]
         start += len(st)
@@ -298,10 +249,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except Exception as e:  # blender -b would otherwise exit 0 after a traceback
-        import traceback
-        traceback.print_exc()
-        print("make_recovery_dataset: error: %s" % e, file=sys.stderr)
-        sys.exit(1)
+    kit.run_main(main, "make_recovery_dataset")

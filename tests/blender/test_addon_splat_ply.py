@@ -7,22 +7,13 @@ the engine uses is not correctly rounded, so the engine may differ by 1 ulp.
 """
 
 import math
-import sys
 
 import numpy as np
 import pytest
 
 import addon_common as ac
 from ptir_blender.io import splat_ply as sp
-
-
-@pytest.fixture(scope="module")
-def ptir():
-    if not any(ac.MODULE_DIR.glob("ptir*.so")):
-        pytest.fail("no native module in %s (run 'make build' or set PTIR_BUILD_DIR)" % ac.MODULE_DIR)
-    sys.path.insert(0, str(ac.MODULE_DIR))
-    import ptir as module
-    return module
+from ptir_blender.io import splat_transform as st
 
 
 def _check_against_native(d, g, exact_fields=("position", "albedo", "roughness", "metallic")):
@@ -208,7 +199,7 @@ def test_write_read_round_trip_is_exact(tmp_path, ptir):
 
 
 def _covariance(d):
-    r = sp.quat_to_matrix(d.rotation)
+    r = st.quat_to_matrix(d.rotation)
     return np.einsum("nij,nj,nkj->nik", r, d.scale.astype(np.float64) ** 2, r)
 
 
@@ -223,7 +214,7 @@ def test_transform_folding_maps_the_gaussians(tmp_path, kind):
     m = np.eye(4)
     m[:3, :3] = a
     m[:3, 3] = (1.0, -2.0, 3.0)
-    t = sp.transform_splats(d, m)
+    t = st.transform_splats(d, m)
     np.testing.assert_allclose(t.position, d.position.astype(np.float64) @ a.T + m[:3, 3], rtol=1e-6, atol=1e-5)
     expected = np.einsum("ij,njk,lk->nil", a, _covariance(d), a)
     got = _covariance(t)
@@ -235,8 +226,8 @@ def test_transform_folding_maps_the_gaussians(tmp_path, kind):
     np.testing.assert_allclose(t.normal, n_expected, atol=1e-5)
     for f in ("albedo", "roughness", "metallic", "opacity", "f_dc"):
         np.testing.assert_array_equal(getattr(t, f), getattr(d, f))
-    assert sp.transform_splats(d, np.eye(4)).rotation is not d.rotation  # a copy, values identical
-    np.testing.assert_array_equal(sp.transform_splats(d, np.eye(4)).scale, d.scale)
+    assert st.transform_splats(d, np.eye(4)).rotation is not d.rotation  # a copy, values identical
+    np.testing.assert_array_equal(st.transform_splats(d, np.eye(4)).scale, d.scale)
 
 
 def test_transform_matches_engine_scene_transform(tmp_path, ptir):
@@ -245,7 +236,7 @@ def test_transform_matches_engine_scene_transform(tmp_path, ptir):
     path = ac.write_ply(tmp_path / "a.ply", raw)
     c, s = math.cos(0.3), math.sin(0.3)
     m = np.array([[2 * c, -2 * s, 0, 0.5], [2 * s, 2 * c, 0, -1.0], [0, 0, 2, 2.0], [0, 0, 0, 1]])
-    t = sp.transform_splats(sp.read_splat_ply(path), m)
+    t = st.transform_splats(sp.read_splat_ply(path), m)
     scene = ptir.scene_from_dict({"gaussians": [{"file": str(path), "transform": m.tolist()}],
                                   "cameras": [{"transform": np.eye(4).tolist(), "fov_x": 1.0, "width": 4,
                                                "height": 4}]})

@@ -61,7 +61,6 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
 SCRIPT = REPO / "tests" / "blender" / "cycles_compare_scenes.py"
 BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
 SAMPLES = 256      # Cycles, per seed (two seeds)
@@ -74,16 +73,6 @@ JOBS = ["cornell", "glossy_m0", "glossy_m1"] + (["cornell_hole"] if FULL else []
 sys.path.insert(0, str(REPO / "addon"))
 
 pytestmark = pytest.mark.skipif(BLENDER is None, reason="blender not installed")
-
-
-@pytest.fixture(scope="module")
-def ptir():
-    module_dir = BUILD / "python"
-    if not any(module_dir.glob("ptir*.so")):
-        pytest.fail(f"no native module in {module_dir} (run 'make build' or set PTIR_BUILD_DIR)")
-    sys.path.insert(0, str(module_dir))
-    import ptir as module
-    return module
 
 
 def make_environment(ptir, path, width=128, height=64):

@@ -45,7 +45,6 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -60,16 +59,6 @@ pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blende
 
 ALBEDO_REL_TOL = 0.15
 SPHERE_ROUGHNESS_TOL = 0.10
-
-
-@pytest.fixture(scope="module")
-def ptir():
-    module_dir = BUILD / "python"
-    if not any(module_dir.glob("ptir*.so")):
-        pytest.fail(f"no native module in {module_dir} (run 'make build')")
-    sys.path.insert(0, str(module_dir))
-    import ptir as module
-    return module
 
 
 def test_recovers_known_materials_from_cycles_renders(ptir, tmp_path):

@@ -18,21 +18,10 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
 BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
 sys.path.insert(0, str(REPO / "addon"))
 
 from ptir_blender.io import mesh_ply, scene_file, surface_splats  # noqa: E402
-
-
-@pytest.fixture(scope="module")
-def ptir():
-    module_dir = BUILD / "python"
-    if not any(module_dir.glob("ptir*.so")):
-        pytest.fail(f"no native module in {module_dir} (run 'make build' or set PTIR_BUILD_DIR)")
-    sys.path.insert(0, str(module_dir))
-    import ptir as module
-    return module
 
 
 # ---------------------------------------------------------------- io helpers (no Blender)

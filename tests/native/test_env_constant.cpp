@@ -9,7 +9,7 @@
 #include <cmath>
 #include <random>
 
-#include "ptir/material/disney_brdf.h"
+#include "ptir/material/bsdf.h"
 #include "ptir/math/rng.h"
 #include "ptir/render/render_path.h"
 #include "ptir/scene/scene_json.h"
@@ -29,7 +29,8 @@ Camera looking_down(Vec3 eye, float fov, int size) {
 
 // Directional albedo integral of f~(wo, wi) over the upper hemisphere (midpoint rule
 // in (cos theta, phi)), times a constant radiance.
-Vec3 reflected_constant(const DisneyParams& brdf, Vec3 wo, Vec3 L) {
+Vec3 reflected_constant(BsdfModel model, const MaterialParams& params, Vec3 wo, Vec3 L) {
+  const Bsdf bsdf(resolve_bsdf(model, SurfaceShader::PrincipledGGX), params, wo);
   const int n_mu = 400, n_phi = 800;
   Vec3 sum(0.0f);
   const double dmu = 1.0 / n_mu, dphi = 2.0 * kPiD / n_phi;
@@ -37,7 +38,7 @@ Vec3 reflected_constant(const DisneyParams& brdf, Vec3 wo, Vec3 L) {
     float mu = float((i + 0.5) * dmu), s = std::sqrt(1 - mu * mu);
     for (int j = 0; j < n_phi; ++j) {
       float phi = float((j + 0.5) * dphi);
-      sum += disney_eval(brdf, wo, Vec3(s * std::cos(phi), s * std::sin(phi), mu)) * float(dmu * dphi);
+      sum += bsdf.eval(Vec3(s * std::cos(phi), s * std::sin(phi), mu)) * float(dmu * dphi);
     }
   }
   return sum * L;
@@ -112,24 +113,31 @@ TEST(ConstantEnvironment, PdfIntegratesToOneAndMatchesSampling) {
 TEST(ConstantEnvironment, PlaneFurnaceMatchesQuadrature) {
   // A large plane under a constant sky, direct light only: the reflected radiance
   // is the BRDF's directional albedo times the sky (MIS of light and BRDF samples).
-  for (float metallic : {0.0f, 1.0f}) {
-    Scene scene;
-    TriangleMesh floor = test::quad_z(0.0f, 50.0f);
-    floor.material.base_colour = Vec3(0.9f, 0.7f, 0.5f);
-    floor.material.roughness = 0.5f;
-    floor.material.metallic = metallic;
-    scene.meshes.push_back(floor);
-    const Vec3 sky(0.6f, 0.8f, 1.0f);
-    scene.environment = ConstantEnvironment(sky, 1.5f);
-    PathTracer tracer(scene);
-    IntegratorSettings settings;
-    settings.spp = 512;
-    settings.max_bounces = 0;
-    Image img = render_path(tracer, looking_down(Vec3(0, 0, 2.0f), 0.02f, 9), settings);
-    Vec3 expected = reflected_constant({floor.material.base_colour, 0.5f, metallic}, Vec3(0, 0, 1), sky * 1.5f);
-    for (int c = 0; c < 3; ++c)
-      EXPECT_NEAR(centre_mean(img, c, 4), expected[c], 0.02 * expected[c]) << "metallic " << metallic << " channel " << c;
-  }
+  for (BsdfModel model : {BsdfModel::Principled, BsdfModel::DisneySimplified})
+    for (float metallic : {0.0f, 1.0f}) {
+      Scene scene;
+      TriangleMesh floor = test::quad_z(0.0f, 50.0f);
+      floor.material.base_colour = Vec3(0.9f, 0.7f, 0.5f);
+      floor.material.roughness = 0.5f;
+      floor.material.metallic = metallic;
+      scene.meshes.push_back(floor);
+      const Vec3 sky(0.6f, 0.8f, 1.0f);
+      scene.environment = ConstantEnvironment(sky, 1.5f);
+      PathTracer tracer(scene);
+      IntegratorSettings settings;
+      settings.spp = 512;
+      settings.max_bounces = 0;
+      settings.brdf = model;
+      Image img = render_path(tracer, looking_down(Vec3(0, 0, 2.0f), 0.02f, 9), settings);
+      MaterialParams params;
+      params.albedo = floor.material.base_colour;
+      params.roughness = 0.5f;
+      params.metallic = metallic;
+      Vec3 expected = reflected_constant(model, params, Vec3(0, 0, 1), sky * 1.5f);
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(centre_mean(img, c, 4), expected[c], 0.02 * expected[c])
+            << to_string(model) << " metallic " << metallic << " channel " << c;
+    }
 }
 
 TEST(ConstantEnvironment, ColourGradientMatchesFiniteDifferences) {

@@ -3,13 +3,16 @@
 // parameter kind, on a small scene with indirect light (2 bounces) and shadows:
 // a Gaussian sphere on a mesh floor, an area light, an environment.
 //
-// Albedo, metallic, mesh colour and environment texels do not change any
-// sampling decision (directions, densities, MIS weights and visibility depend on
-// roughness, geometry and the sampling tables, which stay fixed), so the primal
-// estimator is smooth in them and PRB must match the difference quotient to
-// float precision (bound 0.5%). Roughness and SG amplitudes also move the
-// sampled directions / lobe choice, which PRB holds fixed by design: there the
-// two agree in expectation only, so they are compared on many samples (bound 5%).
+// Albedo, mesh colour and environment texels do not change any sampling
+// decision (directions, densities, MIS weights and visibility depend on
+// roughness, metallic, geometry and the sampling tables, which stay fixed), so the
+// primal estimator is smooth in them and PRB must match the difference quotient
+// to float precision (bound 0.5%). The same holds for metallic under the
+// simplified Disney model (its lobe choice is a fixed 1/2), which is how metallic
+// is checked exactly. Roughness, SG amplitudes and, under the Principled BSDF
+// (whose lobe probability follows metallic), metallic also move the sampled
+// directions / lobe choice, which PRB holds fixed by design: there the two agree
+// in expectation only, so they are compared on many samples.
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -123,9 +126,12 @@ TEST(Gradients, GaussianAlbedoAndMetallicMatchFiniteDifferences) {
     EXPECT_NEAR(analytic, fd, 5e-3 * std::fabs(fd) + 1e-4) << "albedo channel " << c;
     EXPECT_GT(std::fabs(fd), 1e-2);
   }
+  IntegratorSettings disney = settings;
+  disney.brdf = BsdfModel::DisneySimplified;
+  SceneGradients gd = prb(gs.scene, gs.camera, disney, gs.weights);
   double analytic_m = 0;
-  for (float m : g.gaussian_metallic) analytic_m += m;
-  double fd_m = central_difference(gs, settings, 1e-2, [](Scene& s, float h) {
+  for (float m : gd.gaussian_metallic) analytic_m += m;
+  double fd_m = central_difference(gs, disney, 1e-2, [](Scene& s, float h) {
     for (float& m : s.gaussians->metallic) m += h;
   });
   EXPECT_NEAR(analytic_m, fd_m, 5e-3 * std::fabs(fd_m) + 1e-4);
@@ -146,8 +152,11 @@ TEST(Gradients, MeshMaterialMatchesFiniteDifferences) {
     double fd = central_difference(gs, settings, 1e-2, [c](Scene& s, float h) { s.meshes[0].material.base_colour[c] += h; });
     EXPECT_NEAR(g.mesh_base_colour[0][c], fd, 5e-3 * std::fabs(fd) + 1e-4) << "channel " << c;
   }
-  double fd_m = central_difference(gs, settings, 1e-2, [](Scene& s, float h) { s.meshes[0].material.metallic += h; });
-  EXPECT_NEAR(g.mesh_metallic[0], fd_m, 5e-3 * std::fabs(fd_m) + 1e-4);
+  IntegratorSettings disney = settings;
+  disney.brdf = BsdfModel::DisneySimplified;
+  SceneGradients gd = prb(gs.scene, gs.camera, disney, gs.weights);
+  double fd_m = central_difference(gs, disney, 1e-2, [](Scene& s, float h) { s.meshes[0].material.metallic += h; });
+  EXPECT_NEAR(gd.mesh_metallic[0], fd_m, 5e-3 * std::fabs(fd_m) + 1e-4);
 }
 
 TEST(Gradients, EnvironmentTexelsMatchFiniteDifferences) {
@@ -172,7 +181,7 @@ TEST(Gradients, EnvironmentTexelsMatchFiniteDifferences) {
   EXPECT_NEAR(g.environment[3 * bright + 2], fd_one, 5e-3 * std::fabs(fd_one) + 1e-5);
 }
 
-TEST(Gradients, RoughnessMatchesFiniteDifferencesInExpectation) {
+TEST(Gradients, RoughnessAndMetallicMatchFiniteDifferencesInExpectation) {
   // Roughness moves the sampled directions, so a finite difference with common
   // random numbers jumps whenever a direction crosses a shadow or light edge: its
   // noise, not a bias, dominates. Paired test over independent seeds: the mean of
@@ -197,6 +206,17 @@ TEST(Gradients, RoughnessMatchesFiniteDifferencesInExpectation) {
        }},
       {"mesh roughness", [](const SceneGradients& g) { return double(g.mesh_roughness[0]); },
        [](Scene& s, float h) { s.meshes[0].material.roughness += h; }},
+      {"gaussian metallic (Principled)",
+       [](const SceneGradients& g) {
+         double s = 0;
+         for (float m : g.gaussian_metallic) s += m;
+         return s;
+       },
+       [](Scene& s, float h) {
+         for (float& m : s.gaussians->metallic) m += h;
+       }},
+      {"mesh metallic (Principled)", [](const SceneGradients& g) { return double(g.mesh_metallic[0]); },
+       [](Scene& s, float h) { s.meshes[0].material.metallic += h; }},
   };
   const int seeds = 12;
   for (const Case& c : cases) {

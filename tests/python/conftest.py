@@ -16,6 +16,7 @@ REPO = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
 CLI = BUILD / "bin" / "ptir"
 MODULE_DIR = BUILD / "python"
+sys.path.insert(0, str(REPO / "scripts"))  # blender_kit: the scripts' shared helpers (look_at)
 
 SH_C0 = 0.28209479177387814
 

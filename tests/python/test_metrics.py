@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import skimage.metrics
 
+from blender_kit import look_at
 from conftest import write_splat_ply
 
 
@@ -95,16 +96,6 @@ def test_composite_srgb(ptir):
 
 
 # ---------------------------------------------------------------- the protocol on exact answers
-
-def look_at(eye, target=(0.0, 0.0, 0.0)):
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    back = (eye - target) / np.linalg.norm(eye - target)
-    right = np.cross([0.0, 0.0, 1.0], back)
-    right /= np.linalg.norm(right)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
-    return m
-
 
 def srgb(x):
     x = np.clip(x, 0, 1)

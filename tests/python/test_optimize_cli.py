@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from blender_kit import look_at
 from conftest import write_splat_ply
 
 
@@ -35,16 +36,6 @@ def quat_z_to(n):
         c, d = np.cross([0, 0, 1.0], v), v[2]
         q[k] = (0, 1, 0, 0) if d < -0.999999 else np.array([1 + d, *c]) / np.linalg.norm([1 + d, *c])
     return q
-
-
-def look_at(eye, target):
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    back = (eye - target) / np.linalg.norm(eye - target)
-    right = np.cross([0, 0, 1.0], back)
-    right /= np.linalg.norm(right)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
-    return m
 
 
 @pytest.fixture(scope="module")

@@ -12,23 +12,12 @@ import subprocess
 import numpy as np
 import pytest
 
+from blender_kit import look_at
 from conftest import write_quad_ply, write_splat_ply
 
 
 def run(cli, *args, timeout=120):
     return subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True, timeout=timeout)
-
-
-def look_at(eye, target):
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    back = eye - target
-    back /= np.linalg.norm(back)
-    right = np.cross([0.0, 0.0, 1.0], back)
-    right /= np.linalg.norm(right)
-    up = np.cross(back, right)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, up, back, eye
-    return m.tolist()
 
 
 def write_env(ptir, path, w=32, h=16):
@@ -68,9 +57,9 @@ def scene_file(tmp_path, ptir):
         ],
         "environment": {"type": "latlong", "file": "sky.exr", "strength": 0.8, "rotation_z": 0.3},
         "cameras": [
-            {"name": "front", "transform": look_at([0.0, -4.0, 1.2], [0.0, 0.0, 1.0]), "fov_x": 0.9,
+            {"name": "front", "transform": look_at([0.0, -4.0, 1.2], [0.0, 0.0, 1.0]).tolist(), "fov_x": 0.9,
              "width": 40, "height": 32},
-            {"name": "side", "transform": look_at([3.0, -3.0, 1.0], [0.0, 0.0, 1.0]), "fov_x": 0.9,
+            {"name": "side", "transform": look_at([3.0, -3.0, 1.0], [0.0, 0.0, 1.0]).tolist(), "fov_x": 0.9,
              "width": 24, "height": 24},
         ],
         "integrator": {"spp": 4, "bounces": 3, "seed": 5},

@@ -23,14 +23,11 @@ import os
 import bpy
 import numpy as np
 
-from ..io import dataset_file, scene_file, splat_ply
+from ..io import dataset_file, scene_file, splat_ply, splat_transform
 from . import scene_bridge, scene_export, splat_object
+from ..errors import OptimizeError
 
 ENV_NODE = "PTIR Environment"
-
-
-class OptimizeError(RuntimeError):
-    """Inputs that cannot be prepared or outputs that cannot be used; the message says what."""
 
 
 class OptimizeJob:
@@ -110,6 +107,17 @@ def _target_object(context, settings):
     return obj
 
 
+def _check_views_can_follow(obj, matrix):
+    """A dataset's cameras are in the object's local frame and move with it; a pinhole camera can follow a
+    rotation, translation and uniform scale, not a non-uniform scale or shear (the photos show the capture
+    unstretched), so such an object is refused rather than optimised against views that do not match it."""
+    if not splat_transform.is_similarity(matrix):
+        raise OptimizeError("object '%s' has a non-uniform scale or shear (axis scales %s): the dataset's photos "
+                            "show the capture unstretched and its cameras cannot follow; optimise with a uniform "
+                            "scale and stretch the object afterwards, or use Scene Cameras"
+                            % (obj.name, ", ".join("%.4g" % s for s in splat_transform.axis_scales(matrix))))
+
+
 def prepare(context, settings, job_dir, cli_exe, out_dir=None):
     """Writes the inputs and returns an OptimizeJob (raises OptimizeError and the io errors)."""
     job = OptimizeJob()
@@ -139,13 +147,9 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
         if np.allclose(job.matrix, np.eye(4), atol=0.0, rtol=0.0):
             dataset_dir = src_dir
         else:
+            _check_views_can_follow(obj, job.matrix)
             dataset_file.transform_dataset(transforms, os.path.join(views_dir, "transforms_%s.json" % split),
                                            job.matrix)
-            a = job.matrix[:3, :3]
-            g = a.T @ a
-            if np.max(np.abs(g - np.trace(g) / 3 * np.eye(3))) > 1e-6 * np.trace(g):
-                job.warnings.append("object '%s' has a non-uniform scale: the dataset's views no longer match it "
-                                    "exactly" % obj.name)
             dataset_dir = views_dir
     else:
         dataset_file.write_views(os.path.join(views_dir, "transforms_%s.json" % split),

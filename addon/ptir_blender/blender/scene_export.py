@@ -20,7 +20,9 @@ the engine exactly as Cycles does):
     (3 floats), ptir_roughness, ptir_metallic, ptir_emission (3 floats).
     A socket driven by a texture or other node uses its unlinked default value (warned).
   - Objects carrying a custom property "ptir_gaussians" (a 3DGS .ply path) are
-    exported as Gaussians with their world matrix as the transform (no mesh).
+    exported as Gaussians with their world matrix as the transform (no mesh); a
+    non-uniform scale or shear is folded into a world-space copy of the PLY instead
+    (gaussians_entry; the rule is io/splat_transform.py's).
   - Lights: POINT (position, Power, Color, Radius), SUN (matrix, Strength, Color,
     Angle), AREA (matrix, Shape, Size, Size Y, Power, Color). SPOT lights are not
     supported (skipped with a warning).
@@ -43,11 +45,8 @@ import os
 import bpy
 import numpy as np
 
-from ..io import mesh_ply, scene_file
-
-
-class ExportError(RuntimeError):
-    """Something in the Blender scene that cannot be exported; the message names it."""
+from ..io import mesh_ply, scene_file, splat_ply, splat_transform
+from ..errors import ExportError
 
 
 def _safe_name(name):
@@ -379,6 +378,28 @@ def camera_entry(obj, scene, warnings):
     return {"name": obj.name, "transform": rows, "fov_x": fov_x, "width": width, "height": height}
 
 
+# ---------------------------------------------------------------- Gaussians by reference
+
+def gaussians_entry(obj, out_dir):
+    """The "gaussians" entry of an object whose "ptir_gaussians" property names a splat PLY.
+
+    The transform rule is io/splat_transform.py's: a similarity is written as the entry's
+    transform (the engine applies it, as transform_splats would); anything else (a non-uniform
+    scale, a shear) the engine refuses, so the splats are folded here into a world-space PLY
+    in out_dir.
+    """
+    path = bpy.path.abspath(str(obj["ptir_gaussians"]))
+    matrix = np.array(obj.matrix_world, np.float64)
+    if splat_transform.is_similarity(matrix):
+        return {"file": scene_file.relative_path(path, out_dir), "transform": scene_file.matrix_rows(matrix)}
+    d = splat_transform.transform_splats(splat_ply.read_splat_ply(path), matrix,
+                                         what="object '%s': its transform" % obj.name)
+    fname = "gaussians_%s.ply" % _safe_name(obj.name)
+    splat_ply.write_splat_ply(os.path.join(out_dir, fname), d,
+                              comment="PTIR export of %s (%s, transform folded in)" % (obj.name, path))
+    return {"file": fname}
+
+
 # ---------------------------------------------------------------- scene
 
 def _visible_objects(scene, view_layer):
@@ -417,9 +438,7 @@ def export_scene(context_or_scene, out_dir, scene_name="scene.json", integrator=
     gaussians, meshes, lights = [], [], []
     for obj in candidates:
         if "ptir_gaussians" in obj:
-            path = bpy.path.abspath(str(obj["ptir_gaussians"]))
-            gaussians.append({"file": scene_file.relative_path(path, out_dir),
-                              "transform": scene_file.matrix_rows(obj.matrix_world)})
+            gaussians.append(gaussians_entry(obj, out_dir))
         elif obj.type == "LIGHT":
             e = light_entry(obj, warnings)
             if e is not None:

@@ -26,8 +26,9 @@ object's ptir_splat.display setting) through the material "PTIR Splat Display".
 import bpy
 import numpy as np
 
-from ..io import splat_ply
+from ..io import splat_ply, splat_transform
 from ..io.splat_ply import SplatData
+from ..errors import SplatObjectError
 
 REQUIRED_ATTRIBUTES = ("scale", "rotation", "opacity")
 DISPLAY_GROUP = "PTIR Splat Display"
@@ -42,10 +43,6 @@ HAS_QUATERNION = bpy.app.version >= (4, 0, 0)
 ROTATION_TYPE = "QUATERNION" if HAS_QUATERNION else "FLOAT_COLOR"
 _KEYS = {"FLOAT": "value", "FLOAT_VECTOR": "vector", "FLOAT_COLOR": "color", "QUATERNION": "value"}
 _WIDTH = {"FLOAT": 1, "FLOAT_VECTOR": 3, "FLOAT_COLOR": 4, "QUATERNION": 4}
-
-
-class SplatObjectError(RuntimeError):
-    """An object that is not a usable splat object; the message names it and what is wrong."""
 
 
 # ------------------------------------------------------------------ attributes
@@ -206,9 +203,11 @@ def read_data_from_object(obj, sync_edit_mode=True):
 
 
 def world_data(obj, sync_edit_mode=True):
-    """The object's splats with its world matrix folded into positions, scales, rotations and normals."""
+    """The object's splats with its world matrix folded into positions, scales, rotations and normals
+    (any invertible affine matrix: io/splat_transform.py has the rule)."""
     d = read_data_from_object(obj, sync_edit_mode)
-    return splat_ply.transform_splats(d, np.array(obj.matrix_world, np.float64))
+    return splat_transform.transform_splats(d, np.array(obj.matrix_world, np.float64),
+                                            what="object '%s': its transform" % obj.name)
 
 
 # ------------------------------------------------------------------ objects

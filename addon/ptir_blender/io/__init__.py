@@ -1,7 +1,14 @@
 """Pure-Python file and format helpers of the add-on (no bpy): unit-testable with plain pytest.
 
 Modules:
-    mesh_ply        binary triangle-mesh PLY writing/reading (numpy)
-    surface_splats  polygons -> flat surface Gaussians, 3DGS PLY writing with PTIR material properties
-    scene_file      the scene-file schema helpers (docs/scene_format.md): matrices, camera field of view, JSON
+    splat_ply        splat PLY reading (every variant the engine reads) and writing, activations
+    supersplat_ply   the SuperSplat / PlayCanvas compressed-PLY decoder
+    splat_transform  the one transform rule: object transforms folded into splats
+    mesh_ply         binary triangle-mesh PLY writing/reading (numpy)
+    surface_splats   polygons -> flat surface Gaussians, 3DGS PLY writing with PTIR material properties
+    scene_file       the scene-file schema helpers (docs/scene_format.md): matrices, camera field of view, JSON
+    dataset_file     transforms files for the optimiser, mesh_materials.json
+    cli              the ptir child process: start, progress parsing, cancel
+    atomic_file      temp-and-rename writes; sh_basis: the SH DC constant
+Errors are the classes of ../errors.py (all PtirError).
 """

@@ -23,12 +23,9 @@ import signal
 import subprocess
 import threading
 import time
+from ..errors import JobError
 
 _ADDON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-class JobError(RuntimeError):
-    """A job that cannot start or that failed; the message says why (with the tool's own error line)."""
 
 
 def find_cli(preferred=""):

@@ -12,10 +12,7 @@ import math
 import os
 
 import numpy as np
-
-
-class DatasetError(ValueError):
-    """A dataset that cannot be read or written; the message names the file and the problem."""
+from ..errors import DatasetError
 
 
 def read_transforms(path):

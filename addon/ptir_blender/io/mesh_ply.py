@@ -1,13 +1,11 @@
 """Triangle meshes as binary little-endian PLY files (what the engine's load_mesh reads).
 
-Written with numpy in one block: no Python loop per vertex or face.
+Written with numpy in one block (atomically): no Python loop per vertex or face.
 """
 
 import numpy as np
-
-
-class MeshPlyError(ValueError):
-    """A mesh that cannot be written or a file that cannot be read; the message names it."""
+from ..errors import MeshPlyError
+from .atomic_file import write_atomic
 
 
 def write_mesh_ply(path, vertices, triangles, comment=None):
@@ -32,11 +30,7 @@ def write_mesh_ply(path, vertices, triangles, comment=None):
         header += "comment %s\n" % comment.replace("\n", " ")
     header += ("element vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
                "element face %d\nproperty list uchar int vertex_indices\nend_header\n" % (len(v), len(t)))
-    with open(path, "wb") as f:
-        f.write(header.encode("ascii"))
-        f.write(v.tobytes())
-        f.write(faces.tobytes())
-    return path
+    return write_atomic(path, (header.encode("ascii"), v.tobytes(), faces.tobytes()), MeshPlyError)
 
 
 def read_mesh_ply(path):

@@ -8,15 +8,13 @@ and writing the file.
 import json
 import math
 import os
+from ..errors import SceneFileError
+from .atomic_file import write_atomic
 
 FORMAT_VERSION = 1
 TOP_LEVEL_KEYS = ("version", "comment", "gaussians", "meshes", "lights", "environment", "cameras", "integrator")
 INTEGRATOR_KEYS = ("spp", "bounces", "seed", "interaction", "tau_g", "geometric_criterion", "self_intersection",
                    "self_range_scale", "fixed_offset", "fixed_range", "min_throughput")
-
-
-class SceneFileError(ValueError):
-    """A scene that cannot be written as a scene file; the message says what."""
 
 
 def matrix_rows(m):
@@ -100,12 +98,7 @@ def write_scene(path, scene):
     validate_top_level(scene)
     out = dict(scene)
     out.setdefault("version", FORMAT_VERSION)
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(dumps(out))
-        f.write("\n")
-    os.replace(tmp, path)
-    return path
+    return write_atomic(path, ((dumps(out) + "\n").encode("utf-8"),), SceneFileError)
 
 
 def relative_path(path, base_dir):

@@ -7,7 +7,8 @@ without a per-splat Python loop:
     type, properties by name in any order, SH degree 0-3 (f_rest_* count 0, 9,
     24 or 45, stored channel-major);
   - SuperSplat / PlayCanvas compressed PLY (chunk + packed_* vertex words,
-    optional uchar 'sh' element), decoded as the engine decodes it;
+    optional uchar 'sh' element), decoded as the engine decodes it
+    (supersplat_ply.py);
   - PTIR's material properties albedo_0..2, roughness, metallic and the normal
     nx, ny, nz (activated, linear).
 Activation as the engine: scale = exp(scale_i) (at least FLT_MIN), opacity =
@@ -23,24 +24,22 @@ Errors raise SplatPlyError whose message names the file and the property.
 Writing produces the standard layout
     x y z nx ny nz f_dc_0..2 f_rest_0..(3K-1) opacity scale_0..2 rot_0..3
     albedo_0..2 roughness metallic [extra properties]
-as binary little-endian float32, in one numpy block.
+as binary little-endian float32, in one numpy block, atomically.
 
-Transform folding (transform_splats) maps a Gaussian through a 4x4 affine
-matrix exactly: a similarity (rotation, uniform scale, mirror) composes the
-quaternion; anything else (non-uniform scale, shear) takes the covariance
-A Sigma A^T apart again (batched eigen-decomposition). Higher-order SH
-coefficients are not rotated (they only tint the preview colour), as in the
-engine's own transform.
+Transforms are folded into splats by splat_transform.py.
 """
 
-import math
 import mmap
 import os
 import sys
 
 import numpy as np
 
-SH_C0 = 0.28209479177387814
+from ..errors import SplatPlyError
+from . import supersplat_ply
+from .atomic_file import write_atomic
+from .sh_basis import SH_C0  # noqa: F401 (part of this module's interface: splat_ply.SH_C0)
+
 DEFAULT_ALBEDO = 0.3
 DEFAULT_ROUGHNESS = 0.6
 DEFAULT_METALLIC = 0.0
@@ -58,10 +57,6 @@ _TYPES = {
     "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
     "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
 }
-
-
-class SplatPlyError(ValueError):
-    """A file that is not a readable splat PLY, or data that cannot be written; the message says why."""
 
 
 class SplatData:
@@ -299,93 +294,6 @@ def _group(props, names, path):
     return True
 
 
-def _unorm(bits, width):
-    return (bits & np.uint32((1 << width) - 1)).astype(np.float64) / float((1 << width) - 1)
-
-
-def _decode_compressed(els, path):
-    """SuperSplat compressed PLY -> {property: raw float32 column} in the standard layout."""
-    chunk, vertex = els["chunk"], els["vertex"]
-    n = len(next(iter(vertex.values()))) if vertex else 0
-    words = {}
-    for name in ("packed_position", "packed_rotation", "packed_scale", "packed_color"):
-        col = vertex.get(name)
-        if col is None:
-            raise SplatPlyError("%s: compressed splat PLY: vertex property '%s' is missing" % (path, name))
-        if col.dtype.kind not in "ui" or col.dtype.itemsize != 4:
-            raise SplatPlyError("%s: compressed splat PLY: vertex property '%s' must be a 32-bit unsigned integer"
-                                % (path, name))
-        words[name] = col.astype(np.uint32, copy=False)
-    nchunks = len(next(iter(chunk.values()))) if chunk else 0
-    need = (n + 255) // 256
-    if nchunks < need:
-        raise SplatPlyError("%s: compressed splat PLY: %d splats need %d chunks of 256, the file has %d"
-                            % (path, n, need, nchunks))
-    ci = np.arange(n) // 256
-
-    def bound(name):
-        if name not in chunk:
-            raise SplatPlyError("%s: compressed splat PLY: chunk property '%s' is missing or not a scalar"
-                                % (path, name))
-        return chunk[name].astype(np.float64)[ci]
-
-    colour_names = ["min_r", "min_g", "min_b", "max_r", "max_g", "max_b"]
-    have = sum(c in chunk for c in colour_names)
-    if have not in (0, 6):
-        raise SplatPlyError("%s: compressed splat PLY: chunk has only some of the colour bounds min_r..max_b" % path)
-    out = {}
-    widths, shifts = (11, 10, 11), (21, 11, 0)
-    pw, sw, cw = words["packed_position"], words["packed_scale"], words["packed_color"]
-    for k, axis in enumerate("xyz"):
-        t = _unorm(pw >> np.uint32(shifts[k]), widths[k])
-        lo, hi = bound("min_" + axis), bound("max_" + axis)
-        out[axis] = (lo * (1.0 - t) + hi * t).astype(np.float32)
-    for k, axis in enumerate("xyz"):
-        t = _unorm(sw >> np.uint32(shifts[k]), widths[k])
-        lo, hi = bound("min_scale_" + axis), bound("max_scale_" + axis)
-        out["scale_%d" % k] = (lo * (1.0 - t) + hi * t).astype(np.float32)
-    for k, c in enumerate("rgb"):
-        t = _unorm(cw >> np.uint32(24 - 8 * k), 8)
-        if have:
-            lo, hi = bound("min_" + c), bound("max_" + c)
-            t = lo * (1.0 - t) + hi * t
-        out["f_dc_%d" % k] = ((t - 0.5) / SH_C0).astype(np.float32)
-    a = np.clip(_unorm(cw, 8), 1e-6, 1.0 - 1e-6)
-    out["opacity"] = np.log(a / (1.0 - a)).astype(np.float32)
-    rw = words["packed_rotation"]
-    s = math.sqrt(2.0)
-    abc = [(_unorm(rw >> np.uint32(sh), 10) - 0.5) * s for sh in (20, 10, 0)]
-    m = np.sqrt(np.maximum(0.0, 1.0 - (abc[0] ** 2 + abc[1] ** 2 + abc[2] ** 2)))
-    largest = (rw >> np.uint32(30)).astype(np.int64)
-    q = np.empty((n, 4), np.float64)
-    for k in range(4):
-        # component k: m when it is the largest, else the j-th of the three stored ones
-        j = np.where(largest > k, k, k - 1)
-        stored = np.choose(np.clip(j, 0, 2), abc)
-        q[:, k] = np.where(largest == k, m, stored)
-    for k in range(4):
-        out["rot_%d" % k] = q[:, k].astype(np.float32)
-    sh = els.get("sh")
-    if sh is not None:
-        count = len(sh)
-        if count not in (9, 24, 45):
-            raise SplatPlyError("%s: compressed splat PLY: element 'sh' has %d properties (expected 9, 24 or 45 "
-                                "f_rest values)" % (path, count))
-        for k in range(count):
-            col = sh.get("f_rest_%d" % k)
-            if col is None or col.dtype != np.uint8:
-                raise SplatPlyError("%s: compressed splat PLY: element 'sh' needs uchar f_rest_%d" % (path, k))
-            if len(col) != n:
-                raise SplatPlyError("%s: compressed splat PLY: element 'sh' has %d rows for %d splats"
-                                    % (path, len(col), n))
-            u = np.where(col == 0, 0.0, np.where(col == 255, 1.0, (col.astype(np.float64) + 0.5) / 256.0))
-            out["f_rest_%d" % k] = ((u - 0.5) * 8.0).astype(np.float32)
-    for name, col in vertex.items():
-        if name not in out and not name.startswith("packed_"):
-            out[name] = col
-    return out
-
-
 def read_splat_ply(path):
     """Reads a splat PLY into a SplatData (activated values, as the engine)."""
     path = os.fspath(path)
@@ -395,8 +303,8 @@ def read_splat_ply(path):
     if vertex_el is None or "vertex" not in els:
         raise SplatPlyError("%s: not a 3D Gaussian splat PLY: no 'vertex' element" % path)
     props = els["vertex"]
-    if "chunk" in els and any(k.startswith("packed_") for k in props):
-        props = _decode_compressed(els, path)
+    if supersplat_ply.is_compressed(els):
+        props = supersplat_ply.decode_compressed(els, path)
     missing = [p for p in REQUIRED if p not in props]
     if missing:
         raise SplatPlyError("%s: not a 3D Gaussian splat PLY: missing properties %s (%s)"
@@ -599,151 +507,7 @@ def write_splat_ply(path, d, comment="written by the PTIR Blender add-on"):
         header += "comment %s\n" % comment.replace("\n", " ")
     header += "element vertex %d\n" % n
     header += "".join("property float %s\n" % name for name, _ in cols) + "end_header\n"
-    tmp = path + ".tmp%d" % os.getpid()
-    try:
-        with open(tmp, "wb") as f:
-            f.write(header.encode("ascii"))
-            f.write(rec.tobytes())
-        os.replace(tmp, path)
-    except OSError as e:
-        try:
-            os.remove(tmp)
-        except OSError:
-            pass
-        raise SplatPlyError("%s: cannot write (%s)" % (path, e.strerror or e))
-    return path
-
-
-# ------------------------------------------------------------------ transforms
-
-
-def quat_to_matrix(q):
-    """(n, 4) w, x, y, z (any length) -> (n, 3, 3) rotation matrices (columns = local axes)."""
-    q = np.asarray(q, np.float64)
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    m = np.empty((len(q), 3, 3))
-    m[:, 0, 0] = 1 - 2 * (y * y + z * z)
-    m[:, 0, 1] = 2 * (x * y - w * z)
-    m[:, 0, 2] = 2 * (x * z + w * y)
-    m[:, 1, 0] = 2 * (x * y + w * z)
-    m[:, 1, 1] = 1 - 2 * (x * x + z * z)
-    m[:, 1, 2] = 2 * (y * z - w * x)
-    m[:, 2, 0] = 2 * (x * z - w * y)
-    m[:, 2, 1] = 2 * (y * z + w * x)
-    m[:, 2, 2] = 1 - 2 * (x * x + y * y)
-    return m
-
-
-def matrix_to_quat(m):
-    """(n, 3, 3) proper rotation matrices -> (n, 4) unit w, x, y, z with w >= 0 (Shepperd)."""
-    m = np.asarray(m, np.float64)
-    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
-    cand = np.stack([1 + tr, 1 + 2 * m[:, 0, 0] - tr, 1 + 2 * m[:, 1, 1] - tr, 1 + 2 * m[:, 2, 2] - tr], axis=1)
-    big = np.argmax(cand, axis=1)
-    s = 2.0 * np.sqrt(np.maximum(cand[np.arange(len(m)), big], 1e-300))
-    a21, a12, a02, a20, a10, a01 = m[:, 2, 1], m[:, 1, 2], m[:, 0, 2], m[:, 2, 0], m[:, 1, 0], m[:, 0, 1]
-    rows = [(s * s / 4, a21 - a12, a02 - a20, a10 - a01),
-            (a21 - a12, s * s / 4, a01 + a10, a02 + a20),
-            (a02 - a20, a01 + a10, s * s / 4, a12 + a21),
-            (a10 - a01, a02 + a20, a12 + a21, s * s / 4)]
-    q = np.empty((len(m), 4))
-    for k, row in enumerate(rows):
-        sel = big == k
-        for c in range(4):
-            q[sel, c] = row[c][sel] / s[sel]
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def quat_multiply(a, b):
-    """Hamilton product a * b of (.., 4) w, x, y, z quaternions (broadcasting)."""
-    a = np.asarray(a, np.float64)
-    b = np.asarray(b, np.float64)
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
-                     aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw], axis=-1)
-
-
-def _similarity(a, tol=1e-6):
-    """(R, s, mirror) when the 3x3 a is s * R (R orthogonal, possibly a mirror), else None."""
-    g = a.T @ a
-    s2 = np.trace(g) / 3.0
-    if s2 <= 0 or np.max(np.abs(g - s2 * np.eye(3))) > tol * s2:
-        return None
-    s = math.sqrt(s2)
-    r = a / s
-    return r, s, np.linalg.det(r) < 0
-
-
-def transform_splats(d, matrix):
-    """A new SplatData with the 4x4 affine `matrix` (row-major, column vectors) folded in.
-
-    Identity: an exact copy. Similarity: p' = A p + t, scale' = s scale, rotation'
-    = q(R) q (a mirror is absorbed by flipping one local axis, which leaves the
-    Gaussian unchanged), normal' = R n. General affine: covariance A R S^2 R^T A^T
-    re-diagonalised, normal' = A^-T n normalised. Raises SplatPlyError for a
-    singular or projective matrix.
-    """
-    m = np.asarray(matrix, np.float64).reshape(4, 4)
-    if not np.all(np.isfinite(m)):
-        raise SplatPlyError("object transform has non-finite entries")
-    if np.max(np.abs(m[3] - [0, 0, 0, 1])) > 1e-9:
-        raise SplatPlyError("object transform is projective (last row %s); cannot fold it into splats" % (m[3],))
-    out = d.copy()
-    if np.array_equal(m, np.eye(4)):
-        return out
-    a, t = m[:3, :3], m[:3, 3]
-    det = np.linalg.det(a)
-    if abs(det) < 1e-30:
-        raise SplatPlyError("object transform is singular (zero scale on some axis); cannot fold it into splats")
-    out.position = (d.position.astype(np.float64) @ a.T + t).astype(np.float32)
-    sim = _similarity(a)
-    nrm = d.normal.astype(np.float64)
-    zero_n = ~np.any(nrm != 0, axis=1)
-    if sim is not None:
-        r, s, mirror = sim
-        out.scale = (d.scale.astype(np.float64) * s).astype(np.float32)
-        q = d.rotation.astype(np.float64)
-        if mirror:
-            # r R has det -1; flipping its local z axis makes it proper and leaves the covariance
-            # (r R) S^2 (r R)^T unchanged, since S^2 is diagonal.
-            rm = quat_to_matrix(q)
-            world = np.einsum("ij,njk->nik", r, rm)
-            world[:, :, 2] *= -1.0
-            out.rotation = matrix_to_quat(world).astype(np.float32)
-        else:
-            qr = matrix_to_quat(r[None])[0]
-            qn = quat_multiply(qr[None, :], q)
-            qn /= np.linalg.norm(qn, axis=1, keepdims=True)
-            qn *= np.where(qn[:, :1] < 0, -1.0, 1.0)
-            out.rotation = qn.astype(np.float32)
-        n_new = nrm @ r.T
-    else:
-        rm = quat_to_matrix(d.rotation)
-        s2 = d.scale.astype(np.float64) ** 2
-        cov = np.einsum("nij,nj,nkj->nik", rm, s2, rm)
-        cov = np.einsum("ij,njk,lk->nil", a, cov, a)
-        w, v = np.linalg.eigh(cov)  # ascending eigenvalues, columns = axes
-        flip = np.linalg.det(v) < 0
-        v[flip, :, 2] *= -1.0
-        out.scale = np.sqrt(np.maximum(w, 0.0)).astype(np.float32)
-        out.scale = np.maximum(out.scale, FLT_MIN)
-        out.rotation = matrix_to_quat(v).astype(np.float32)
-        n_new = nrm @ np.linalg.inv(a)  # rows: (A^-T n)^T = n^T A^-1
-    length = np.linalg.norm(n_new, axis=1, keepdims=True)
-    n_new = np.where(length > 0, n_new / np.where(length > 0, length, 1.0), 0.0)
-    n_new[zero_n] = 0.0
-    out.normal = n_new.astype(np.float32)
-    return out
-
-
-def sh_colour(d):
-    """Display colour of each splat from its SH DC term: clamp(0.5 + C0 f_dc, 0, 1) (sRGB-encoded, as 3DGS)."""
-    return np.clip(0.5 + SH_C0 * d.f_dc.astype(np.float64), 0.0, 1.0).astype(np.float32)
+    return write_atomic(path, (header.encode("ascii"), rec.tobytes()), SplatPlyError)
 
 
 if __name__ == "__main__":  # pragma: no cover - manual inspection

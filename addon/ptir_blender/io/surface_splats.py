@@ -3,10 +3,11 @@
 One flat Gaussian per polygon, as a 3DGS trainer converges to on an opaque
 surface: centred on the polygon's centroid, lying in its plane (local z = the
 polygon's normal), spanning the polygon in-plane so that neighbours overlap into
-an opaque shell, and very thin along the normal. The same construction as
-scripts/make_sample_splat.py, here as plain numpy functions (no bpy) with the
-material and the normals written too, so the engine uses them as they are
-(nx,ny,nz present -> normals_from_file).
+an opaque shell, and very thin along the normal. Plain numpy functions (no bpy),
+with the material and the normals written too, so the engine uses them as they
+are (nx,ny,nz present -> normals_from_file). The one copy of this construction:
+the sample and dataset scripts (scripts/make_sample_splat.py, scripts/dataset/)
+and the tests build their splats with it, from scripts/blender_kit.world_polygons.
 
 PLY layout written (binary little-endian float32, INRIA order first):
     x y z nx ny nz f_dc_0..2 f_rest_0..(sh_rest-1) opacity scale_0..2 rot_0..3
@@ -14,49 +15,19 @@ PLY layout written (binary little-endian float32, INRIA order first):
 scales as log, rotation as w,x,y,z, opacity as logit; albedo linear RGB.
 """
 
-import math
 
 import numpy as np
+from ..errors import SplatError
+from .atomic_file import write_atomic
+from .sh_basis import dc_of_colour
+from .splat_transform import matrix_to_quat
 
-SH_C0 = 0.28209479177387814  # degree-0 real spherical harmonic
 SPREAD = 0.6                 # in-plane sigma / polygon extent: neighbours overlap to O > 0.8 at seams
 THIN = 1e-3                  # normal-axis sigma / in-plane sigma
 OPACITY = 0.95
 
 
-class SplatError(ValueError):
-    """Bad input for the conversion or the writer; the message says what."""
-
-
-def matrices_to_quaternions(r):
-    """(n, 3, 3) rotation matrices (columns = local axes) -> (n, 4) unit w, x, y, z with w >= 0.
-
-    Shepperd's method: built from the largest component for accuracy.
-    """
-    m = np.asarray(r, np.float64)
-    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
-    cand = np.stack([1 + tr, 1 + 2 * m[:, 0, 0] - tr, 1 + 2 * m[:, 1, 1] - tr, 1 + 2 * m[:, 2, 2] - tr], axis=1)
-    big = np.argmax(cand, axis=1)
-    s = 2.0 * np.sqrt(np.maximum(cand[np.arange(len(m)), big], 1e-12))
-    a21, a12 = m[:, 2, 1], m[:, 1, 2]
-    a02, a20 = m[:, 0, 2], m[:, 2, 0]
-    a10, a01 = m[:, 1, 0], m[:, 0, 1]
-    q = np.empty((len(m), 4))
-    rows = [
-        (s * s / 4, a21 - a12, a02 - a20, a10 - a01),
-        (a21 - a12, s * s / 4, a01 + a10, a02 + a20),
-        (a02 - a20, a01 + a10, s * s / 4, a12 + a21),
-        (a10 - a01, a02 + a20, a12 + a21, s * s / 4),
-    ]
-    for k, row in enumerate(rows):
-        sel = big == k
-        for c in range(4):
-            q[sel, c] = row[c][sel] / s[sel]
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def polygons_to_gaussians(loops, start, total, spread=SPREAD, thin=THIN):
+def polygons_to_gaussians(loops, start, total, spread=SPREAD, thin=THIN, skip_degenerate=False):
     """One flat Gaussian per polygon.
 
     loops (L, 3): the corner positions of all polygons, polygon by polygon;
@@ -64,6 +35,8 @@ def polygons_to_gaussians(loops, start, total, spread=SPREAD, thin=THIN):
     ascending, contiguous). Returns a dict of float64 arrays: position (n, 3),
     scale (n, 3) standard deviations (tangent, bitangent, normal), rotation (n, 4)
     w,x,y,z whose local z is the polygon's normal (right-handed winding), normal (n, 3).
+    Degenerate (zero-area) polygons raise SplatError, or with skip_degenerate make no
+    Gaussian: then the dict also has "keep", the (n,) mask of the polygons converted.
     """
     loops = np.asarray(loops, np.float64)
     start = np.asarray(start, np.int64)
@@ -81,13 +54,13 @@ def polygons_to_gaussians(loops, start, total, spread=SPREAD, thin=THIN):
     nxt[last] = start
     normal = np.add.reduceat(np.cross(loops, loops[nxt]), start, axis=0)
     length = np.linalg.norm(normal, axis=1, keepdims=True)
-    if np.any(length[:, 0] <= 0):
+    if np.any(length[:, 0] <= 0) and not skip_degenerate:
         raise SplatError("%d degenerate (zero-area) polygons" % int(np.sum(length[:, 0] <= 0)))
-    normal /= length
+    normal /= np.maximum(length, 1e-30)  # (skipped ones: zero, and so is their bitangent below)
     # Tangent along the first edge, made orthogonal to the normal.
     t = loops[start + 1] - loops[start]
     t -= normal * np.sum(t * normal, axis=1, keepdims=True)
-    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-30)
     b = np.cross(normal, t)
     d = loops - centre[poly_of_loop]
     pt = np.sum(d * t[poly_of_loop], axis=1)
@@ -96,9 +69,16 @@ def polygons_to_gaussians(loops, start, total, spread=SPREAD, thin=THIN):
     ext_b = np.maximum.reduceat(pb, start) - np.minimum.reduceat(pb, start)
     sigma_t, sigma_b = spread * ext_t, spread * ext_b
     sigma_n = thin * np.maximum(sigma_t, sigma_b)
-    rot = matrices_to_quaternions(np.stack([t, b, normal], axis=2))
-    return {"position": centre, "scale": np.stack([sigma_t, sigma_b, sigma_n], axis=1), "rotation": rot,
-            "normal": normal}
+    if skip_degenerate:
+        keep = (sigma_t > 0) & (sigma_b > 0)
+        centre, normal, t, b = centre[keep], normal[keep], t[keep], b[keep]
+        sigma_t, sigma_b, sigma_n = sigma_t[keep], sigma_b[keep], sigma_n[keep]
+    rot = matrix_to_quat(np.stack([t, b, normal], axis=2))
+    g = {"position": centre, "scale": np.stack([sigma_t, sigma_b, sigma_n], axis=1), "rotation": rot,
+         "normal": normal}
+    if skip_degenerate:
+        g["keep"] = keep
+    return g
 
 
 def triangles_to_gaussians(vertices, triangles, spread=SPREAD, thin=THIN):
@@ -116,14 +96,15 @@ def linear_to_srgb(c):
 
 
 def write_gaussians_ply(path, g, opacity=OPACITY, albedo=None, roughness=None, metallic=None, write_normals=True,
-                        sh_rest=45):
-    """Writes Gaussians (dict of position, scale, rotation[, normal]) as a 3DGS PLY.
+                        sh_rest=45, display_colour=None, comment=None):
+    """Writes Gaussians (dict of position, scale, rotation[, normal]) as a 3DGS PLY, atomically.
 
     opacity, albedo (linear RGB), roughness and metallic broadcast to n Gaussians;
-    the material properties are written only when given. The SH DC term is the
-    albedo in display (sRGB) encoding (a preview colour, as a trainer would store
-    it); higher SH coefficients are zero. Normals are written when write_normals
-    and g has "normal" (else zeros: the engine then uses the shortest axis).
+    the material properties are written only when given. The SH DC term is
+    display_colour when given (display-encoded, as a trainer would store it), else
+    the albedo in display (sRGB) encoding, else grey; higher SH coefficients are
+    zero. Normals are written when write_normals and g has "normal" (else zeros:
+    the engine then uses the shortest axis). comment: a header comment line.
     """
     pos = np.asarray(g["position"], np.float64).reshape(-1, 3)
     n = len(pos)
@@ -148,9 +129,12 @@ def write_gaussians_ply(path, g, opacity=OPACITY, albedo=None, roughness=None, m
         for i, axis in enumerate(("nx", "ny", "nz")):
             rec[axis] = nrm[:, i]
     colour = np.broadcast_to(np.asarray(albedo if albedo is not None else (0.5, 0.5, 0.5), np.float64), (n, 3))
-    display = linear_to_srgb(colour) if albedo is not None else colour
+    if display_colour is not None:
+        display = np.broadcast_to(np.asarray(display_colour, np.float64), (n, 3))
+    else:
+        display = linear_to_srgb(colour) if albedo is not None else colour
     for i in range(3):
-        rec["f_dc_%d" % i] = (display[:, i] - 0.5) / SH_C0
+        rec["f_dc_%d" % i] = dc_of_colour(display[:, i])
         rec["scale_%d" % i] = np.log(scale[:, i])
     for i in range(4):
         rec["rot_%d" % i] = rot[:, i]
@@ -163,9 +147,9 @@ def write_gaussians_ply(path, g, opacity=OPACITY, albedo=None, roughness=None, m
         rec["roughness"] = np.broadcast_to(np.asarray(roughness, np.float64), (n,))
     if metallic is not None:
         rec["metallic"] = np.broadcast_to(np.asarray(metallic, np.float64), (n,))
-    header = "ply\nformat binary_little_endian 1.0\nelement vertex %d\n" % n
+    header = "ply\nformat binary_little_endian 1.0\n"
+    if comment:
+        header += "comment %s\n" % comment.replace("\n", " ")
+    header += "element vertex %d\n" % n
     header += "".join("property float %s\n" % name for name in names) + "end_header\n"
-    with open(path, "wb") as f:
-        f.write(header.encode("ascii"))
-        f.write(rec.tobytes())
-    return path
+    return write_atomic(path, (header.encode("ascii"), rec.tobytes()), SplatError)

@@ -21,6 +21,7 @@ from bpy.props import BoolProperty, CollectionProperty, FloatProperty, IntProper
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..blender import splat_object
+from ..errors import PtirError
 from ..io import splat_ply
 
 
@@ -51,7 +52,7 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
             try:
                 t0 = time.perf_counter()
                 read.append((p, splat_ply.read_splat_ply(p), time.perf_counter() - t0))
-            except splat_ply.SplatPlyError as e:
+            except PtirError as e:
                 self.report({"ERROR"}, str(e))
                 return {"CANCELLED"}
         if context.object is not None and context.object.mode != "OBJECT":
@@ -64,7 +65,7 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
                 obj = splat_object.create_splat_object(context, d, name, display=self.display,
                                                        display_limit=self.display_limit,
                                                        display_size=self.display_size)
-            except splat_object.SplatObjectError as e:
+            except PtirError as e:
                 for o in created:
                     bpy.data.objects.remove(o)
                 self.report({"ERROR"}, str(e))
@@ -158,7 +159,7 @@ class EXPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ExportHelper):
             return {"CANCELLED"}
         try:
             n = export_objects(objects, self.filepath, self.apply_transform)
-        except (splat_object.SplatObjectError, splat_ply.SplatPlyError) as e:
+        except PtirError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         self.report({"INFO"}, "Exported %d splats to %s" % (n, self.filepath))

@@ -15,6 +15,7 @@ import numpy as np
 from bpy.props import EnumProperty, FloatProperty, FloatVectorProperty, StringProperty
 
 from ..blender import splat_object
+from ..errors import PtirError
 
 
 def edit_material(obj, channel, operation, color=(1.0, 1.0, 1.0), value=1.0, mask=None):
@@ -92,7 +93,7 @@ class PTIR_OT_edit_material(bpy.types.Operator):
             return {"CANCELLED"}
         try:
             mask = splat_object.selection_mask(obj, self.vertex_group)
-        except splat_object.SplatObjectError as e:
+        except PtirError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         if not mask.any():
@@ -103,7 +104,7 @@ class PTIR_OT_edit_material(bpy.types.Operator):
             bpy.ops.object.mode_set(mode="OBJECT")
         try:
             count = edit_material(obj, self.channel, self.operation, self.color, self.value, mask)
-        except splat_object.SplatObjectError as e:
+        except PtirError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         finally:

@@ -17,12 +17,10 @@ import tempfile
 
 import bpy
 
-from ..blender import optimize_job, scene_export, splat_object
-from ..io import cli, dataset_file, scene_file, splat_ply
+from ..blender import optimize_job
+from ..errors import PtirError
+from ..io import cli
 from . import render_engine
-
-_ERRORS = (optimize_job.OptimizeError, cli.JobError, dataset_file.DatasetError, scene_export.ExportError,
-           splat_object.SplatObjectError, splat_ply.SplatPlyError, scene_file.SceneFileError)
 
 _state = {"job": None, "cancel": False}
 
@@ -100,7 +98,7 @@ class PTIR_OT_optimize(bpy.types.Operator):
             try:
                 results = optimize_job.load_results(prepared, pack_environment=self._pack)
                 summary = optimize_job.apply_results(context, results)
-            except _ERRORS as e:
+            except PtirError as e:
                 self.report({"ERROR"}, "Optimisation results not applied: %s" % e)
                 settings.status = "failed: %s" % e
                 return {"CANCELLED"}
@@ -130,7 +128,7 @@ class PTIR_OT_optimize(bpy.types.Operator):
     def execute(self, context):
         try:
             self._start(context, echo=True)
-        except _ERRORS as e:
+        except PtirError as e:
             return self._abort_start(context, e)
         settings = context.scene.ptir_optimize
 
@@ -152,7 +150,7 @@ class PTIR_OT_optimize(bpy.types.Operator):
             return self.execute(context)
         try:
             self._start(context, echo=False)
-        except _ERRORS as e:
+        except PtirError as e:
             return self._abort_start(context, e)
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.25, window=context.window)

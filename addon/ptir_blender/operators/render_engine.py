@@ -28,8 +28,9 @@ import time
 import bpy
 import numpy as np
 
-from ..blender import scene_bridge, scene_export, splat_object
-from ..io import cli, scene_file, splat_ply
+from ..blender import scene_bridge, scene_export
+from ..errors import PtirError
+from ..io import cli, scene_file
 
 
 def _preferences():
@@ -111,8 +112,7 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
             camera = scene_bridge.scene_camera_name(scene)
             scene_json, info = scene_bridge.export_engine_scene(
                 out_dir=job_dir, depsgraph=depsgraph, integrator=integrator_settings(settings), warnings=warnings)
-        except (cli.JobError, scene_export.ExportError, splat_object.SplatObjectError, splat_ply.SplatPlyError,
-                scene_file.SceneFileError) as e:
+        except PtirError as e:
             self._fail(str(e))
             return
         if self.test_break():
@@ -122,7 +122,7 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
         try:
             job = cli.ChildJob(args, parse=cli.parse_render_progress, echo=False,
                                log_path=os.path.join(job_dir, "render.log"))
-        except cli.JobError as e:
+        except PtirError as e:
             self._fail(str(e))
             return
         splats = sum(c for _, _, c in info["splats"])
@@ -145,7 +145,11 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
         if job.proc.returncode != 0 or not os.path.exists(output):
             self._fail("render failed: %s" % job.error_message())
             return
-        px = read_exr_pixels(output, width, height)
+        try:
+            px = read_exr_pixels(output, width, height)
+        except PtirError as e:
+            self._fail(str(e))
+            return
         if scene.render.film_transparent:
             px[px[:, 3] <= 0.0] = 0.0
         else:

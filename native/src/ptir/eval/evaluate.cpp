@@ -225,6 +225,7 @@ void build_tracer(EvalRun& run) {
   run.is = run.scene.integrator;
   run.is.spp = s.spp;
   run.is.max_bounces = s.bounces;
+  if (s.brdf) run.is.brdf = *s.brdf;
   run.is.seed = s.seed;
   run.as.spp = s.aov_spp;
   run.as.seed = s.seed;

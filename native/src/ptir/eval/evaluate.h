@@ -28,12 +28,14 @@
 
 #include <array>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/render_control.h"
+#include "ptir/scene/shading_model.h"
 
 namespace ptir::eval {
 
@@ -52,6 +54,7 @@ struct EvalSettings {
   int bounces = 4;                // indirect bounces (the dataset maker's Cycles limit)
   int aov_spp = 16;               // jittered AOV samples (GT passes are pixel averages)
   uint64_t seed = 0;
+  std::optional<BsdfModel> brdf;  // surface model (unset: the scene file's, else principled)
   int sheet_views = 8;            // contact sheets show the first N views (0: no sheets)
   std::function<void(const std::string&)> log;  // progress lines (optional)
   RenderControl control;          // cancel / progress of each render

@@ -29,6 +29,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ptir/material/material_params.h"
 #include "ptir/math/sampling.h"
 #include "ptir/math/vec.h"
 
@@ -51,30 +52,11 @@ constexpr float kSpecularLobeProb = 0.5f;
 // the density (and its square in the power heuristic) finite.
 constexpr float kMinWoDotH = 1e-12f;
 
-struct DisneyParams {
-  Vec3 albedo{0.5f};       // base colour a, linear RGB
-  float roughness = 0.5f;  // perceptual roughness r (alpha = max(r, kMinRoughness)^2)
-  float metallic = 0.0f;   // m
-};
-
-struct DisneySample {
-  Vec3 wi;          // sampled incident direction (local frame)
-  Vec3 weight;      // f~(wo, wi) / pdf (cosine included); zero when !valid
-  float pdf = 0;    // mixture density of wi (solid angle), = disney_pdf(wo, wi)
-  bool valid = false;
-};
-
-struct DisneyEvalPdf {
-  Vec3 f;         // f~ = f max(n.wi, 0)
-  float pdf = 0;  // disney_pdf(wo, wi)
-};
-
-// Adjoints of the material parameters (accumulated by disney_eval_grad).
-struct DisneyGrad {
-  Vec3 d_albedo;
-  float d_roughness = 0;
-  float d_metallic = 0;
-};
+// The simplified model reads albedo, roughness and metallic (specular inputs are ignored).
+using DisneyParams = MaterialParams;
+using DisneySample = BsdfSample;
+using DisneyEvalPdf = BsdfEvalPdf;
+using DisneyGrad = MaterialGrad;
 
 inline float disney_alpha(float roughness) {
   float r = std::max(roughness, kMinRoughness);

@@ -71,6 +71,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"seed", std::to_string(settings_.seed)},
       {"spp", std::to_string(is.spp)},
       {"bounces", std::to_string(is.max_bounces)},
+      {"brdf", to_string(is.brdf)},
       {"interaction", interaction_mode_name(is.interaction.mode)},
       {"tau_g", num(is.interaction.tau_g)},
       {"geometric_criterion", is.geometric_criterion ? "1" : "0"},

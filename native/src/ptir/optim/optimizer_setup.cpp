@@ -60,6 +60,7 @@ Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<Gau
     s.integrator.self_range_scale = is.self_range_scale;
     s.integrator.fixed_offset = is.fixed_offset;
     s.integrator.fixed_range = is.fixed_range;
+    s.integrator.brdf = is.brdf;
   } else if (s.params.optimize_meshes) {
     throw Error(names("optimize_meshes") + " needs " + names("scene") + " (the meshes come from the scene file)");
   }

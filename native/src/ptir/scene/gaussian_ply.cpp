@@ -198,6 +198,19 @@ GaussianField gaussians_from_ply(io::PlyFile ply, const std::string& path) {
     const Column m(v, "metallic", path);
     for (size_t i = 0; i < n; ++i) f.metallic[i] = m(i);
   }
+  // Fixed Principled inputs, only when the file has them (else Blender's defaults).
+  f.specular.clear();
+  f.specular_tint.clear();
+  if (v.get("specular")) {
+    const Column s(v, "specular", path);
+    f.specular.resize(n);
+    for (size_t i = 0; i < n; ++i) f.specular[i] = s(i);
+  }
+  if (v.get("specular_tint")) {
+    const Column t(v, "specular_tint", path);
+    f.specular_tint.resize(n);
+    for (size_t i = 0; i < n; ++i) f.specular_tint[i] = t(i);
+  }
 
   // Normals: from nx,ny,nz where non-zero, else the shortest axis.
   init_normals_shortest_axis(f);
@@ -290,6 +303,8 @@ void save_gaussians(const std::string& path, const GaussianField& f) {
   }
   v.set_float_column("roughness", f.roughness);
   v.set_float_column("metallic", f.metallic);
+  if (f.specular.size() == n) v.set_float_column("specular", f.specular);
+  if (f.specular_tint.size() == n) v.set_float_column("specular_tint", f.specular_tint);
   for (int k = 0; k < 3; ++k) {
     for (size_t i = 0; i < n; ++i) col[i] = f.normal[i][k];
     v.set_float_column(std::string("n") + "xyz"[k], col);

@@ -13,6 +13,7 @@
 
 #include "ptir/io/ply.h"
 #include "ptir/math/vec.h"
+#include "ptir/scene/shading_model.h"
 
 namespace ptir {
 
@@ -20,6 +21,8 @@ namespace ptir {
 constexpr float kDefaultAlbedo = 0.3f;
 constexpr float kDefaultRoughness = 0.6f;
 constexpr float kDefaultMetallic = 0.0f;
+constexpr float kDefaultSpecular = 0.5f;      // Blender's Principled defaults
+constexpr float kDefaultSpecularTint = 0.0f;
 
 struct GaussianField {
   // Geometry (fixed during inversion).
@@ -39,6 +42,13 @@ struct GaussianField {
   std::vector<Vec3> albedo;  // linear RGB in [0, 1]
   std::vector<float> roughness;
   std::vector<float> metallic;
+  // Fixed Principled inputs (PLY properties `specular`, `specular_tint`); empty
+  // means Blender's defaults (0.5, 0) for every Gaussian.
+  std::vector<float> specular;
+  std::vector<float> specular_tint;
+  SurfaceShader shader = SurfaceShader::PrincipledGGX;  // distribution of the splats' Principled BSDF
+  float specular_of(size_t i) const { return specular.empty() ? kDefaultSpecular : specular[i]; }
+  float specular_tint_of(size_t i) const { return specular_tint.empty() ? kDefaultSpecularTint : specular_tint[i]; }
   bool normals_from_file = false;  // false: normals are the shortest axis (see init_normals_shortest_axis)
 
   // The file the field came from, kept so every input property is written back unchanged.

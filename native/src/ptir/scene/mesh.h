@@ -1,4 +1,4 @@
-// Triangle meshes (walls, floors, props) and their simplified-Disney materials.
+// Triangle meshes (walls, floors, props) and their materials (Blender Principled or Diffuse BSDF).
 #pragma once
 
 #include <array>
@@ -7,14 +7,18 @@
 #include <vector>
 
 #include "ptir/math/vec.h"
+#include "ptir/scene/shading_model.h"
 
 namespace ptir {
 
 struct MeshMaterial {
   std::string name = "default";
+  SurfaceShader shader = SurfaceShader::PrincipledGGX;  // Blender node: Principled (GGX / Multiscatter GGX) or Diffuse
   Vec3 base_colour{0.8f, 0.8f, 0.8f};  // linear RGB
-  float roughness = 0.5f;
+  float roughness = 0.5f;               // Diffuse BSDF: its Oren-Nayar sigma
   float metallic = 0.0f;
+  float specular = 0.5f;                // Principled Specular (fixed input)
+  float specular_tint = 0.0f;           // Principled Specular Tint (fixed input)
   Vec3 emission{0.0f, 0.0f, 0.0f};  // emitted radiance (W/m^2/sr), zero for non-emitters
 };
 

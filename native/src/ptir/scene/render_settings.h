@@ -6,6 +6,8 @@
 #include <limits>
 #include <string>
 
+#include "ptir/scene/shading_model.h"
+
 namespace ptir {
 
 enum class InteractionMode { Aggregate, Discrete };
@@ -33,6 +35,7 @@ struct IntegratorSettings {
   int spp = 32;
   int max_bounces = 2;  // indirect bounces, as Cycles counts them (0: direct light only)
   uint64_t seed = 0;
+  BsdfModel brdf = BsdfModel::Principled;  // surface model of every vertex (scene JSON "brdf", --brdf)
   InteractionSettings interaction;       // aggregate/discrete, tau_g
   bool geometric_criterion = true;       // chi_geom gate; off: every hit with O > 0 is an interaction
   SelfIntersection self_intersection = SelfIntersection::BackfaceAware;

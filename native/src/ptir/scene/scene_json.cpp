@@ -156,6 +156,15 @@ void append_gaussians(GaussianField& a, GaussianField&& b) {
   cat(a.albedo, b.albedo);
   cat(a.roughness, b.roughness);
   cat(a.metallic, b.metallic);
+  // Fixed Principled inputs: stored only when some field has them (defaults fill the rest).
+  auto cat_optional = [&](std::vector<float>& x, std::vector<float>& y, float fallback) {
+    if (x.empty() && y.empty()) return;
+    x.resize(na, fallback);
+    y.resize(nb, fallback);
+    cat(x, y);
+  };
+  cat_optional(a.specular, b.specular, kDefaultSpecular);
+  cat_optional(a.specular_tint, b.specular_tint, kDefaultSpecularTint);
   a.sh = std::move(sh);
   a.sh_degree = degree;
   a.normals_from_file = a.normals_from_file && b.normals_from_file;
@@ -352,9 +361,10 @@ auto with_context(const Node& n, F&& f) -> decltype(f()) {
 // Sections
 
 MeshMaterial parse_material(const Node& n, const std::string& default_name) {
-  n.check_keys({"name", "base_color", "roughness", "metallic", "emission"});
+  n.check_keys({"name", "shader", "base_color", "roughness", "metallic", "specular", "specular_tint", "emission"});
   MeshMaterial m;
   m.name = n.string("name", default_name);
+  m.shader = *parse_surface_shader(n.choice("shader", "principled", {"principled", "principled-multiscatter", "diffuse"}));
   if (n.has("base_color")) {
     Node c = n["base_color"];
     m.base_colour = c.vec3();
@@ -363,6 +373,8 @@ MeshMaterial parse_material(const Node& n, const std::string& default_name) {
   }
   m.roughness = n.number_in("roughness", m.roughness, 0.0f, 1.0f);
   m.metallic = n.number_in("metallic", m.metallic, 0.0f, 1.0f);
+  m.specular = n.number_in("specular", m.specular, 0.0f, 12.0f);  // 12.5 would be an infinite IOR
+  m.specular_tint = n.number_in("specular_tint", m.specular_tint, 0.0f, 1.0f);
   m.emission = n.colour("emission", m.emission);
   return m;
 }
@@ -570,12 +582,13 @@ void parse_integrator(const Node& n, IntegratorSettings& s) {
 Scene parse_scene(const json& root, const Ctx& ctx) {
   Node n{root, "", ctx};
   if (!root.is_object()) ctx.fail("", std::string("the scene must be a JSON object, got ") + type_name(root));
-  n.check_keys({"version", "comment", "gaussians", "meshes", "lights", "environment", "cameras", "integrator"});
+  n.check_keys({"version", "comment", "brdf", "gaussians", "meshes", "lights", "environment", "cameras", "integrator"});
   if (n.has("version") && n.integer_in("version", 1, 1, 1) != 1) n.fail("unsupported version");
   Scene scene;
   scene.source_path = ctx.file;
   if (n.has("cameras")) parse_cameras(n["cameras"], scene.cameras);
   if (n.has("integrator")) parse_integrator(n["integrator"], scene.integrator);
+  scene.integrator.brdf = *parse_bsdf_model(n.choice("brdf", "principled", {"principled", "disney-simplified"}));
   if (n.has("environment")) parse_environment(n["environment"], scene.environment);
   if (n.has("lights")) {
     Node l = n["lights"];
@@ -595,9 +608,14 @@ Scene parse_scene(const json& root, const Ctx& ctx) {
     Node g = n["gaussians"];
     g.expect_array();
     GaussianField all;
+    std::optional<SurfaceShader> shader;
     for (size_t i = 0; i < g.j.size(); ++i) {
       Node e = g.at(i);
-      e.check_keys({"file", "transform"});
+      e.check_keys({"file", "transform", "shader"});
+      // One distribution for all splats (the interaction blends their materials).
+      SurfaceShader s = *parse_surface_shader(e.choice("shader", "principled", {"principled", "principled-multiscatter"}));
+      if (shader && *shader != s) e.fail("\"shader\" must be the same for every gaussians entry");
+      shader = s;
       e.require("file");
       std::string path = e.file("file");
       GaussianField field = with_context(e["file"], [&] { return load_gaussians(path); });
@@ -611,6 +629,7 @@ Scene parse_scene(const json& root, const Ctx& ctx) {
       }
       append_gaussians(all, std::move(field));
     }
+    all.shader = shader.value_or(SurfaceShader::PrincipledGGX);
     *scene.gaussians = std::move(all);
   }
   return scene;

@@ -14,6 +14,8 @@ bool InteractionBuilder::add(const GaussianHit& hit) {
     sum_a_ += w * field_.albedo[hit.id];
     sum_r_ += w * field_.roughness[hit.id];
     sum_m_ += w * field_.metallic[hit.id];
+    if (!field_.specular.empty()) sum_s_ += w * field_.specular[hit.id];
+    if (!field_.specular_tint.empty()) sum_st_ += w * field_.specular_tint[hit.id];
     sum_size_ += w * max_component(field_.scale[hit.id]);
   } else {
     // Weighted reservoir of size one: hit j survives with probability w_j / O.
@@ -41,6 +43,8 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
     si.albedo = sum_a_ * inv;
     si.roughness = sum_r_ * inv;
     si.metallic = sum_m_ * inv;
+    si.specular = field_.specular.empty() ? kDefaultSpecular : sum_s_ * inv;
+    si.specular_tint = field_.specular_tint.empty() ? kDefaultSpecularTint : sum_st_ * inv;
     si.size = sum_size_ * inv;
   } else {
     si.picked = picked_;
@@ -49,6 +53,8 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
     si.albedo = field_.albedo[picked_];
     si.roughness = field_.roughness[picked_];
     si.metallic = field_.metallic[picked_];
+    si.specular = field_.specular_of(picked_);
+    si.specular_tint = field_.specular_tint_of(picked_);
     si.size = max_component(field_.scale[picked_]);
   }
   si.p = ray.at(si.depth);

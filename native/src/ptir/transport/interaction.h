@@ -29,6 +29,8 @@ struct SurfaceInteraction {
   Vec3 albedo;
   float roughness = 0.0f;
   float metallic = 0.0f;
+  float specular = kDefaultSpecular;          // fixed Principled inputs (w-weighted means)
+  float specular_tint = kDefaultSpecularTint;
   float size = 0.0f;           // sum w_i max(scale_i): the footprint of the Gaussians involved
   uint32_t hits = 0;           // Gaussians composited
   uint32_t picked = 0;         // discrete mode: the Gaussian chosen
@@ -69,7 +71,7 @@ class InteractionBuilder {
   // Aggregate sums of w_i * attribute (unnormalised), or the picked hit's values.
   float sum_t_ = 0.0f;
   Vec3 sum_n_, sum_a_;
-  float sum_r_ = 0.0f, sum_m_ = 0.0f, sum_size_ = 0.0f;
+  float sum_r_ = 0.0f, sum_m_ = 0.0f, sum_size_ = 0.0f, sum_s_ = 0.0f, sum_st_ = 0.0f;
   uint32_t picked_ = 0;
   float picked_t_ = 0.0f;
 };

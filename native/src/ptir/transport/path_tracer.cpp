@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "ptir/material/disney_brdf.h"
+#include "ptir/material/bsdf.h"
 #include "ptir/math/rng.h"
 #include "ptir/math/sampling.h"
 #include "ptir/transport/gradients.h"
@@ -54,7 +54,7 @@ Vec3 lights_crossed(const Scene& scene, const Ray& ray, float max_t, float prev_
 // Hands the adjoint of a vertex's BRDF parameters to what defined them: the
 // Gaussians composited into the interaction (normalised weights w_i / O, or the
 // picked one in discrete mode), or the mesh's material.
-void scatter_vertex_adjoint(const NextEvent& ev, const std::vector<WeightedHit>& hits, const DisneyGrad& g,
+void scatter_vertex_adjoint(const NextEvent& ev, const std::vector<WeightedHit>& hits, const MaterialGrad& g,
                             InteractionMode mode, SceneGradients& grads) {
   if (ev.kind == NextEvent::Mesh) {
     grads.mesh_base_colour[ev.mesh.mesh] += g.d_albedo;
@@ -135,24 +135,24 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     if (stats) stats->vertices++;
     Frame frame(ev.n);
     Vec3 wo = frame.to_local(-ray.d);
-    DisneyParams brdf{ev.albedo, ev.roughness, ev.metallic};
+    const Bsdf bsdf(resolve_bsdf(settings.brdf, ev.shader), ev.material, wo);
     SpawnContext here = scatterer.spawn_context(ev, ray);
-    DisneyGrad vertex_grad;
+    MaterialGrad vertex_grad;
 
     // Next-event estimation: one sample of every light and of the environment.
     DirectAdjoint direct_adj{beta, adj ? adj->dL : Vec3(0.0f), &vertex_grad, adj ? adj->grads : nullptr};
-    add(beta * scatterer.direct_light(here, frame, wo, brdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr));
+    add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr));
 
-    // Continue with a BRDF sample.
+    // Continue with a BSDF sample.
     Rng rng(path_key, uint64_t(bounce), kStreamBrdf);
-    DisneySample bs = disney_sample(brdf, wo, rng.at(0), rng.at(1), rng.at(2));
+    BsdfSample bs = bsdf.sample(rng.at(0), rng.at(1), rng.at(2));
     if (adj && bs.valid) {
       // Everything still remaining arrives through this BRDF value:
       // d L_rem / d f~ = L_rem / f~ (the L f / detach(f) trick), channel by channel.
       Vec3 f = bs.weight * bs.pdf;
       Vec3 d_f;
       for (int c = 0; c < 3; ++c) d_f[c] = f[c] > 0.0f ? adj->dL[c] * L_rem[c] / f[c] : 0.0f;
-      disney_eval_grad(brdf, wo, bs.wi, d_f, vertex_grad);
+      bsdf.eval_grad(bs.wi, d_f, vertex_grad);
     }
     if (adj && adj->grads) scatter_vertex_adjoint(ev, vertex_hits, vertex_grad, settings.interaction.mode, *adj->grads);
     if (!bs.valid) break;

@@ -56,9 +56,8 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
     ev.t = si.depth;
     ev.p = si.p;
     ev.n = si.n;
-    ev.albedo = si.albedo;
-    ev.roughness = si.roughness;
-    ev.metallic = si.metallic;
+    ev.material = {si.albedo, si.roughness, si.metallic, si.specular, si.specular_tint};
+    ev.shader = field_.shader;
     ev.size = si.size;
     return ev;
   }
@@ -76,9 +75,9 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
     ev.t = end.mesh.t;
     ev.p = ray.at(end.mesh.t);
     ev.n = dot(ng, ray.d) > 0.0f ? -ng : ng;
-    ev.albedo = mesh.material.base_colour;
-    ev.roughness = mesh.material.roughness;
-    ev.metallic = mesh.material.metallic;
+    const MeshMaterial& mm = mesh.material;
+    ev.material = {mm.base_colour, mm.roughness, mm.metallic, mm.specular, mm.specular_tint};
+    ev.shader = mm.shader;
     ev.emission = mesh_emission(mesh, end.mesh, ray.d);
     return ev;
   }
@@ -140,8 +139,7 @@ void Scatterer::environment_adjoint(Vec3 d, Vec3 d_Le, SceneGradients& grads) co
   if (env.present() && !grads.environment.empty()) env->adjoint(d, d_Le, grads.environment.data());
 }
 
-Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, Vec3 wo, const DisneyParams& brdf,
-                             uint64_t path_key, uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint) const {
+Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key, uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint) const {
   Vec3 Ld(0.0f);
   const auto& emitters = scene_.emitters;
   // Emitters: light sample, MIS against the BRDF density (delta lights: weight 1).
@@ -150,14 +148,15 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, Vec3 
     LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
     if (!ls.valid()) continue;
     Vec3 wi_local = frame.to_local(ls.wi);
-    Vec3 f = disney_eval(brdf, wo, wi_local);
+    BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
+    const Vec3 f = fp.f;
     if (max_component(f) <= 0.0f) continue;
     if (stats) stats->shadow_rays++;
     if (!unoccluded(from, ls.wi, ls.distance, path_key, bounce, l)) continue;
-    float w = ls.delta ? 1.0f : power_heuristic(1, ls.pdf, 1, disney_pdf(brdf, wo, wi_local));
+    float w = ls.delta ? 1.0f : power_heuristic(1, ls.pdf, 1, fp.pdf);
     Ld += f * ls.Li * (w / ls.pdf);
     // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
-    if (adjoint) disney_eval_grad(brdf, wo, wi_local, adjoint->dL * adjoint->beta * ls.Li * (w / ls.pdf), *adjoint->brdf);
+    if (adjoint) bsdf.eval_grad(wi_local, adjoint->dL * adjoint->beta * ls.Li * (w / ls.pdf), *adjoint->brdf);
   }
   // Environment: importance-sampled direction, MIS against the BRDF density.
   const SceneEnvironment& env = scene_.environment;
@@ -169,16 +168,17 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, Vec3 
     const float pdf = es.pdf;
     if (pdf > 0.0f) {
       Vec3 wi_local = frame.to_local(wi);
-      Vec3 f = disney_eval(brdf, wo, wi_local);
+      BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
+      const Vec3 f = fp.f;
       if (max_component(f) > 0.0f) {
         if (stats) stats->shadow_rays++;
         if (unoccluded(from, wi, INFINITY, path_key, bounce, l)) {
-          float w = power_heuristic(1, pdf, 1, disney_pdf(brdf, wo, wi_local));
+          float w = power_heuristic(1, pdf, 1, fp.pdf);
           Ld += f * Li * (w / pdf);
           // Adjoint: into the BRDF (through f~) and into the environment (through Li).
           if (adjoint) {
             Vec3 scale = adjoint->dL * adjoint->beta * (w / pdf);
-            disney_eval_grad(brdf, wo, wi_local, scale * Li, *adjoint->brdf);
+            bsdf.eval_grad(wi_local, scale * Li, *adjoint->brdf);
             if (adjoint->grads) environment_adjoint(wi, scale * f, *adjoint->grads);
           }
         }

@@ -12,7 +12,7 @@
 #include <cstdint>
 
 #include "ptir/accel/scene_accel.h"
-#include "ptir/material/disney_brdf.h"
+#include "ptir/material/bsdf.h"
 #include "ptir/math/rng.h"
 #include "ptir/scene/scene.h"
 #include "ptir/transport/interaction.h"
@@ -28,7 +28,7 @@ struct SceneGradients;
 struct DirectAdjoint {
   Vec3 beta;
   Vec3 dL;
-  DisneyGrad* brdf = nullptr;        // += adjoint of the vertex's BRDF parameters
+  MaterialGrad* brdf = nullptr;      // += adjoint of the vertex's BSDF parameters
   SceneGradients* grads = nullptr;   // += adjoint of environment texels / SG amplitudes
 };
 
@@ -45,8 +45,8 @@ struct NextEvent {
   float t = std::numeric_limits<float>::infinity();  // ray parameter of the event (inf: escape)
   Vec3 p;           // position
   Vec3 n;           // unit shading normal facing the incoming ray
-  Vec3 albedo;
-  float roughness = 0.5f, metallic = 0.0f;
+  MaterialParams material;  // albedo, roughness, metallic, specular, specular tint
+  SurfaceShader shader = SurfaceShader::PrincipledGGX;
   Vec3 emission;    // mesh emission toward the ray (zero for Gaussians)
   float size = 0.0f;  // Gaussian interaction: w-weighted largest scale of its Gaussians
   SurfaceInteraction si;  // Gaussian interaction details (weights are replayed from it)
@@ -84,8 +84,8 @@ class Scatterer {
                   uint32_t light) const;
 
   // One light sample of every emitter and of the environment, each MIS-weighted
-  // against BRDF sampling; returns the sum of f~ Li w / pdf (beta not applied).
-  Vec3 direct_light(const SpawnContext& from, const Frame& frame, Vec3 wo, const DisneyParams& brdf, uint64_t path_key,
+  // against BSDF sampling; returns the sum of f~ Li w / pdf (beta not applied).
+  Vec3 direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key,
                     uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr) const;
 
   // Adds to `grads` the adjoint d_Le of the environment radiance seen along d.
