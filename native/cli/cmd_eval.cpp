@@ -19,6 +19,7 @@
 
 #include "brdf_option.h"
 #include "commands.h"
+#include "output_guard.h"
 #include "ptir/core/error.h"
 #include "ptir/eval/evaluate.h"
 
@@ -35,6 +36,7 @@ struct EvalOptions {
   int sheet_views = 8;
   int threads = 0;
   bool quiet = false;
+  bool force = false;
 };
 
 int run_eval(const EvalOptions& o) {
@@ -49,6 +51,11 @@ int run_eval(const EvalOptions& o) {
   s.split = o.split;
   s.scene = o.scene;
   for (const std::string& r : o.relight) s.relight.push_back(eval::parse_relight(r));
+  const std::string out = o.result + "/eval";
+  Inputs in{{}, {o.dataset, o.result}, {o.scene}};
+  for (const eval::RelightEnv& r : s.relight) in.files.push_back(r.path);
+  guard_outputs(in, {{}, {out}}, o.force);
+  remove_stale_outputs({out}, o.quiet, /*with_subfolders=*/true);
   s.spp = o.spp;
   s.bounces = o.bounces;
   s.aov_spp = o.aov_spp;
@@ -88,6 +95,7 @@ Runner add_eval_command(CLI::App& app) {
   cmd->add_option("--sheet-views", o->sheet_views, "views shown in the contact sheets (0: no sheets)")->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
+  add_force_flag(cmd, o->force);
   return [o] { return run_eval(*o); };
 }
 

@@ -34,8 +34,9 @@
 
 #include "brdf_option.h"
 #include "commands.h"
+#include "output_guard.h"
 #include "ptir/core/error.h"
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"
@@ -57,6 +58,7 @@ struct OptimizeCommand {
   int threads = 0;
   bool quiet = false;
   OptimizeOptions opt;
+  bool force = false;
 };
 
 std::atomic<bool> g_interrupted{false};
@@ -111,6 +113,8 @@ int run_optimize(const OptimizeCommand& o) {
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
+  guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
+  remove_stale_outputs({o.out}, o.quiet);
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, &data);
   Optimizer& opt = *optimizer;
@@ -192,6 +196,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
+  add_force_flag(cmd, o->force);
   return [o] { return run_optimize(*o); };
 }
 

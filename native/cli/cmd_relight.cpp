@@ -39,6 +39,8 @@
 
 #include "brdf_option.h"
 #include "commands.h"
+#include "image_budget.h"
+#include "output_guard.h"
 #include "progress.h"
 #include "ptir/core/error.h"
 #include "ptir/eval/relight.h"
@@ -72,6 +74,8 @@ struct RelightOptions {
   uint64_t seed = 0;
   int threads = 0;
   bool quiet = false;
+  bool force = false;
+  double max_memory_gib = 0;
 };
 
 std::array<double, 3> parse_triple(const std::string& text, const char* what) {
@@ -131,6 +135,10 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
 
   const fs::path ply = fs::path(o.result) / "gaussians.ply";
   if (!fs::exists(ply)) throw Error(ply.string(), "no such file (the result folder of `ptir optimize`)");
+  Inputs in{{ply.string(), o.cameras, o.env}, {o.result}, {o.scene}};
+  in.files.insert(in.files.end(), o.meshes.begin(), o.meshes.end());
+  guard_outputs(in, {{}, {o.output}}, o.force);
+  remove_stale_outputs({o.output}, o.quiet);
   const std::array<double, 3> scale = albedo_scale_of(o);
 
   Scene scene;
@@ -165,6 +173,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
       c.width = std::max(1, w);
       c.height = std::max(1, h);
     }
+  for (const Camera& c : cameras) check_image_budget(c.width, c.height, o.max_memory_gib, "camera '" + c.name + "'");
   GaussianField asset = load_gaussians(ply.string());
   eval::scale_albedo(asset, scale);
   if (scene.gaussians->size() == 0) *scene.gaussians = std::move(asset);
@@ -265,6 +274,8 @@ Runner add_relight_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_option("-o,--output", o->output, "output folder")->required();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
+  add_force_flag(cmd, o->force);
+  add_max_memory_flag(cmd, o->max_memory_gib);
   return [o, cmd] { return run_relight(*o, *cmd); };
 }
 

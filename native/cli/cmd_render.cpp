@@ -10,6 +10,9 @@
 // --spp, --bounces, --seed, --interaction aggregate|discrete, --tau-g,
 // --no-geometric-criterion, --self-intersection backface|fixed. --threads N limits
 // TBB: the image does not depend on it (random numbers are keyed per pixel/sample).
+// -o is .exr or .png; an output (or --stats-json) that is an input file is refused
+// unless --force (cli/output_guard.h); sizes past --max-memory are refused before
+// anything is allocated (cli/image_budget.h).
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -17,7 +20,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -26,8 +29,11 @@
 
 #include "brdf_option.h"
 #include "commands.h"
+#include "image_budget.h"
+#include "output_guard.h"
 #include "ptir/accel/scene_accel.h"
 #include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/render_path.h"
 #include "ptir/scene/camera.h"
@@ -70,6 +76,8 @@ struct RenderOptions {
   int threads = 0;
   std::string stats_json;
   bool quiet = false;
+  bool force = false;
+  double max_memory_gib = 0;  // 0: half the machine's memory
 };
 
 using Clock = std::chrono::steady_clock;
@@ -133,8 +141,7 @@ void apply_integrator_flags(const RenderOptions& o, const CLI::App& cmd, Integra
 }
 
 std::string lower_ext(const std::string& path) {
-  auto dot = path.find_last_of('.');
-  std::string ext = dot == std::string::npos ? "" : path.substr(dot);
+  std::string ext = std::filesystem::path(path).extension().string();
   for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
   return ext;
 }
@@ -145,131 +152,176 @@ size_t triangle_count(const Scene& s) {
   return n;
 }
 
-int run_render(const RenderOptions& o, const CLI::App& cmd) {
-  const auto t0 = Clock::now();
-  std::optional<tbb::global_control> limit;
-  if (o.threads < 0) throw Error("--threads must be positive");
-  if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
-
-  const bool scene_mode = !o.scene.empty();
-  const std::string aov_text = o.aov.empty() ? (scene_mode ? "rgb" : "preview") : o.aov;
-  const bool rgb = aov_text == "rgb";
-  std::optional<Aov> aov;
-  if (!rgb) aov = parse_aov(aov_text);  // throws listing the names
-
-  Scene scene;
-  Camera camera;
-  if (scene_mode) {
-    for (const char* flag : {"--gaussians", "--mesh", "--cameras", "--frame", "--c2w", "--fov-x", "--env", "--env-strength",
-                             "--env-rotation"})
-      if (cmd.count(flag))
-        throw Error(std::string(flag) + " belongs to the flag form; with a scene file, put it in the file (" + o.scene + ")");
-    scene = load_scene_json(o.scene);
-    orient_scene_normals(scene);
-    camera = pick_scene_camera(scene, o.camera_name);
-    if (o.width > 0 || o.height > 0) {
-      // Resize keeping the horizontal field of view (and the aspect ratio when only one is given).
-      int w = o.width > 0 ? o.width : int(std::lround(double(o.height) * camera.width / camera.height));
-      int h = o.height > 0 ? o.height : int(std::lround(double(o.width) * camera.height / camera.width));
-      camera.width = std::max(1, w);
-      camera.height = std::max(1, h);
-    }
-  } else {
-    if (cmd.count("--camera")) throw Error("--camera picks a camera of a scene file; in the flag form use --cameras/--frame or --c2w");
-    camera = pick_flag_camera(o);
-    if (!o.gaussians.empty()) *scene.gaussians = load_gaussians(o.gaussians);
-    for (const auto& m : o.meshes) scene.meshes.push_back(load_mesh(m));
-    if (scene.gaussians->size() == 0 && scene.meshes.empty()) throw Error("nothing to render: give --gaussians and/or --mesh");
-    if (!o.env.empty()) scene.environment = Environment::load(o.env, o.env_strength, o.env_rotation);
-    else if (cmd.count("--env-strength") || cmd.count("--env-rotation")) throw Error("--env-strength/--env-rotation need --env");
-    scene.cameras.push_back(camera);
-    scene.source_path = "command line";
-  }
-  if (!rgb && (cmd.count("--bounces") || o.no_geometric_criterion || cmd.count("--self-intersection")))
-    throw Error("--bounces, --no-geometric-criterion and --self-intersection apply to --aov rgb (path tracing) only");
-
-  IntegratorSettings settings = scene.integrator;
-  apply_integrator_flags(o, cmd, settings);
-  if (!rgb && !cmd.count("--spp")) settings.spp = 1;  // AOVs: pixel centres unless asked
-  const double load_s = seconds_since(t0);
-
-  const auto t1 = Clock::now();
-  AccelSettings accel_settings;
-  accel_settings.k = o.k;
-  PathTracer tracer(scene, accel_settings);
-  // Flag form: trainer PLYs carry no normals, so face the shortest axes toward the
-  // dataset's cameras (the scene form did this while loading).
-  GaussianField& field = *scene.gaussians;
-  if (!scene_mode && !field.normals_from_file && field.size() > 0) {
-    std::vector<Camera> all =
-        o.cameras.empty() ? std::vector<Camera>{camera} : load_transforms_json(o.cameras, camera.width, camera.height);
-    int rays_per_camera = std::max(4096, int(262144 / std::max<size_t>(1, all.size())));
-    orient_normals_to_cameras(field, tracer.accel(), all, rays_per_camera);
-  }
-  const double build_s = seconds_since(t1);
-
-  ProgressBar bar("render " + aov_text, o.quiet);
-  RenderControl control;
-  control.progress = [&](float f) { bar.update(f); };
-  const auto t2 = Clock::now();
-  Image image;
-  PathStats pstats;
-  TraceStats tstats;
-  if (rgb) {
-    image = render_path(tracer, camera, settings, control, &pstats);
-  } else {
-    AovSettings as;
-    as.spp = settings.spp;
-    as.seed = settings.seed;
-    as.interaction = settings.interaction;
-    image = render_aov(tracer.accel(), camera, *aov, as, control, &tstats);
-  }
-  const double render_s = seconds_since(t2);
-  bar.finish();
-
-  // 8-bit files get sRGB colour; AOV data is mapped (normals 0.5 + 0.5 n, depth / max).
+// Before anything is loaded: the output must be .exr or .png (decision: the two
+// formats the help promises; OIIO would write any other by its extension), must
+// not replace an input, and temps a killed run left beside it go.
+void check_render_outputs(const RenderOptions& o) {
   const std::string ext = lower_ext(o.output);
-  const bool eight_bit = ext != ".exr" && ext != ".hdr" && ext != ".pfm";
-  if (rgb && eight_bit) {
+  if (ext != ".exr" && ext != ".png")
+    throw Error(o.output, "output must be .exr (linear float) or .png (sRGB), not '" + (ext.empty() ? "no extension" : ext) + "'");
+  Inputs in;
+  in.files = {o.gaussians, o.cameras, o.env};
+  in.files.insert(in.files.end(), o.meshes.begin(), o.meshes.end());
+  in.scenes = {o.scene};
+  guard_outputs(in, Outputs{{o.output, o.stats_json}, {}}, o.force);
+  std::vector<std::string> folders;
+  for (const std::string& file : {o.output, o.stats_json}) {
+    const std::filesystem::path p(file);
+    if (!file.empty()) folders.push_back(p.has_parent_path() ? p.parent_path().string() : ".");
+  }
+  remove_stale_outputs(folders, o.quiet);
+}
+
+// Scene form: the file's scene and camera, re-sized by --width/--height keeping
+// the horizontal field of view (and the aspect ratio when only one is given).
+void load_scene_form(const RenderOptions& o, const CLI::App& cmd, Scene& scene, Camera& camera) {
+  for (const char* flag : {"--gaussians", "--mesh", "--cameras", "--frame", "--c2w", "--fov-x", "--env", "--env-strength",
+                           "--env-rotation"})
+    if (cmd.count(flag))
+      throw Error(std::string(flag) + " belongs to the flag form; with a scene file, put it in the file (" + o.scene + ")");
+  if (o.width < 0 || o.height < 0) throw Error("--width/--height must be positive");
+  scene = load_scene_json(o.scene);
+  orient_scene_normals(scene);
+  camera = pick_scene_camera(scene, o.camera_name);
+  if (o.width > 0 || o.height > 0) {
+    const int64_t w = o.width > 0 ? o.width : std::llround(double(o.height) * camera.width / camera.height);
+    const int64_t h = o.height > 0 ? o.height : std::llround(double(o.width) * camera.height / camera.width);
+    check_image_budget(w, h, o.max_memory_gib, "--width/--height");
+    camera.width = int(std::max<int64_t>(1, w));
+    camera.height = int(std::max<int64_t>(1, h));
+  }
+}
+
+// Flag form: the Gaussians, meshes and environment given as flags, one camera.
+void load_flag_form(const RenderOptions& o, const CLI::App& cmd, Scene& scene, Camera& camera) {
+  if (cmd.count("--camera")) throw Error("--camera picks a camera of a scene file; in the flag form use --cameras/--frame or --c2w");
+  check_image_budget(o.width, o.height, o.max_memory_gib, "--width/--height");
+  camera = pick_flag_camera(o);
+  if (!o.gaussians.empty()) *scene.gaussians = load_gaussians(o.gaussians);
+  for (const auto& m : o.meshes) scene.meshes.push_back(load_mesh(m));
+  if (scene.gaussians->size() == 0 && scene.meshes.empty()) throw Error("nothing to render: give --gaussians and/or --mesh");
+  if (!o.env.empty()) scene.environment = Environment::load(o.env, o.env_strength, o.env_rotation);
+  else if (cmd.count("--env-strength") || cmd.count("--env-rotation")) throw Error("--env-strength/--env-rotation need --env");
+  scene.cameras.push_back(camera);
+  scene.source_path = "command line";
+}
+
+// Flag form: trainer PLYs carry no normals, so face the shortest axes toward the
+// dataset's cameras (the scene form did this while loading).
+void orient_flag_normals(const RenderOptions& o, const Camera& camera, PathTracer& tracer, GaussianField& field) {
+  if (field.normals_from_file || field.size() == 0) return;
+  std::vector<Camera> all =
+      o.cameras.empty() ? std::vector<Camera>{camera} : load_transforms_json(o.cameras, camera.width, camera.height);
+  int rays_per_camera = std::max(4096, int(262144 / std::max<size_t>(1, all.size())));
+  orient_normals_to_cameras(field, tracer.accel(), all, rays_per_camera);
+}
+
+// 8-bit files get sRGB colour; AOV data is mapped (normals 0.5 + 0.5 n, depth / max).
+void write_render(const RenderOptions& o, const std::optional<Aov>& aov, const Image& image) {
+  const bool eight_bit = lower_ext(o.output) == ".png";
+  if (!aov && eight_bit) {
     // The environment is part of a path-traced picture: 8-bit files get RGB only (an
     // alpha channel would make the sky transparent, and PNG alpha is unassociated).
     Image rgb_only(image.width, image.height, {"R", "G", "B"});
     for (size_t i = 0, n = size_t(image.width) * image.height; i < n; ++i)
       for (int c = 0; c < 3; ++c) rgb_only.pixels[i * 3 + c] = image.pixels[i * 4 + c];
     write_image(o.output, rgb_only, Encoding::Colour);
-  } else if (rgb) {
+  } else if (!aov) {
     write_image(o.output, image, Encoding::Colour);  // EXR: linear RGB + coverage alpha
   } else {
     float depth_max = 0.0f;
     write_image(o.output, eight_bit ? aov_for_8bit(*aov, image, &depth_max) : image, aov_encoding(*aov));
     if (eight_bit && *aov == Aov::Depth && !o.quiet) std::fprintf(stderr, "depth PNG: 1.0 = %.4g\n", depth_max);
   }
-  const double total_s = seconds_since(t0);
+}
 
+struct RenderReport {
+  std::string aov_text;
+  double load_s = 0, build_s = 0, render_s = 0, total_s = 0;
+  PathStats path;
+  TraceStats trace;
+};
+
+// The summary line on stderr and the --stats-json file (written atomically).
+void report_render(const RenderOptions& o, const Scene& scene, const Camera& camera, const IntegratorSettings& settings,
+                   const std::optional<Aov>& aov, const RenderReport& r) {
   const double samples = double(camera.width) * camera.height * settings.spp;
+  const size_t gaussians = scene.gaussians->size();
   if (!o.quiet) {
-    if (rgb)
+    if (!aov)
       std::fprintf(stderr,
                    "wrote %s (%dx%d, rgb, %d spp, %d bounces, %zu Gaussians, %zu triangles, %zu lights; render %.2f s, "
                    "%.3g path samples/s, %.2f vertices/path; total %.2f s)\n",
-                   o.output.c_str(), camera.width, camera.height, settings.spp, settings.max_bounces, field.size(),
-                   triangle_count(scene), scene.emitters.size(), render_s, samples / std::max(render_s, 1e-9),
-                   double(pstats.vertices) / std::max(1.0, double(pstats.paths)), total_s);
+                   o.output.c_str(), camera.width, camera.height, settings.spp, settings.max_bounces, gaussians,
+                   triangle_count(scene), scene.emitters.size(), r.render_s, samples / std::max(r.render_s, 1e-9),
+                   double(r.path.vertices) / std::max(1.0, double(r.path.paths)), r.total_s);
     else
       std::fprintf(stderr, "wrote %s (%dx%d, %s, %zu Gaussians, %.2f hits/ray, %.2f s)\n", o.output.c_str(), camera.width,
-                   camera.height, aov_name(*aov), field.size(), double(tstats.hits) / std::max(1.0, samples), total_s);
+                   camera.height, aov_name(*aov), gaussians, double(r.trace.hits) / std::max(1.0, samples), r.total_s);
   }
-  if (!o.stats_json.empty()) {
-    std::ofstream js(o.stats_json);
-    if (!js) throw Error(o.stats_json, "cannot write stats file");
-    js << "{\"width\": " << camera.width << ", \"height\": " << camera.height << ", \"spp\": " << settings.spp
-       << ", \"bounces\": " << settings.max_bounces << ", \"aov\": \"" << aov_text << "\", \"gaussians\": " << field.size()
-       << ", \"triangles\": " << triangle_count(scene) << ", \"lights\": " << scene.emitters.size()
-       << ", \"threads\": " << o.threads << ", \"load_s\": " << load_s << ", \"build_s\": " << build_s
-       << ", \"render_s\": " << render_s << ", \"total_s\": " << total_s << ", \"path_samples\": " << samples
-       << ", \"paths\": " << pstats.paths << ", \"vertices\": " << pstats.vertices
-       << ", \"shadow_rays\": " << pstats.shadow_rays << "}\n";
+  if (o.stats_json.empty()) return;
+  std::ostringstream js;
+  js << "{\"width\": " << camera.width << ", \"height\": " << camera.height << ", \"spp\": " << settings.spp
+     << ", \"bounces\": " << settings.max_bounces << ", \"aov\": \"" << r.aov_text << "\", \"gaussians\": " << gaussians
+     << ", \"triangles\": " << triangle_count(scene) << ", \"lights\": " << scene.emitters.size()
+     << ", \"threads\": " << o.threads << ", \"load_s\": " << r.load_s << ", \"build_s\": " << r.build_s
+     << ", \"render_s\": " << r.render_s << ", \"total_s\": " << r.total_s << ", \"path_samples\": " << samples
+     << ", \"paths\": " << r.path.paths << ", \"vertices\": " << r.path.vertices
+     << ", \"shadow_rays\": " << r.path.shadow_rays << "}\n";
+  io::write_text_atomic(o.stats_json, js.str());
+}
+
+int run_render(const RenderOptions& o, const CLI::App& cmd) {
+  const auto t0 = Clock::now();
+  std::optional<tbb::global_control> limit;
+  if (o.threads < 0) throw Error("--threads must be positive");
+  if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  check_render_outputs(o);
+
+  const bool scene_mode = !o.scene.empty();
+  RenderReport report;
+  report.aov_text = o.aov.empty() ? (scene_mode ? "rgb" : "preview") : o.aov;
+  std::optional<Aov> aov;
+  if (report.aov_text != "rgb") aov = parse_aov(report.aov_text);  // throws listing the names
+
+  Scene scene;
+  Camera camera;
+  if (scene_mode) load_scene_form(o, cmd, scene, camera);
+  else load_flag_form(o, cmd, scene, camera);
+  check_image_budget(camera.width, camera.height, o.max_memory_gib, scene_mode ? o.scene : "camera");
+  if (aov && (cmd.count("--bounces") || o.no_geometric_criterion || cmd.count("--self-intersection")))
+    throw Error("--bounces, --no-geometric-criterion and --self-intersection apply to --aov rgb (path tracing) only");
+  IntegratorSettings settings = scene.integrator;
+  apply_integrator_flags(o, cmd, settings);
+  if (aov && !cmd.count("--spp")) settings.spp = 1;  // AOVs: pixel centres unless asked
+  report.load_s = seconds_since(t0);
+
+  const auto t1 = Clock::now();
+  AccelSettings accel_settings;
+  accel_settings.k = o.k;
+  PathTracer tracer(scene, accel_settings);
+  if (!scene_mode) orient_flag_normals(o, camera, tracer, *scene.gaussians);
+  report.build_s = seconds_since(t1);
+
+  ProgressBar bar("render " + report.aov_text, o.quiet);
+  RenderControl control;
+  control.progress = [&](float f) { bar.update(f); };
+  const auto t2 = Clock::now();
+  Image image;
+  if (!aov) {
+    image = render_path(tracer, camera, settings, control, &report.path);
+  } else {
+    AovSettings as;
+    as.spp = settings.spp;
+    as.seed = settings.seed;
+    as.interaction = settings.interaction;
+    image = render_aov(tracer.accel(), camera, *aov, as, control, &report.trace);
   }
+  report.render_s = seconds_since(t2);
+  bar.finish();
+  write_render(o, aov, image);
+  report.total_s = seconds_since(t0);
+  report_render(o, scene, camera, settings, aov, report);
   return 0;
 }
 
@@ -291,7 +343,7 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--aov", o->aov,
                   "rgb (path-traced colour), opacity, depth, normal, albedo, roughness, metallic or preview "
                   "(default: rgb with a scene file, preview otherwise)");
-  cmd->add_option("-o,--output", o->output, "output image (.exr linear float, .png sRGB)")->required();
+  cmd->add_option("-o,--output", o->output, "output image: .exr (linear float) or .png (sRGB)")->required();
   cmd->add_option("--spp", o->spp, "samples per pixel (default: the scene's, 32; AOVs: 1 = pixel centres)");
   cmd->add_option("--bounces", o->bounces, "indirect bounces (0: direct light only; default: the scene's, 2)");
   cmd->add_option("--seed", o->seed, "random seed (same seed, same image, on any thread count)");
@@ -309,6 +361,8 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_option("--stats-json", o->stats_json, "write timings and counts to this JSON file");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
+  add_force_flag(cmd, o->force);
+  add_max_memory_flag(cmd, o->max_memory_gib);
   return [o, cmd] { return run_render(*o, *cmd); };
 }
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "py_arrays.h"
 
 namespace py = pybind11;

@@ -26,7 +26,7 @@
 #include <optional>
 
 #include "ptir/core/error.h"
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ptir/core/error.h"
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/io/image.h"
 
 namespace fs = std::filesystem;

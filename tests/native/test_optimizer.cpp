@@ -13,7 +13,7 @@
 #include <sstream>
 
 #include "ptir/core/error.h"
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/optim/adam.h"
 #include "ptir/optim/checkpoint.h"
 #include "ptir/optim/optimizer.h"

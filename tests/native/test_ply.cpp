@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
 #include "ptir/io/ply.h"
 
 using namespace ptir;
@@ -205,7 +206,7 @@ TEST(PlyIo, RoundTripAllTypesAllFormats) {
     check_contents(b);
     write_ply(out2, b);
     EXPECT_EQ(get_file(out1), get_file(out2));
-    EXPECT_FALSE(std::filesystem::exists(out1 + ".tmp-" + std::to_string(::getpid())));
+    EXPECT_FALSE(std::filesystem::exists(atomic_temp_path(out1)));
   }
   // Little-endian input written back is byte-identical to the hand-made file apart from the header.
   const std::string le = binary_file(false), written = get_file(ply_tmp("out1_rt_le.ply"));
@@ -291,6 +292,39 @@ TEST(PlyIo, AsciiBodyErrors) {
   EXPECT_EQ(ply.elements[0].column_as_float("c", ok), (std::vector<float>{2, 4, 6}));
 }
 
+// A file cut anywhere inside its header says so. (A cut in the middle of a name
+// such as f_rest_12 leaves "f_rest_1", which an earlier line already declared:
+// it used to be reported as a duplicate property.)
+TEST(PlyIo, HeaderCutAnywhereIsTruncated) {
+  std::string header = "ply\nformat binary_little_endian 1.0\ncomment made by a trainer\nelement vertex 2\n";
+  for (const char* name : {"x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"})
+    header += std::string("property float ") + name + "\n";
+  for (int i = 0; i < 45; ++i) header += "property float f_rest_" + std::to_string(i) + "\n";
+  header += "property float opacity\nend_header\n";
+  const size_t end = header.find("end_header");
+  const std::string path = ply_tmp("cut_header.ply");
+  for (size_t cut = 4; cut < end; ++cut) {
+    SCOPED_TRACE(header.substr(0, cut).substr(cut > 40 ? cut - 40 : 0));
+    put_file(path, header.substr(0, cut));
+    try {
+      read_ply(path);
+      ADD_FAILURE() << "no error for a header cut at byte " << cut;
+    } catch (const ptir::Error& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find(path), std::string::npos) << msg;
+      EXPECT_NE(msg.find("truncated"), std::string::npos) << msg;
+      EXPECT_EQ(msg.find("duplicate"), std::string::npos) << msg;
+    }
+  }
+  // The case a user met: the cut falls inside "f_rest_12".
+  const std::string cut = header.substr(0, header.find("f_rest_12") + std::string("f_rest_1").size());
+  put_file(path, cut);
+  expect_ply_error([&] { read_ply(path); }, path, {"truncated", "in the middle of the line 'property float f_rest_1'"});
+  // A whole header whose end_header has no line break is still a header.
+  put_file(path, "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nend_header");
+  EXPECT_EQ(read_ply(path).elements.at(0).count, 0u);
+}
+
 TEST(PlyIo, MissingFileAndWriteFailure) {
   const std::string missing = ply_tmp("does_not_exist.ply");
   expect_ply_error([&] { read_ply(missing); }, missing, {"cannot open file", "No such file"});
@@ -304,4 +338,21 @@ TEST(PlyIo, MissingFileAndWriteFailure) {
   const std::string shape = ply_tmp("shape.ply");
   expect_ply_error([&] { write_ply(shape, ply); }, shape, {"property 'x'", "bytes"});
   EXPECT_FALSE(std::filesystem::exists(shape));
+  // A failure part-way (a list too long for its count type) keeps the old file and leaves no temp.
+  PlyFile lists;
+  lists.elements.push_back({"face", 1, {}});
+  PlyProperty list;
+  list.name = "vertex_indices";
+  list.is_list = true;
+  list.count_type = PlyType::UInt8;
+  list.type = PlyType::Int32;
+  list.list_offsets = {0, 300};
+  list.list_data.assign(300 * 4, 0);
+  lists.elements[0].properties.push_back(list);
+  const std::string kept = ply_tmp("kept.ply");
+  put_file(kept, "old contents");
+  expect_ply_error([&] { write_ply(kept, lists); }, kept, {"300 items", "too many"});
+  EXPECT_EQ(get_file(kept), "old contents");
+  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(kept).parent_path()))
+    EXPECT_EQ(entry.path().filename().string().find(".ptir-tmp-"), std::string::npos) << entry.path();
 }

@@ -45,7 +45,7 @@ struct PeakResponse {
 // vector of floats holding one ray per lane (packets; O = float when the lanes
 // share their origin, as camera rays do): every caller runs the same IEEE
 // operations in the same order, so the traversal and the reference agree bit for
-// bit. (No FMA contraction: ptir_core is compiled with -ffp-contract=off.)
+// bit. (No FMA contraction: the engine layers are compiled with -ffp-contract=off.)
 template <class F>
 inline void unit_origin(const GaussianTraceData& g, F ox, F oy, F oz, F& oux, F& ouy, F& ouz) {
   const auto& m = g.to_unit.m;

@@ -5,6 +5,8 @@
 
 #include <embree3/rtcore.h>
 
+#include <mutex>
+#include <string>
 #include <vector>
 
 #include "ptir/accel/kbuffer.h"
@@ -63,6 +65,13 @@ void gaussian_intersect(const RTCIntersectFunctionNArguments* args);
 // and shrinks tfar. Call it once more after the traversal.
 void evaluate_queue(RoundContext* rc, void* rayhit);
 
+// The first message Embree's error callback reported (it may report from its
+// build threads), for the exception of the call site that sees the error code.
+struct EmbreeErrorLog {
+  std::mutex mutex;
+  std::string first;
+};
+
 // The Embree objects behind a SceneAccel.
 struct SceneAccel::Impl {
   RTCDevice device = nullptr;
@@ -70,6 +79,7 @@ struct SceneAccel::Impl {
   RTCScene mesh_scene = nullptr;       // triangles only, for closest_mesh
   std::vector<unsigned> mesh_of_geom;  // geomID -> mesh index (RTC_INVALID_GEOMETRY_ID for the Gaussians)
   std::vector<RTCBounds> boxes;        // proxy box per Gaussian (trace-data order)
+  EmbreeErrorLog errors;               // what Embree's error callback reported
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);

@@ -19,15 +19,33 @@ void gaussian_bounds(const RTCBoundsFunctionArguments* args) {
   *args->bounds_o = (*boxes)[args->primID];
 }
 
-void embree_error(void*, RTCError code, const char* message) {
-  // Reported errors are turned into exceptions at the call sites that check rtcGetDeviceError.
-  (void)code;
-  (void)message;
+const char* error_name(RTCError code) {
+  switch (code) {
+    case RTC_ERROR_NONE: return "no error";
+    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
+    case RTC_ERROR_CANCELLED: return "cancelled";
+    default: return "unknown error";
+  }
 }
 
-void check_device(RTCDevice device, const char* what) {
+// Keeps the first message Embree reports; the call sites that check
+// rtcGetDeviceError turn it into the exception.
+void embree_error(void* user, RTCError code, const char* message) {
+  auto* log = static_cast<EmbreeErrorLog*>(user);
+  std::lock_guard<std::mutex> lock(log->mutex);
+  if (log->first.empty()) log->first = message && *message ? message : error_name(code);
+}
+
+void check_device(RTCDevice device, EmbreeErrorLog& log, const char* what) {
   RTCError err = rtcGetDeviceError(device);
-  if (err != RTC_ERROR_NONE) throw Error(std::string("Embree failed while ") + what + " (error " + std::to_string(int(err)) + ")");
+  if (err == RTC_ERROR_NONE) return;
+  std::lock_guard<std::mutex> lock(log.mutex);
+  const std::string message = log.first.empty() ? error_name(err) : log.first;
+  throw Error(std::string("Embree failed while ") + what + ": " + message + " (" + error_name(err) + ", code " +
+              std::to_string(int(err)) + ")");
 }
 
 RTCBounds to_rtc(const ProxyBox& b) {
@@ -69,8 +87,12 @@ SceneAccel::SceneAccel(const GaussianField& field, const std::vector<TriangleMes
   std::string config = "object_accel_max_leaf_size=4";
   if (const char* extra = std::getenv("PTIR_EMBREE_CONFIG")) config += std::string(",") + extra;
   impl_->device = rtcNewDevice(config.c_str());
-  if (!impl_->device) throw Error("Embree device could not be created (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
-  rtcSetDeviceErrorFunction(impl_->device, embree_error, nullptr);
+  if (!impl_->device) {
+    const RTCError err = rtcGetDeviceError(nullptr);
+    throw Error(std::string("Embree device could not be created with config '") + config + "': " + error_name(err) +
+                " (code " + std::to_string(int(err)) + ")");
+  }
+  rtcSetDeviceErrorFunction(impl_->device, embree_error, &impl_->errors);
   impl_->scene = rtcNewScene(impl_->device);
   impl_->mesh_scene = rtcNewScene(impl_->device);
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
@@ -102,9 +124,9 @@ SceneAccel::SceneAccel(const GaussianField& field, const std::vector<TriangleMes
     next_id++;
   }
   rtcCommitScene(impl_->scene);
-  check_device(impl_->device, "building the scene");
+  check_device(impl_->device, impl_->errors, "building the scene");
   rtcCommitScene(impl_->mesh_scene);
-  check_device(impl_->device, "building the mesh scene");
+  check_device(impl_->device, impl_->errors, "building the mesh scene");
 }
 
 SceneAccel::~SceneAccel() = default;

@@ -15,7 +15,7 @@
 #include "ptir/eval/metrics.h"
 #include "ptir/eval/relight.h"
 #include "ptir/io/atomic_file.h"
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/render/aov.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"

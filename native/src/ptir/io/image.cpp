@@ -7,12 +7,13 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <unistd.h>
 
 #include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
 
 namespace ptir {
 
+using io::write_atomic;
 namespace fs = std::filesystem;
 
 float srgb_to_linear(float c) {
@@ -62,27 +63,15 @@ void write_image(const std::string& path, const Image& image, Encoding encoding)
     }
   }
 
-  // Temp file keeps the extension so OpenImageIO picks the right writer.
-  fs::path target(path);
-  fs::path tmp = target.parent_path() / ("." + target.stem().string() + ".tmp" + std::to_string(getpid()) + ext);
-  {
-    auto writer = OIIO::ImageOutput::create(tmp.string());
+  // The temp file keeps the extension (atomic_file.h), so OpenImageIO picks the right writer.
+  write_atomic(path, [&](const std::string& tmp) {
+    auto writer = OIIO::ImageOutput::create(tmp);
     if (!writer) throw Error(path, "no image writer for '" + ext + "': " + OIIO::geterror());
-    if (!writer->open(tmp.string(), spec)) throw Error(path, "cannot create file: " + writer->geterror());
+    if (!writer->open(tmp, spec)) throw Error(path, "cannot create file: " + writer->geterror());
     bool ok = writer->write_image(OIIO::TypeDesc::FLOAT, out.data());
     std::string err = ok ? "" : writer->geterror();
-    if (!writer->close() || !ok) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw Error(path, "writing failed: " + err);
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path, "cannot move the finished file into place: " + ec.message());
-  }
+    if (!writer->close() || !ok) throw Error(path, "writing failed: " + (err.empty() ? writer->geterror() : err));
+  });
 }
 
 Image read_image(const std::string& path, Encoding encoding) {
@@ -93,8 +82,15 @@ Image read_image(const std::string& path, Encoding encoding) {
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) throw Error(path, "image has no pixels");
   Image image(spec.width, spec.height, spec.channelnames);
   if (int(image.channel_names.size()) != spec.nchannels) image = Image(spec.width, spec.height, std::vector<std::string>(spec.nchannels, "?"));
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data()))
-    throw Error(path, "cannot decode image data: " + in->geterror());
+  // A short or corrupt file is an error, never an image with its tail missing:
+  // OIIO reports a cut PNG or EXR through the return value, but a cut JPEG or
+  // TIFF (decoded as far as it goes) only through has_error().
+  const bool ok = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data());
+  if (!ok || in->has_error()) {
+    std::string why = in->geterror();
+    if (why.empty()) why = OIIO::geterror();
+    throw Error(path, "cannot decode image data (is the file truncated or corrupt?): " + (why.empty() ? "read failed" : why));
+  }
   bool eight_bit = !is_float_format(lower_extension(path)) && spec.format.basetype != OIIO::TypeDesc::FLOAT &&
                    spec.format.basetype != OIIO::TypeDesc::HALF;
   if (eight_bit && encoding == Encoding::Colour) {

@@ -222,13 +222,17 @@ size_t parse_header(const std::string& path, std::string_view file, PlyFile& ply
   while (true) {
     if (pos >= file.size()) {
       if (first) throw bad("not a PLY file (the file is empty; expected the 'ply' magic line)");
-      throw bad("missing end_header: the PLY header is incomplete");
+      throw bad("truncated: the file ends inside the PLY header (missing end_header)");
     }
     size_t nl = file.find('\n', pos);
     size_t line_end = nl == std::string_view::npos ? file.size() : nl;
     std::string_view line = file.substr(pos, line_end - pos);
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     pos = nl == std::string_view::npos ? file.size() : nl + 1;
+    // A last line without its line break was cut off: judging its words (a name
+    // cut short can repeat an earlier one) would misreport the truncation.
+    if (nl == std::string_view::npos && !first && split_ws(line) != std::vector<std::string_view>{"end_header"})
+      throw bad("truncated: the file ends inside the PLY header, in the middle of the line '" + std::string(line) + "'");
 
     if (first) {
       if (line != "ply") throw bad("not a PLY file (missing the 'ply' magic line)");

@@ -1,8 +1,6 @@
 // PLY writer: binary little endian, every property with its original type, lists
-// kept. Written to "<path>.tmp-<pid>" in the same folder and renamed over the
-// target, so a reader never sees a half-written file.
-#include <unistd.h>
-
+// kept. Written atomically (io/atomic_file.h), so a reader never sees a
+// half-written file.
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -10,6 +8,7 @@
 #include <limits>
 
 #include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
 #include "ptir/io/ply_detail.h"
 
 namespace ptir::io {
@@ -162,33 +161,29 @@ void write_ply(const std::string& path, const PlyFile& ply) {
   for (const std::string& c : ply.obj_info) check_line(path, c);
   for (const PlyElement& el : ply.elements) check_shapes(path, el);
 
-  const std::string tmp = path + ".tmp-" + std::to_string(static_cast<long>(::getpid()));
-  FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw Error(path, std::string("cannot write file: ") + std::strerror(errno));
-  Output out{f};
-  try {
-    const std::string header = header_text(ply);
-    out.write(header.data(), header.size());
-    for (const PlyElement& el : ply.elements) {
-      bool has_list = false;
-      for (const PlyProperty& p : el.properties) has_list |= p.is_list;
-      if (has_list)
-        write_list_rows(path, out, el);
-      else
-        write_fixed_rows(out, el);
+  write_atomic(path, [&](const std::string& tmp) {
+    FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) throw Error(path, std::string("cannot write file: ") + std::strerror(errno));
+    Output out{f};
+    try {
+      const std::string header = header_text(ply);
+      out.write(header.data(), header.size());
+      for (const PlyElement& el : ply.elements) {
+        bool has_list = false;
+        for (const PlyProperty& p : el.properties) has_list |= p.is_list;
+        if (has_list)
+          write_list_rows(path, out, el);
+        else
+          write_fixed_rows(out, el);
+      }
+    } catch (...) {
+      std::fclose(f);
+      throw;
     }
-  } catch (...) {
-    std::fclose(f);
-    std::remove(tmp.c_str());
-    throw;
-  }
-  if (std::fflush(f) != 0 && !out.error) out.error = errno ? errno : EIO;
-  if (std::fclose(f) != 0 && !out.error) out.error = errno ? errno : EIO;
-  if (!out.error && std::rename(tmp.c_str(), path.c_str()) != 0) out.error = errno;
-  if (out.error) {
-    std::remove(tmp.c_str());
-    throw Error(path, std::string("cannot write file: ") + std::strerror(out.error));
-  }
+    if (std::fflush(f) != 0 && !out.error) out.error = errno ? errno : EIO;
+    if (std::fclose(f) != 0 && !out.error) out.error = errno ? errno : EIO;
+    if (out.error) throw Error(path, std::string("cannot write file: ") + std::strerror(out.error));
+  });
 }
 
 }  // namespace ptir::io

@@ -51,7 +51,7 @@
 #include <vector>
 
 #include "ptir/accel/scene_accel.h"
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/optim/adam.h"
 #include "ptir/optim/checkpoint.h"
 #include "ptir/optim/losses.h"

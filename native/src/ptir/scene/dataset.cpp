@@ -1,4 +1,4 @@
-#include "ptir/io/dataset.h"
+#include "ptir/scene/dataset.h"
 
 #include <OpenImageIO/imageio.h>
 

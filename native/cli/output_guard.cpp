@@ -1,0 +1,102 @@
+#include "output_guard.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
+
+namespace fs = std::filesystem;
+
+namespace ptir::cli {
+
+namespace {
+
+bool same_entry(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  return fs::equivalent(a, b, ec) && !ec;
+}
+
+bool is_file(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+// The folder a relative file name is in ("." for a bare name).
+fs::path folder_of(const fs::path& file) { return file.has_parent_path() ? file.parent_path() : fs::path("."); }
+
+// Every string in a scene file that names an existing file (relative names are
+// taken beside the scene, as the scene loader does).
+void collect_named_files(const nlohmann::json& j, const fs::path& base, std::vector<std::string>& out) {
+  if (j.is_string()) {
+    const std::string s = j.get<std::string>();
+    if (s.empty() || s.size() > 4096) return;
+    const fs::path p(s);
+    const fs::path candidate = p.is_absolute() ? p : base / p;
+    if (is_file(candidate)) out.push_back(candidate.string());
+  } else if (j.is_structured()) {
+    for (const auto& item : j) collect_named_files(item, base, out);
+  }
+}
+
+// The input files given directly, and the files their scene files name.
+void input_files(const Inputs& in, std::vector<std::string>& direct, std::vector<std::string>& named) {
+  for (const std::string& f : in.files)
+    if (!f.empty() && is_file(f)) direct.push_back(f);
+  for (const std::string& s : in.scenes) {
+    if (s.empty() || !is_file(s)) continue;
+    direct.push_back(s);
+    std::ifstream f(s);
+    nlohmann::json j = nlohmann::json::parse(f, nullptr, /*allow_exceptions=*/false);
+    if (!j.is_discarded()) collect_named_files(j, folder_of(s), named);
+  }
+}
+
+[[noreturn]] void refuse(const std::string& output, const std::string& why) {
+  throw Error(output, why + "; refusing to overwrite inputs (choose another output, or pass --force)");
+}
+
+}  // namespace
+
+void add_force_flag(CLI::App* cmd, bool& force) {
+  cmd->add_flag("--force", force, "write the outputs even where they would replace input files");
+}
+
+void guard_outputs(const Inputs& inputs, const Outputs& outputs, bool force) {
+  if (force) return;
+  std::vector<std::string> direct, named;
+  input_files(inputs, direct, named);
+  for (const std::string& out : outputs.files) {
+    if (out.empty()) continue;
+    for (const std::vector<std::string>* list : {&direct, &named})
+      for (const std::string& in : *list)
+        if (same_entry(out, in)) refuse(out, "is an input file (" + in + ")");
+  }
+  for (const std::string& dir : outputs.folders) {
+    if (dir.empty()) continue;
+    for (const std::string& in : inputs.folders)
+      if (!in.empty() && same_entry(dir, in))
+        refuse(dir, "is the input folder " + in + " (outputs would be written among the inputs)");
+    for (const std::string& in : direct)
+      if (same_entry(dir, folder_of(in)))
+        refuse(dir, "holds the input file " + in + " (outputs would be written beside and over the inputs)");
+  }
+}
+
+void remove_stale_outputs(const std::vector<std::string>& folders, bool quiet, bool with_subfolders) {
+  for (const std::string& dir : folders) {
+    if (dir.empty()) continue;
+    size_t removed = io::remove_stale_temps(dir);
+    if (with_subfolders) {
+      std::error_code ec;
+      for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+        if (it->is_directory(ec)) removed += io::remove_stale_temps(it->path());
+    }
+    if (removed > 0 && !quiet)
+      std::fprintf(stderr, "removed %zu unfinished temporary file(s) left in %s by an interrupted run\n", removed, dir.c_str());
+  }
+}
+
+}  // namespace ptir::cli
