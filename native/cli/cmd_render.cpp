@@ -23,9 +23,10 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "brdf_option.h"
 #include "commands.h"
@@ -260,15 +261,13 @@ void report_render(const RenderOptions& o, const Scene& scene, const Camera& cam
                    camera.height, aov_name(*aov), gaussians, double(r.trace.hits) / std::max(1.0, samples), r.total_s);
   }
   if (o.stats_json.empty()) return;
-  std::ostringstream js;
-  js << "{\"width\": " << camera.width << ", \"height\": " << camera.height << ", \"spp\": " << settings.spp
-     << ", \"bounces\": " << settings.max_bounces << ", \"aov\": \"" << r.aov_text << "\", \"gaussians\": " << gaussians
-     << ", \"triangles\": " << triangle_count(scene) << ", \"lights\": " << scene.emitters.size()
-     << ", \"threads\": " << o.threads << ", \"load_s\": " << r.load_s << ", \"build_s\": " << r.build_s
-     << ", \"render_s\": " << r.render_s << ", \"total_s\": " << r.total_s << ", \"path_samples\": " << samples
-     << ", \"paths\": " << r.path.paths << ", \"vertices\": " << r.path.vertices
-     << ", \"shadow_rays\": " << r.path.shadow_rays << "}\n";
-  io::write_text_atomic(o.stats_json, js.str());
+  const nlohmann::ordered_json js = {
+      {"width", camera.width}, {"height", camera.height}, {"spp", settings.spp}, {"bounces", settings.max_bounces},
+      {"aov", r.aov_text}, {"gaussians", gaussians}, {"triangles", triangle_count(scene)},
+      {"lights", scene.emitters.size()}, {"threads", o.threads}, {"load_s", r.load_s}, {"build_s", r.build_s},
+      {"render_s", r.render_s}, {"total_s", r.total_s}, {"path_samples", samples}, {"paths", r.path.paths},
+      {"vertices", r.path.vertices}, {"shadow_rays", r.path.shadow_rays}};
+  io::write_text_atomic(o.stats_json, js.dump() + "\n");
 }
 
 int run_render(const RenderOptions& o, const CLI::App& cmd) {
