@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "ptir/material/bsdf.h"
@@ -87,6 +88,7 @@ TEST(ConstantEnvironment, PdfIntegratesToOneAndMatchesSampling) {
                   (2.0 * kPiD / n_phi);
     }
   }
+  std::printf("  integral of pdf over the sphere: %.9f\n", integral);
   EXPECT_NEAR(integral, 1.0, 1e-5);
   // Samples: unit directions, density = pdf(wi), radiance = eval(wi); uniform-sphere
   // moments E[z] = E[x y] = 0, E[z^2] = E[x^2] = 1/3 (N = 200000: sd ~ 0.0013).
@@ -104,6 +106,8 @@ TEST(ConstantEnvironment, PdfIntegratesToOneAndMatchesSampling) {
     mxx += s.wi.x * s.wi.x;
     mxy += s.wi.x * s.wi.y;
   }
+  std::printf("  E[z] %.5f  E[xy] %.5f  E[z^2] %.5f  E[x^2] %.5f (uniform sphere: 0 0 1/3 1/3)\n", mz / n, mxy / n,
+              mzz / n, mxx / n);
   EXPECT_NEAR(mz / n, 0.0, 0.006);
   EXPECT_NEAR(mxy / n, 0.0, 0.003);
   EXPECT_NEAR(mzz / n, 1.0 / 3.0, 0.004);
@@ -134,6 +138,9 @@ TEST(ConstantEnvironment, PlaneFurnaceMatchesQuadrature) {
       params.roughness = 0.5f;
       params.metallic = metallic;
       Vec3 expected = reflected_constant(model, params, Vec3(0, 0, 1), sky * 1.5f);
+      std::printf("  %s metallic %.0f: render %.5f %.5f %.5f, quadrature %.5f %.5f %.5f\n", to_string(model),
+                  metallic, centre_mean(img, 0, 4), centre_mean(img, 1, 4), centre_mean(img, 2, 4), expected.x, expected.y,
+                  expected.z);
       for (int c = 0; c < 3; ++c)
         EXPECT_NEAR(centre_mean(img, c, 4), expected[c], 0.02 * expected[c])
             << to_string(model) << " metallic " << metallic << " channel " << c;
@@ -183,6 +190,7 @@ TEST(ConstantEnvironment, ColourGradientMatchesFiniteDifferences) {
     // The copies are deep: the original keeps its colour.
     ASSERT_EQ(scene.environment.as<ConstantEnvironment>()->colour()[c], k[c]);
     double fd = (loss(plus) - loss(minus)) / (2.0 * h);
+    std::printf("  channel %d: replay gradient %.7g, central difference %.7g\n", c, g.environment[size_t(c)], fd);
     EXPECT_NEAR(g.environment[size_t(c)], fd, 1e-3 * std::fabs(fd) + 1e-4) << "channel " << c;
     EXPECT_GT(std::fabs(fd), 1e-2);
   }
