@@ -17,6 +17,8 @@ Measured, all in one run on this machine:
     (the object as its triangle mesh) at the same resolution, spp and bounces, and
     ours on that same mesh-only scene: ratio of render times ours / Cycles; also the
     mean-image difference ours(mesh) vs Cycles as a sanity check (same materials);
+  - the cost of the BSDF: the heterogeneous scene with the default Principled
+    BSDF against the paper's simplified Disney BRDF (--brdf disney-simplified);
   - spp scaling (8, 16, 32, 64) and bounce scaling (0, 1, 2, 4, 8) of ours on the
     heterogeneous scene.
 A benchmark, not a test: the machine may be shared, so compare ratios within a run.
@@ -52,11 +54,11 @@ def make_environment(ptir, path, width=128, height=64):
     ptir.write_image(str(path), img.astype(np.float32))
 
 
-def ours(cli, scene, out_dir, tag, spp, bounces, threads):
+def ours(cli, scene, out_dir, tag, spp, bounces, threads, brdf=None):
     out = out_dir / ("ours_%s.exr" % tag)
     stats = out_dir / ("ours_%s.json" % tag)
     cmd = [str(cli), "render", str(scene), "-o", str(out), "--spp", str(spp), "--bounces", str(bounces),
-           "--threads", str(threads), "--stats-json", str(stats), "-q"]
+           "--threads", str(threads), "--stats-json", str(stats), "-q"] + (["--brdf", brdf] if brdf else [])
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit("bench_path: error: ptir render failed:\n" + r.stderr[-3000:])
@@ -122,6 +124,8 @@ def main():
     row("ours: Gaussians + meshes", main_run)
     mesh_run = ours(cli, mesh, out, "mesh", args.spp, args.bounces, args.threads)
     row("ours: mesh-only version", mesh_run)
+    disney_run = ours(cli, hetero, out, "hetero_disney", args.spp, args.bounces, args.threads, "disney-simplified")
+    row("ours: Gaussians + meshes, paper BRDF", disney_run)
     scaling = []
     if not args.quick:
         for spp in (8, 16, 32, 64):
@@ -152,6 +156,9 @@ def main():
         cl = lambda a: np.minimum(a, 1.0)  # noqa: E731
         print("sanity: mean image ours(mesh) / Cycles = %.4f (both %d spp; same matched materials)"
               % (float(cl(img).mean()) / float(cl(ref).mean()), args.spp))
+    print()
+    print("BSDF cost: render time Principled (default) / simplified Disney (--brdf disney-simplified) = %.3f"
+          % (main_run["render_s"] / disney_run["render_s"]))
     if scaling:
         print()
         print("Scaling of ours on the heterogeneous scene")

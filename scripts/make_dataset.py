@@ -295,7 +295,7 @@ def main():
         "source": source,
         "resolution": [a.res, a.res],
         "train_views": a.train, "test_views": a.test,
-        "cycles": {"spp": a.spp, "bounces": a.bounces, "pixel_filter": "box 1px", "film": "transparent"},
+        "cycles": {"spp": a.spp, "bounces": a.bounces, "pixel_filter": {"type": "box", "width": 1.0}, "film": "transparent"},
         "train_env": a.train_env,
         "relight_envs": a.relight_envs,
         "envmaps": {k: os.path.relpath(v, out) for k, v in env_files.items()},

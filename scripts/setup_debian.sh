@@ -10,6 +10,7 @@ PACKAGES=(
   pybind11-dev python3-dev python3-numpy python3-pytest python3-skimage
   nlohmann-json3-dev libcli11-dev libgtest-dev
   blender xvfb libgl1-mesa-dri
+  colmap  # tests only: model_converter as an independent reference for the COLMAP reader
 )
 
 missing=()

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "ptir/core/error.h"
-#include "ptir/scene/shading_model.h"
+#include "ptir/material/shading_model.h"
 
 namespace ptir::cli {
 

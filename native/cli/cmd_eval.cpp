@@ -19,6 +19,7 @@
 
 #include "brdf_option.h"
 #include "commands.h"
+#include "filter_flags.h"
 #include "output_guard.h"
 #include "ptir/core/error.h"
 #include "ptir/eval/evaluate.h"
@@ -35,11 +36,12 @@ struct EvalOptions {
   uint64_t seed = 0;
   int sheet_views = 8;
   int threads = 0;
+  FilterFlags filter;
   bool quiet = false;
   bool force = false;
 };
 
-int run_eval(const EvalOptions& o) {
+int run_eval(const EvalOptions& o, const CLI::App& cmd) {
   std::optional<tbb::global_control> limit;
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
@@ -66,6 +68,13 @@ int run_eval(const EvalOptions& o) {
     s.brdf = m;
   }
   s.sheet_views = o.sheet_views;
+  {
+    // Switches not given keep the dataset's value (or Blender's default).
+    PixelFilter f;
+    apply_filter_flags(o.filter, cmd, f);
+    if (cmd.count("--pixel-filter")) s.filter_type = f.type;
+    if (cmd.count("--filter-width")) s.filter_width = f.width;
+  }
   if (!o.quiet) s.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   eval::EvalReport r = eval::evaluate(s);
   std::printf("%s", eval::metrics_markdown(r.metrics).c_str());
@@ -96,7 +105,8 @@ Runner add_eval_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);
-  return [o] { return run_eval(*o); };
+  add_filter_flags(cmd, &o->filter);
+  return [o, cmd] { return run_eval(*o, *cmd); };
 }
 
 }  // namespace ptir::cli

@@ -1,8 +1,10 @@
 // `ptir optimize`: recover per-Gaussian materials and the environment from
 // posed images (METHOD §6; src/ptir/optim/optimizer.h).
 //
-//   ptir optimize --dataset DIR --gaussians IN.ply [--scene scene.json] --out OUT
-//       [--iters N] [--spp N] [--bounces N] [--env latlong|sg|color] [--seed S] [--resume]
+//   ptir optimize --dataset DIR [--gaussians IN.ply] [--scene scene.json] --out OUT
+//       [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color] [--seed S] [--resume]
+//       [--layout L] [--images images_4] [--holdout 8 | --test-list F] [--undistort-cache D]
+//       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
 //       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [-q]
@@ -35,6 +37,7 @@
 #include "brdf_option.h"
 #include "commands.h"
 #include "output_guard.h"
+#include "filter_flags.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
@@ -58,8 +61,32 @@ struct OptimizeCommand {
   int threads = 0;
   bool quiet = false;
   OptimizeOptions opt;
+  FilterFlags filter;
   bool force = false;
+  // Real captures (docs/dataset_format.md).
+  std::string layout = "auto", images, test_list, undistort_cache, dataparser_transforms, world = "auto";
+  int holdout = 8;
+  bool black_background = false;
 };
+
+// Defaults that depend on the dataset: the environment model (24 SGs for real
+// captures, as the paper does; a lat-long map for synthetic sets) and the
+// Gaussians a 3DGS output folder names (point_cloud/iteration_N, largest N).
+// Returns false (a usage error) when --gaussians is missing and the dataset names none.
+bool resolve_dataset_defaults(OptimizeCommand& o) {
+  const std::string layout = o.layout == "auto" ? detect_layout(o.dataset) : o.layout;
+  if (o.opt.env == "auto") o.opt.env = (layout == "nerf" || layout.empty()) ? "latlong" : "sg";
+  if (o.gaussians.empty()) {
+    o.gaussians = layout_gaussians(o.dataset);
+    if (o.gaussians.empty()) {
+      std::fprintf(stderr, "ptir: error: --gaussians is required (%s names no trained Gaussians; a 3DGS output folder does)\n",
+                   o.dataset.c_str());
+      return false;
+    }
+    if (!o.quiet) std::fprintf(stderr, "optimize: Gaussians from the dataset: %s\n", o.gaussians.c_str());
+  }
+  return true;
+}
 
 std::atomic<bool> g_interrupted{false};
 
@@ -79,7 +106,7 @@ std::string duration_text(double s) {
 }
 
 // The optimiser for the command's options (inputs loaded; resumed when asked).
-std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, std::shared_ptr<const Dataset>* data) {
+std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, const CLI::App& cmd, std::shared_ptr<const Dataset>* data) {
   OptimizeOptions opt = o.opt;
   char extra = 0;
   if (std::sscanf(o.env_size.c_str(), "%dx%d%c", &opt.env_width, &opt.env_height, &extra) != 2 || opt.env_width < 1 ||
@@ -90,7 +117,18 @@ std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, std::shared_
   DatasetOptions dopt;
   dopt.split = o.split;
   dopt.prior_dir = o.prior;
+  dopt.layout = o.layout;
+  dopt.images = o.images;
+  dopt.holdout = o.holdout;
+  dopt.test_list = o.test_list;
+  dopt.undistort_dir = o.undistort_cache;
+  dopt.dataparser_transforms = o.dataparser_transforms;
+  dopt.world = o.world;
+  dopt.black_background = o.black_background;
   *data = load_dataset(o.dataset, dopt);
+  // The filter the views were rendered with (dataset.json), else Blender's default; the switches override it.
+  s.integrator.filter = dataset_pixel_filter(**data);
+  apply_filter_flags(o.filter, cmd, s.integrator.filter);
   auto note = [&](const std::string& line) {
     if (!o.quiet) std::fprintf(stderr, "note: %s\n", line.c_str());
   };
@@ -108,7 +146,7 @@ std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, std::shared_
   return optimizer;
 }
 
-int run_optimize(const OptimizeCommand& o) {
+int run_optimize(const OptimizeCommand& o, const CLI::App& cmd) {
   std::optional<tbb::global_control> limit;
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
@@ -116,7 +154,7 @@ int run_optimize(const OptimizeCommand& o) {
   guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
   remove_stale_outputs({o.out}, o.quiet);
   std::shared_ptr<const Dataset> data;
-  std::unique_ptr<Optimizer> optimizer = make_optimizer(o, &data);
+  std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
   const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (!o.quiet)
@@ -169,16 +207,23 @@ int run_optimize(const OptimizeCommand& o) {
 
 Runner add_optimize_command(CLI::App& app) {
   auto o = std::make_shared<OptimizeCommand>();
+  o->opt.env = "auto";  // resolved from the dataset's layout (resolve_dataset_defaults)
   CLI::App* cmd = app.add_subcommand("optimize", "Recover materials and lighting from posed images (inverse rendering)");
-  cmd->add_option("--dataset", o->dataset, "dataset folder (NeRF-synthetic / TensoIR layout: transforms_<split>.json)")
+  cmd->add_option("--dataset", o->dataset,
+                  "dataset folder: NeRF-synthetic/TensoIR (transforms_<split>.json), COLMAP (sparse/0), 3DGS output "
+                  "(cameras.json + cfg_args) or nerfstudio (transforms.json); docs/dataset_format.md")
       ->required();
-  cmd->add_option("--gaussians", o->gaussians, "input 3DGS .ply (geometry, fixed)")->required();
+  cmd->add_option("--gaussians", o->gaussians,
+                  "input 3DGS .ply (geometry, fixed); default for a 3DGS output folder: point_cloud/iteration_N (largest N)");
   cmd->add_option("--scene", o->scene, "scene file with meshes and lights to include (docs/scene_format.md)");
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_option("--iters", o->opt.iters, "iterations")->capture_default_str();
   cmd->add_option("--spp", o->opt.spp, "samples per pixel per iteration")->capture_default_str();
   cmd->add_option("--bounces", o->opt.bounces, "indirect bounces")->capture_default_str();
-  cmd->add_option("--env", o->opt.env, "environment model: latlong (texels), sg (24 spherical Gaussians) or color (one constant colour)")->capture_default_str();
+  cmd->add_option("--env", o->opt.env,
+                  "environment model: latlong (texels), sg (24 spherical Gaussians) or color (one constant colour); "
+                  "auto: sg for real captures, latlong for NeRF-synthetic sets")
+      ->capture_default_str();
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();
   cmd->add_option("--env-init", o->opt.env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
   cmd->add_flag("--fix-env", o->opt.fix_env, "keep the --env-init environment fixed (known lighting)");
@@ -197,7 +242,22 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);
-  return [o] { return run_optimize(*o); };
+  cmd->add_option("--layout", o->layout, "dataset layout: auto, nerf, colmap, 3dgs, nerfstudio")->capture_default_str();
+  cmd->add_option("--images", o->images, "real captures: image folder (e.g. images_4; intrinsics are scaled to it)");
+  cmd->add_option("--holdout", o->holdout, "real captures: every Nth image (name order) is a test view (0: none)")
+      ->capture_default_str();
+  cmd->add_option("--test-list", o->test_list, "real captures: file of test image names, one per line (instead of --holdout)");
+  cmd->add_option("--undistort-cache", o->undistort_cache,
+                  "real captures: folder for the undistorted images (default DATASET/ptir_undistorted/<images>)");
+  cmd->add_option("--dataparser-transforms", o->dataparser_transforms,
+                  "nerfstudio: splatfacto's dataparser_transforms.json (cameras into its Gaussians' frame)");
+  cmd->add_option("--world", o->world, "nerfstudio world frame: auto, data, dataparser, colmap")->capture_default_str();
+  cmd->add_flag("--black-background", o->black_background, "pixels that are exactly black are background (not supervised)");
+  add_filter_flags(cmd, &o->filter);
+  return [o, cmd] {
+    if (!resolve_dataset_defaults(*o)) return 2;
+    return run_optimize(*o, *cmd);
+  };
 }
 
 }  // namespace ptir::cli

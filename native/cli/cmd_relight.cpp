@@ -41,6 +41,7 @@
 #include "commands.h"
 #include "image_budget.h"
 #include "output_guard.h"
+#include "filter_flags.h"
 #include "progress.h"
 #include "ptir/core/error.h"
 #include "ptir/eval/relight.h"
@@ -73,6 +74,7 @@ struct RelightOptions {
   bool transparent = false;
   uint64_t seed = 0;
   int threads = 0;
+  FilterFlags filter;
   bool quiet = false;
   bool force = false;
   double max_memory_gib = 0;
@@ -242,6 +244,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   if (o.scene.empty() || cmd.count("--bounces")) is.max_bounces = o.bounces;
   if (cmd.count("--seed")) is.seed = o.seed;
   cli::apply_brdf_option(o.brdf, is.brdf);
+  apply_filter_flags(o.filter, cmd, is.filter);
 
   fs::create_directories(o.output);
   for (size_t i = 0; i < cameras.size(); ++i) render_relit_view(o, tracer, is, cameras[i], safe_name(cameras[i].name, i));
@@ -284,6 +287,7 @@ Runner add_relight_command(CLI::App& app) {
   cmd->add_flag("--transparent", o->transparent, "leave the directly seen environment out (alpha = coverage)");
   cmd->add_option("--seed", o->seed, "random seed");
   cli::add_brdf_option(cmd, &o->brdf);
+  add_filter_flags(cmd, &o->filter);
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_option("-o,--output", o->output, "output folder")->required();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");

@@ -30,6 +30,7 @@
 
 #include "brdf_option.h"
 #include "commands.h"
+#include "filter_flags.h"
 #include "image_budget.h"
 #include "output_guard.h"
 #include "ptir/accel/scene_accel.h"
@@ -75,6 +76,7 @@ struct RenderOptions {
   float env_rotation = 0.0f;
   int k = 32;
   int threads = 0;
+  FilterFlags filter;
   std::string stats_json;
   bool quiet = false;
   bool force = false;
@@ -137,6 +139,7 @@ void apply_integrator_flags(const RenderOptions& o, const CLI::App& cmd, Integra
   if (o.no_geometric_criterion) s.geometric_criterion = false;
   if (cmd.count("--self-intersection"))
     s.self_intersection = parse_self_intersection(o.self_intersection, "--self-intersection");
+  apply_filter_flags(o.filter, cmd, s.filter);
   if (s.spp < 1) throw Error("--spp must be at least 1");
   if (s.max_bounces < 0) throw Error("--bounces must be at least 0");
 }
@@ -188,8 +191,7 @@ void load_scene_form(const RenderOptions& o, const CLI::App& cmd, Scene& scene, 
     const int64_t w = o.width > 0 ? o.width : std::llround(double(o.height) * camera.width / camera.height);
     const int64_t h = o.height > 0 ? o.height : std::llround(double(o.width) * camera.height / camera.width);
     check_image_budget(w, h, o.max_memory_gib, "--width/--height");
-    camera.width = int(std::max<int64_t>(1, w));
-    camera.height = int(std::max<int64_t>(1, h));
+    camera = camera.resized(int(std::max<int64_t>(1, w)), int(std::max<int64_t>(1, h)));
   }
 }
 
@@ -313,6 +315,7 @@ int run_render(const RenderOptions& o, const CLI::App& cmd) {
     AovSettings as;
     as.spp = settings.spp;
     as.seed = settings.seed;
+    as.filter = settings.filter;
     as.interaction = settings.interaction;
     image = render_aov(tracer.accel(), camera, *aov, as, control, &report.trace);
   }
@@ -346,6 +349,7 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--spp", o->spp, "samples per pixel (default: the scene's, 32; AOVs: 1 = pixel centres)");
   cmd->add_option("--bounces", o->bounces, "indirect bounces (0: direct light only; default: the scene's, 2)");
   cmd->add_option("--seed", o->seed, "random seed (same seed, same image, on any thread count)");
+  add_filter_flags(cmd, &o->filter);
   cmd->add_option("--interaction", o->interaction, "Gaussian interaction: aggregate or discrete");
   cli::add_brdf_option(cmd, &o->brdf);
   cmd->add_option("--tau-g", o->tau_g, "validity threshold on accumulated opacity");

@@ -64,6 +64,21 @@ void bind_geometry(py::module_& m) {
       .def_readonly("width", &Camera::width)
       .def_readonly("height", &Camera::height)
       .def_readonly("fov_x", &Camera::fov_x)
+      .def_readonly("fx", &Camera::fx)
+      .def_readonly("fy", &Camera::fy)
+      .def_readonly("cx", &Camera::cx)
+      .def_readonly("cy", &Camera::cy)
+      .def_property_readonly("camera_to_world",
+                             [](const Camera& c) {
+                               // 4x4 row-major, NeRF convention (camera looks down -z, +y up).
+                               const Affine& a = c.cam_to_world;
+                               py::list rows;
+                               for (int r = 0; r < 3; ++r)
+                                 rows.append(py::make_tuple(a.linear.m[r][0], a.linear.m[r][1], a.linear.m[r][2],
+                                                            a.translation[r]));
+                               rows.append(py::make_tuple(0.0f, 0.0f, 0.0f, 1.0f));
+                               return rows;
+                             })
       .def("ray", [](const Camera& c, float px, float py_) {
         Ray r = c.generate_ray(px, py_);
         return py::make_tuple(py::make_tuple(r.o.x, r.o.y, r.o.z), py::make_tuple(r.d.x, r.d.y, r.d.z));

@@ -1,7 +1,7 @@
 // Python bindings of the inversion: datasets and the optimiser (the same loop as
 // `ptir optimize`), with a per-iteration callback and cancellation.
 //
-//   ds = ptir.load_dataset("DIR", split="train", prior=None)
+//   ds = ptir.load_dataset("DIR", split="train", prior=None, layout="auto", images="", holdout=8, ...)
 //   opt = ptir.Optimizer(ds or "DIR", "in.ply" or field, scene=None, iters=800, spp=32, ...)
 //   opt.run(out="OUT", callback=lambda info: True, checkpoint_every=50)   # "finished" | "cancelled"
 //   opt.step(); opt.cancel(); opt.load_checkpoint(p); opt.write_outputs(d)
@@ -112,6 +112,7 @@ std::unique_ptr<PyOptimizer> make_optimizer(py::object dataset, py::object gauss
   if (threads && *threads < 1) throw Error("threads must be at least 1");
 
   auto data = dataset_from(dataset, split, prior);
+  s.integrator.filter = dataset_pixel_filter(*data);  // the views' own filter, else Blender's default
   std::shared_ptr<GaussianField> field;
   if (py::isinstance<GaussianField>(gaussians)) field = std::make_shared<GaussianField>(gaussians.cast<const GaussianField&>());
   else if (py::isinstance<py::str>(gaussians) || py::hasattr(gaussians, "__fspath__")) {

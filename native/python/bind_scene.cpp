@@ -65,6 +65,8 @@ py::dict integrator_dict(const IntegratorSettings& s) {
   d["tau_g"] = s.interaction.tau_g;
   d["geometric_criterion"] = s.geometric_criterion;
   d["self_intersection"] = self_intersection_name(s.self_intersection);
+  d["pixel_filter"] = pixel_filter_name(s.filter.type);
+  d["filter_width"] = s.filter.width;
   d["self_range_scale"] = s.self_range_scale;
   d["fixed_offset"] = s.fixed_offset;
   d["fixed_range"] = s.fixed_range;
@@ -118,10 +120,13 @@ void def_scene_renders(SceneClass& cls) {
   cls
       .def("render_aov",
            [](PyScene& s, const Camera& cam, const std::string& aov, int spp, uint64_t seed, const std::string& mode,
-              float tau_g) {
+              float tau_g, std::optional<std::string> pixel_filter, std::optional<float> filter_width) {
              AovSettings settings;
              settings.spp = spp;
              settings.seed = seed;
+             settings.filter = s.scene.integrator.filter;
+             if (pixel_filter) settings.filter.type = parse_pixel_filter(*pixel_filter);
+             if (filter_width) settings.filter.width = *filter_width;
              settings.interaction.mode = parse_interaction_mode(mode, "interaction mode");
              settings.interaction.tau_g = tau_g;
              Aov which = parse_aov(aov);
@@ -133,8 +138,10 @@ void def_scene_renders(SceneClass& cls) {
              return image_array(img);
            },
            py::arg("camera"), py::arg("aov") = "preview", py::arg("spp") = 1, py::arg("seed") = 0,
-           py::arg("mode") = "aggregate", py::arg("tau_g") = 0.5f,
-           "Render an AOV; returns float32 (height, width, channels), last channel = coverage.")
+           py::arg("mode") = "aggregate", py::arg("tau_g") = 0.5f, py::arg("pixel_filter") = py::none(),
+           py::arg("filter_width") = py::none(),
+           "Render an AOV; returns float32 (height, width, channels), last channel = coverage. spp > 1 draws the "
+           "sample offsets from the pixel filter (default: the scene's).")
       .def("trace_hits",
            [](PyScene& s, std::array<float, 3> o, std::array<float, 3> d, float tmin, float tmax) {
              Ray ray;
@@ -157,7 +164,7 @@ void def_scene_renders(SceneClass& cls) {
            [](PyScene& s, py::object camera, std::optional<int> spp, std::optional<int> bounces,
               std::optional<uint64_t> seed, std::optional<std::string> interaction,
               std::optional<bool> geometric_criterion, std::optional<std::string> self_intersection,
-              std::optional<int> threads) {
+              std::optional<int> threads, std::optional<std::string> pixel_filter, std::optional<float> filter_width) {
              Camera cam = pick_camera(s, camera);
              IntegratorSettings settings = s.scene.integrator;
              if (spp) settings.spp = *spp;
@@ -167,6 +174,8 @@ void def_scene_renders(SceneClass& cls) {
              if (geometric_criterion) settings.geometric_criterion = *geometric_criterion;
              if (self_intersection) settings.self_intersection = parse_self_intersection(*self_intersection);
              if (threads && *threads < 1) throw Error("threads must be at least 1");
+             if (pixel_filter) settings.filter.type = parse_pixel_filter(*pixel_filter);
+             if (filter_width) settings.filter.width = *filter_width;
              Image img;
              {
                py::gil_scoped_release release;
@@ -183,7 +192,7 @@ void def_scene_renders(SceneClass& cls) {
            py::arg("camera") = py::none(), py::arg("spp") = py::none(), py::arg("bounces") = py::none(),
            py::arg("seed") = py::none(), py::arg("interaction") = py::none(),
            py::arg("geometric_criterion") = py::none(), py::arg("self_intersection") = py::none(),
-           py::arg("threads") = py::none(),
+           py::arg("threads") = py::none(), py::arg("pixel_filter") = py::none(), py::arg("filter_width") = py::none(),
            "Path-trace an image: float32 (height, width, 4), linear RGB + coverage. camera: None (the first), a "
            "name, an index or a ptir.Camera; other arguments override the scene's integrator settings.");
 }

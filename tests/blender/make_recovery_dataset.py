@@ -245,6 +245,9 @@ def main():
     with open(os.path.join(out, "truth.json"), "w") as f:
         json.dump({"parts": truth, "views": args.views, "res": args.res, "samples": args.samples,
                    "material": args.material}, f, indent=1)
+    # The pixel filter of the renders, so `ptir optimize` draws its samples from the same one.
+    with open(os.path.join(out, "dataset.json"), "w") as f:
+        json.dump({"format": "ptir-dataset/1", "cycles": {"pixel_filter": {"type": "box", "width": 1.0}}}, f, indent=1)
     print("make_recovery_dataset: %d Gaussians, %d views %dx%d -> %s" % (start, args.views, args.res, args.res, out))
 
 

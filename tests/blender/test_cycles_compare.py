@@ -41,7 +41,8 @@ Bounds and their justification (measured on this machine, Blender 3.4.1, 128 x 1
   the errors it must catch: one bounce fewer in the Cornell box is 6.0 %, a wrong
   area-light unit (pi/4) 21 %.
   PSNR >= 32 dB for the Gaussian sphere (ours at 256 spp): the Cycles pair gives
-  the noise floor (pair PSNR 37.6 dB for m0, 36.3 dB for m1); measured 39.0 dB (m0)
+  the noise floor (pair PSNR 37.6 dB for m0, 36.3 dB for m1); measured 39.0 dB (m0; 42.0 dB since
+  the stratified samples of math/path_sampler.h)
   and 36.5 dB (m1, PTIR_CYCLES_FULL=1) -- at the noise level, i.e. the 20480 flat
   Gaussians reproduce the sphere (E_mean 0.04 %). The test requires the pair to reach 30 dB so that a pass
   means the Gaussian surface, not luck in the noise, explains the image.

@@ -232,3 +232,35 @@ TEST(Dataset, ClearErrors) {
   e = error_of([&] { load_dataset(d.string()); });
   EXPECT_NE(e.find("train_000/rgba.png"), std::string::npos) << e;
 }
+
+TEST(Dataset, PixelFilterFromDatasetJson) {
+  fs::path d = fresh_dir("filter");
+  std::vector<unsigned char> b(4 * 4 * 3, 128);
+  write_png_bytes(d / "a.png", 4, 4, 3, b);
+  write_transforms(d / "transforms_train.json", {"a"});
+  // No dataset.json: unset, rendered with Blender's default.
+  auto none = load_dataset(d.string());
+  EXPECT_FALSE(none->pixel_filter.has_value());
+  EXPECT_EQ(dataset_pixel_filter(*none).type, PixelFilterType::BlackmanHarris);
+  EXPECT_FLOAT_EQ(dataset_pixel_filter(*none).width, 1.5f);
+  // The structured record, and the older text of scripts/make_dataset.py.
+  std::ofstream(d / "dataset.json") << R"({"cycles": {"pixel_filter": {"type": "gaussian", "width": 2.0}}})";
+  auto g = load_dataset(d.string());
+  ASSERT_TRUE(g->pixel_filter.has_value());
+  EXPECT_EQ(g->pixel_filter->type, PixelFilterType::Gaussian);
+  EXPECT_FLOAT_EQ(g->pixel_filter->width, 2.0f);
+  std::ofstream(d / "dataset.json") << R"({"cycles": {"spp": 64, "pixel_filter": "box 1px"}})";
+  auto box = load_dataset(d.string());
+  EXPECT_EQ(box->pixel_filter->type, PixelFilterType::Box);
+  EXPECT_FLOAT_EQ(box->pixel_filter->width, 1.0f);
+  // Other makers' dataset.json without the entry: unset.
+  std::ofstream(d / "dataset.json") << R"({"format": "x"})";
+  EXPECT_FALSE(load_dataset(d.string())->pixel_filter.has_value());
+  // Malformed: an error naming the file.
+  std::ofstream(d / "dataset.json") << R"({"cycles": {"pixel_filter": {"type": "mitchell", "width": 1}}})";
+  std::string e = error_of([&] { load_dataset(d.string()); });
+  EXPECT_NE(e.find("dataset.json"), std::string::npos) << e;
+  EXPECT_NE(e.find("mitchell"), std::string::npos) << e;
+  std::ofstream(d / "dataset.json") << R"({"cycles": {"pixel_filter": 3}})";
+  EXPECT_NE(error_of([&] { load_dataset(d.string()); }).find("dataset.json"), std::string::npos);
+}

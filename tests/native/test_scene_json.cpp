@@ -209,6 +209,29 @@ TEST(SceneJson, DefaultsAndOtherEnvironments) {
   EXPECT_FALSE(none.environment.present());
 }
 
+TEST(SceneJson, PixelFilter) {
+  // Default: Blender's Blackman-Harris, 1.5 px; the scene file's values otherwise.
+  Scene def = scene_from_json_string("{}", "");
+  EXPECT_EQ(def.integrator.filter.type, PixelFilterType::BlackmanHarris);
+  EXPECT_FLOAT_EQ(def.integrator.filter.width, 1.5f);
+  Scene box = scene_from_json_string(R"({"integrator": {"pixel_filter": "box", "filter_width": 1.0}})", "");
+  EXPECT_EQ(box.integrator.filter.type, PixelFilterType::Box);
+  EXPECT_FLOAT_EQ(box.integrator.filter.width, 1.0f);
+  Scene g = scene_from_json_string(R"({"integrator": {"pixel_filter": "gaussian", "filter_width": 0}})", "");
+  EXPECT_EQ(g.integrator.filter.type, PixelFilterType::Gaussian);
+  EXPECT_FLOAT_EQ(g.integrator.filter.width, 0.0f);
+  auto message = [](const char* text) {
+    try {
+      scene_from_json_string(text, "s.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message(R"({"integrator": {"filter_width": -1}})").find("filter_width"), std::string::npos);
+  EXPECT_NE(message(R"({"integrator": {"pixel_filter": "mitchell"}})").find("pixel_filter"), std::string::npos);
+}
+
 TEST(SceneJson, GaussianTransformMatchesCovarianceAlgebra) {
   GaussianField f = test::random_field(20, 7);
   GaussianField orig = f;

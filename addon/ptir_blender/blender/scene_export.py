@@ -9,9 +9,12 @@ the engine exactly as Cycles does):
     mesh (modifiers applied), triangulated (loop triangles), in world space
     (matrix_world applied), one binary PLY per object and material slot used,
     with that slot's material:
-        Principled BSDF -> base_color (linear), roughness, metallic; Emission x
-                           Emission Strength -> emission
-        Diffuse BSDF    -> base_color, roughness 1, metallic 0
+        Principled BSDF -> shader "principled" (distribution GGX) or
+                           "principled-multiscatter" (Multiscatter GGX), base_color
+                           (linear), roughness, metallic, specular, specular_tint;
+                           Emission x Emission Strength -> emission. The engine's
+                           default model is Cycles' Principled v1 (Blender 3.x)
+        Diffuse BSDF    -> shader "diffuse" (Oren-Nayar), base_color, roughness
         Glossy BSDF     -> base_color, roughness, metallic 1
         Emission        -> emission = Color x Strength, base_color black
         Mix / Add Shader-> the inputs' parameters mixed by Fac (Add: summed emission)
@@ -64,7 +67,21 @@ def _clamp01(x):
 
 # ---------------------------------------------------------------- materials
 
-DEFAULT_MATERIAL = {"base_color": [0.8, 0.8, 0.8], "roughness": 0.5, "metallic": 0.0}
+DEFAULT_MATERIAL = {"shader": "principled", "base_color": [0.8, 0.8, 0.8], "roughness": 0.5, "metallic": 0.0,
+                    "specular": 0.5, "specular_tint": 0.0}
+
+
+def _principled_shader(node):
+    """The engine shader name of a Principled BSDF node's distribution."""
+    return "principled-multiscatter" if getattr(node, "distribution", "GGX") == "MULTI_GGX" else "principled"
+
+
+def _optional_float(node, name, default, warnings, what):
+    """A socket's value when the node has that socket (Blender 3.x names), else default."""
+    if node.inputs.get(name) is None:
+        return default
+    v = _socket_value(node, name, warnings, what)
+    return default if v is None else float(v)
 
 
 def _socket_value(node, name, warnings, what):
@@ -97,9 +114,12 @@ def _shader_params(node, warnings, what, depth=0):
         sock = node.inputs[0]
         return _shader_params(sock.links[0].from_node if sock.is_linked else None, warnings, what, depth + 1)
     if t == "BSDF_PRINCIPLED":
-        p = {"base_color": _rgb(_socket_value(node, "Base Color", warnings, what)),
+        p = {"shader": _principled_shader(node),
+             "base_color": _rgb(_socket_value(node, "Base Color", warnings, what)),
              "roughness": float(_socket_value(node, "Roughness", warnings, what)),
              "metallic": float(_socket_value(node, "Metallic", warnings, what)),
+             "specular": _optional_float(node, "Specular", 0.5, warnings, what),
+             "specular_tint": _optional_float(node, "Specular Tint", 0.0, warnings, what),
              "emission": [0.0, 0.0, 0.0]}
         em = _socket_value(node, "Emission", warnings, what)
         strength = _socket_value(node, "Emission Strength", warnings, what)
@@ -112,7 +132,8 @@ def _shader_params(node, warnings, what, depth=0):
                 warnings.append("%s: Principled %s = %g is not modelled (ignored)" % (what, name, float(v)))
         return p
     if t == "BSDF_DIFFUSE":
-        return {"base_color": _rgb(_socket_value(node, "Color", warnings, what)), "roughness": 1.0, "metallic": 0.0,
+        return {"shader": "diffuse", "base_color": _rgb(_socket_value(node, "Color", warnings, what)),
+                "roughness": float(_socket_value(node, "Roughness", warnings, what)), "metallic": 0.0,
                 "emission": [0.0, 0.0, 0.0]}
     if t in ("BSDF_GLOSSY", "BSDF_ANISOTROPIC"):
         return {"base_color": _rgb(_socket_value(node, "Color", warnings, what)),
@@ -139,7 +160,11 @@ def _shader_params(node, warnings, what, depth=0):
         norm = [(w / total if total > 0 else 1.0 / len(present), p) for w, p in present]
         out = {"base_color": [sum(w * p["base_color"][i] for w, p in norm) for i in range(3)],
                "roughness": sum(w * p["roughness"] for w, p in norm),
-               "metallic": sum(w * p["metallic"] for w, p in norm)}
+               "metallic": sum(w * p["metallic"] for w, p in norm),
+               "specular": sum(w * p.get("specular", 0.5) for w, p in norm),
+               "specular_tint": sum(w * p.get("specular_tint", 0.0) for w, p in norm)}
+        shaders = {p.get("shader", "principled") for _, p in norm}
+        out["shader"] = shaders.pop() if len(shaders) == 1 else "principled"
         if t == "ADD_SHADER":
             out["emission"] = [sum(p["emission"][i] for _, p in present) for i in range(3)]
         else:
@@ -187,6 +212,9 @@ def material_params(material, warnings=None):
             break
     p["roughness"] = _clamp01(p["roughness"])
     p["metallic"] = _clamp01(p["metallic"])
+    p["specular"] = min(max(float(p.get("specular", 0.5)), 0.0), 12.0)
+    p["specular_tint"] = _clamp01(p.get("specular_tint", 0.0))
+    p.setdefault("shader", "principled")
     p["emission"] = [max(0.0, float(x)) for x in p["emission"]]
     p["name"] = material.name
     return p
@@ -411,12 +439,27 @@ def _visible_objects(scene, view_layer):
         yield obj
 
 
+# Cycles' Film > Pixel Filter (Blender's default: Blackman-Harris, 1.5 px): the
+# engine draws its camera samples from the same filter, with Cycles' width convention.
+_PIXEL_FILTERS = {"BLACKMAN_HARRIS": "blackman_harris", "GAUSSIAN": "gaussian", "BOX": "box"}
+
+
+def film_filter(scene):
+    """{"pixel_filter", "filter_width"} of the scene's Cycles film; {} without the Cycles add-on."""
+    cy = getattr(scene, "cycles", None)
+    if cy is None or not hasattr(cy, "filter_width"):
+        return {}
+    return {"pixel_filter": _PIXEL_FILTERS.get(getattr(cy, "pixel_filter_type", ""), "blackman_harris"),
+            "filter_width": float(cy.filter_width)}
+
+
 def export_scene(context_or_scene, out_dir, scene_name="scene.json", integrator=None, objects=None,
                  warnings=None, include_cameras=True):
     """Exports the Blender scene to out_dir (created); returns the scene file's path.
 
     context_or_scene: bpy.context (its scene and view layer) or a bpy.types.Scene.
-    integrator: dict of integrator settings to write (spp, bounces, ...); None: none.
+    integrator: dict of integrator settings to write (spp, bounces, ...); the film's pixel filter is
+        always added (the dict's own pixel_filter / filter_width win).
     objects: restrict mesh/light export to these objects (default: all visible).
     warnings: a list that receives messages about approximations and skipped items.
     """
@@ -466,8 +509,9 @@ def export_scene(context_or_scene, out_dir, scene_name="scene.json", integrator=
             doc["cameras"] = cams
         else:
             warnings.append("no (perspective) camera: the scene file has none")
+    integrator = {**film_filter(scene), **(integrator or {})}
     if integrator:
-        doc["integrator"] = dict(integrator)
+        doc["integrator"] = integrator
     path = scene_file.write_scene(os.path.join(out_dir, scene_name), doc)
     for w in warnings:
         print("ptir export: warning: %s" % w)

@@ -96,11 +96,12 @@ def linear_to_srgb(c):
 
 
 def write_gaussians_ply(path, g, opacity=OPACITY, albedo=None, roughness=None, metallic=None, write_normals=True,
-                        sh_rest=45, display_colour=None, comment=None):
+                        sh_rest=45, display_colour=None, comment=None, specular=None, specular_tint=None):
     """Writes Gaussians (dict of position, scale, rotation[, normal]) as a 3DGS PLY, atomically.
 
-    opacity, albedo (linear RGB), roughness and metallic broadcast to n Gaussians;
-    the material properties are written only when given. The SH DC term is
+    opacity, albedo (linear RGB), roughness, metallic, specular and specular_tint
+    (Blender's Principled inputs) broadcast to n Gaussians; the material properties
+    are written only when given. The SH DC term is
     display_colour when given (display-encoded, as a trainer would store it), else
     the albedo in display (sRGB) encoding, else grey; higher SH coefficients are
     zero. Normals are written when write_normals and g has "normal" (else zeros:
@@ -121,6 +122,8 @@ def write_gaussians_ply(path, g, opacity=OPACITY, albedo=None, roughness=None, m
         names.append("roughness")
     if metallic is not None:
         names.append("metallic")
+    fixed = [(k, v) for k, v in (("specular", specular), ("specular_tint", specular_tint)) if v is not None]
+    names += [k for k, _ in fixed]
     rec = np.zeros(n, dtype=[(name, "<f4") for name in names])
     for i, axis in enumerate("xyz"):
         rec[axis] = pos[:, i]
@@ -147,6 +150,8 @@ def write_gaussians_ply(path, g, opacity=OPACITY, albedo=None, roughness=None, m
         rec["roughness"] = np.broadcast_to(np.asarray(roughness, np.float64), (n,))
     if metallic is not None:
         rec["metallic"] = np.broadcast_to(np.asarray(metallic, np.float64), (n,))
+    for k, v in fixed:
+        rec[k] = np.broadcast_to(np.asarray(v, np.float64), (n,))
     header = "ply\nformat binary_little_endian 1.0\n"
     if comment:
         header += "comment %s\n" % comment.replace("\n", " ")

@@ -227,6 +227,11 @@ void build_tracer(EvalRun& run) {
   run.is.max_bounces = s.bounces;
   if (s.brdf) run.is.brdf = *s.brdf;
   run.is.seed = s.seed;
+  run.is.filter = dataset_pixel_filter(*run.data);
+  if (s.filter_type) run.is.filter.type = *s.filter_type;
+  if (s.filter_width) run.is.filter.width = *s.filter_width;
+  PixelFilterSampler{run.is.filter};  // validates the width before any rendering
+  run.as.filter = run.is.filter;
   run.as.spp = s.aov_spp;
   run.as.seed = s.seed;
   run.as.interaction = run.is.interaction;

@@ -35,7 +35,8 @@
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/render_control.h"
-#include "ptir/scene/shading_model.h"
+#include "ptir/material/shading_model.h"
+#include "ptir/math/pixel_filter.h"
 
 namespace ptir::eval {
 
@@ -55,6 +56,9 @@ struct EvalSettings {
   int aov_spp = 16;               // jittered AOV samples (GT passes are pixel averages)
   uint64_t seed = 0;
   std::optional<BsdfModel> brdf;  // surface model (unset: the scene file's, else principled)
+  // Pixel filter; what is unset comes from the dataset (dataset.json), else Blender's default.
+  std::optional<PixelFilterType> filter_type;
+  std::optional<float> filter_width;
   int sheet_views = 8;            // contact sheets show the first N views (0: no sheets)
   std::function<void(const std::string&)> log;  // progress lines (optional)
   RenderControl control;          // cancel / progress of each render

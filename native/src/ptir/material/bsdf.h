@@ -16,7 +16,7 @@
 #include "ptir/material/material_params.h"
 #include "ptir/material/oren_nayar.h"
 #include "ptir/material/principled_bsdf.h"
-#include "ptir/scene/shading_model.h"
+#include "ptir/material/shading_model.h"
 
 namespace ptir {
 

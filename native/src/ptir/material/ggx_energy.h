@@ -1,6 +1,8 @@
-// Directional albedo of single-scattering GGX (separable exact Smith G, F = 1):
+// Directional albedo of single-scattering GGX with the height-correlated Smith G
+// (as the single-scattering part of Cycles' Multiscatter GGX) and F = 1:
 //
-//   E(mu_o, r) = int_{H+} D(h) G1(wo) G1(wi) / (4 mu_o) dwi,   alpha = r^2,  mu_o = n.wo
+//   E(mu_o, r) = int_{H+} D(h) G2(wo, wi) / (4 mu_o) dwi,   G2 = 1 / (1 + Lambda(wo) + Lambda(wi)),
+//   alpha = r^2,  mu_o = n.wo
 //
 // used by the multiple-scattering energy compensation of the Principled BSDF's
 // "Multiscatter GGX" distribution (Turquin 2019, "Practical multiple scattering
@@ -9,7 +11,7 @@
 // The table (kGgxEnergySize^2 nodes, mu_o in [0, 1] at i / (N - 1), roughness
 // r in [0, 1] at j / (N - 1)) is computed once, at first
 // use, by stratified visible-normal sampling (48 x 48 strata per node, warped toward the NDF tail; the
-// estimator of E under VNDF sampling is G1(wi), so every sample is cheap and
+// estimator of E under VNDF sampling is G2 / G1(wo), so every sample is cheap and
 // bounded by 1). Lookups interpolate bilinearly. Measured error against adaptive quadrature: see test_principled.cpp.
 #pragma once
 

@@ -60,6 +60,20 @@ float smith_G1_dalpha(Vec3 w, float alpha) {
 
 }  // namespace
 
+float smith_lambda(Vec3 w, float alpha) {
+  const float c2 = w.z * w.z;
+  if (!(c2 > 0.0f)) return 0.0f;
+  const float t2 = sin2_theta(w) / c2;  // tan^2
+  return 0.5f * (std::sqrt(1.0f + alpha * alpha * t2) - 1.0f);
+}
+
+float smith_lambda_dalpha(Vec3 w, float alpha) {
+  const float c2 = w.z * w.z;
+  if (!(c2 > 0.0f)) return 0.0f;
+  const float t2 = sin2_theta(w) / c2;
+  return 0.5f * alpha * t2 / std::sqrt(1.0f + alpha * alpha * t2);
+}
+
 float fresnel_dielectric(float cosi, float eta) {
   const float c = std::fabs(cosi);
   float g = eta * eta - 1.0f + c * c;
@@ -99,6 +113,7 @@ PrincipledBsdf::PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatt
 
   G1o_ = ggx_smith_G1(wo, alpha_);
   multiscatter_ = multiscatter && p.roughness > kMultiscatterMinRoughness;
+  lambda_o_ = smith_lambda(wo, alpha_);
   if (multiscatter_) {
     GgxEnergy e = ggx_energy(wo.z, r_);
     ms_k_ = 1.0f / e.E - 1.0f;
@@ -128,7 +143,10 @@ PrincipledBsdf::SpecularTerms PrincipledBsdf::specular_terms(Vec3 wi) const {
   t.h = half_vector_of(wo_, wi);
   if (!(t.h.z > 0.0f)) return t;
   const float D = ggx_D(t.h, alpha_);
-  t.S = D * G1o_ * ggx_smith_G1(wi, alpha_) * 0.25f / wo_.z;
+  // Plain GGX: separable G1(wo) G1(wi); Multiscatter GGX's single-scattering part:
+  // height-correlated G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (Cycles' multi-GGX).
+  const float G = multiscatter_ ? 1.0f / (1.0f + lambda_o_ + smith_lambda(wi, alpha_)) : G1o_ * ggx_smith_G1(wi, alpha_);
+  t.S = D * G * 0.25f / wo_.z;
   t.FH = (fresnel_dielectric(dot(wi, t.h), eta_) - F0_) * inv_1m_F0_;
   return t;
 }
@@ -244,9 +262,17 @@ Vec3 PrincipledBsdf::eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
     const float d = s2 + a2 * tt;
     const float D = a2 / (kPi * d * d);
     const float dD = 2.0f * a * (s2 - a2 * tt) / (kPi * d * d * d);
-    const float G1i = ggx_smith_G1(wi, a);
-    const float dS_da = (dD * G1o_ * G1i + D * smith_G1_dalpha(wo_, a) * G1i + D * G1o_ * smith_G1_dalpha(wi, a)) *
-                        0.25f / wo_.z;
+    float G, dG;
+    if (multiscatter_) {
+      const float G2 = 1.0f / (1.0f + lambda_o_ + smith_lambda(wi, a));
+      G = G2;
+      dG = -G2 * G2 * (smith_lambda_dalpha(wo_, a) + smith_lambda_dalpha(wi, a));
+    } else {
+      const float G1i = ggx_smith_G1(wi, a);
+      G = G1o_ * G1i;
+      dG = smith_G1_dalpha(wo_, a) * G1i + G1o_ * smith_G1_dalpha(wi, a);
+    }
+    const float dS_da = (dD * G + D * dG) * 0.25f / wo_.z;
     dS_dr = dS_da * 2.0f * r_;
   }
   const float dk_dr = (multiscatter_ && p_.roughness <= 1.0f) ? ms_dk_dr_ : 0.0f;

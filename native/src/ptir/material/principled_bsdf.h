@@ -14,7 +14,9 @@
 //            cspec0 = saturate(0.08 s ((1 - t) + t b / lum(b)) (1 - m) + b m),  lum = 0.3 R + 0.6 G + 0.1 B
 //
 // "Multiscatter GGX" (a random walk in Cycles, no closed form) is matched in
-// expectation by energy compensation of the single-scattering lobe:
+// expectation by its single-scattering lobe -- which Cycles evaluates with the
+// height-correlated G2 = 1 / (1 + Lambda(wo) + Lambda(wi)), Lambda = (sqrt(1 +
+// alpha^2 tan^2) - 1) / 2 -- with energy compensation:
 //   f_spec *= 1 + cspec0 (1 - E(n.wo, r)) / E(n.wo, r)       (ggx_energy.h)
 // and, as in Cycles, plain GGX is used whenever r <= 0.075.
 //
@@ -52,6 +54,10 @@ float fresnel_dielectric(float cosi, float eta);
 
 // Blender's Specular input to the IOR Cycles uses: eta = 2 / (1 - sqrt(0.08 s)) - 1.
 float specular_to_eta(float specular);
+
+// Smith's Lambda of GGX for direction w (local frame) and its alpha derivative.
+float smith_lambda(Vec3 w, float alpha);
+float smith_lambda_dalpha(Vec3 w, float alpha);
 
 class PrincipledBsdf {
  public:
@@ -91,6 +97,7 @@ class PrincipledBsdf {
   Vec3 diffuse_weight_;       // (1 - m) b
   float G1o_ = 1.0f;
   bool multiscatter_ = false; // compensation active (multiscatter and r > 0.075)
+  float lambda_o_ = 0.0f;     // Smith Lambda(wo) (height-correlated G of Multiscatter GGX)
   float ms_k_ = 0.0f;         // (1 - E) / E at n.wo
   float ms_dk_dr_ = 0.0f;
   float p_spec_ = 0.5f;

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "ptir/core/error.h"
+#include "ptir/math/path_sampler.h"
 
 namespace ptir {
 
@@ -140,6 +141,7 @@ void aov_values(Aov aov, const AovSample& s, float* v) {
 Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const AovSettings& settings,
                  const RenderControl& control, TraceStats* stats) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
+  const PixelFilterSampler filter(settings.filter);
   Image image(camera.width, camera.height, aov_channels(aov));
   const int nc = image.channels;
   const int spp = settings.spp;
@@ -159,13 +161,18 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
           for (int x = bx; x < std::min(bx + kBlock, r.cols().end()); ++x) xs[n] = x, ys[n] = y, n++;
         float acc[kLanes][4] = {}, coverage[kLanes] = {};
         for (int s = 0; s < spp; ++s) {
-          // One sample at the pixel centre, or jittered samples keyed on (seed, pixel, sample).
+          // One sample at the pixel centre, or samples offset by the pixel filter with
+          // numbers keyed on (seed, pixel, sample) and stratified over the pixel's
+          // samples, weight 1 each (as render_path); `rng` keys the discrete picks.
           Ray rays[kLanes];
           uint64_t keys[kLanes];
           for (int l = 0; l < n; ++l) {
-            Rng rng(settings.seed, camera.full_pixel_index(xs[l], ys[l]), uint64_t(s));
-            float jx = spp == 1 ? 0.5f : rng.at(0), jy = spp == 1 ? 0.5f : rng.at(1);
-            rays[l] = camera.generate_ray(float(xs[l]) + jx, float(ys[l]) + jy);
+            const uint64_t pixel = camera.full_pixel_index(xs[l], ys[l]);
+            Rng rng(settings.seed, pixel, uint64_t(s));
+            PathRng offset(make_path_key(settings.seed, pixel, uint32_t(s)), ~uint64_t(0), 0);
+            float px = spp == 1 ? float(xs[l]) + 0.5f : filter.position(xs[l], offset.at(0));
+            float py = spp == 1 ? float(ys[l]) + 0.5f : filter.position(ys[l], offset.at(1));
+            rays[l] = camera.generate_ray(px, py);
             keys[l] = rng.key();
           }
           AovSample smp[kLanes];

@@ -10,6 +10,7 @@
 #include "ptir/accel/scene_accel.h"
 #include "ptir/core/render_control.h"
 #include "ptir/io/image.h"
+#include "ptir/math/pixel_filter.h"
 #include "ptir/scene/camera.h"
 #include "ptir/transport/interaction.h"
 
@@ -25,7 +26,8 @@ Encoding aov_encoding(Aov aov);
 
 struct AovSettings {
   InteractionSettings interaction;
-  int spp = 1;        // 1: one ray through each pixel centre; more: jittered, averaged
+  int spp = 1;        // 1: one ray through each pixel centre; more: offsets drawn from the filter, averaged
+  PixelFilter filter;  // as the path renders (Blender default: Blackman-Harris 1.5 px)
   uint64_t seed = 0;  // jitter and discrete picks
 };
 

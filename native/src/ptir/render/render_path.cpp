@@ -9,19 +9,24 @@
 #include <mutex>
 
 #include "ptir/core/error.h"
+#include "ptir/math/path_sampler.h"
+#include "ptir/math/pixel_filter.h"
 #include "ptir/math/rng.h"
 
 namespace ptir {
 
 namespace {
 
-// The camera ray of sample s of pixel (x, y): jittered in the pixel with numbers
-// keyed on (seed, full-image pixel, sample), like the path itself; so a crop, the
-// forward render and the replay all draw the same ray.
-Ray camera_sample(const Camera& camera, uint64_t seed, int x, int y, int s, uint64_t* pixel) {
+// The camera ray of sample s of pixel (x, y): its offset from the pixel centre is
+// drawn from the pixel filter with numbers keyed on (seed, full-image pixel,
+// sample), like the path itself; so a crop, the forward render and the replay all
+// draw the same ray. Every sample has weight 1 (filter importance sampling).
+Ray camera_sample(const Camera& camera, const PixelFilterSampler& filter, uint64_t seed, int x, int y, int s,
+                  uint64_t* pixel) {
   *pixel = camera.full_pixel_index(x, y);
-  Rng jitter(hash_combine(hash_combine(seed, *pixel), uint64_t(s)), 0, 0);
-  return camera.generate_ray(float(x) + jitter.at(0), float(y) + jitter.at(1));
+  // The camera's own dimension group (no bounce uses this index), stratified over the pixel's samples.
+  PathRng jitter(make_path_key(seed, *pixel, uint32_t(s)), ~uint64_t(0), 0);
+  return camera.generate_ray(filter.position(x, jitter.at(0)), filter.position(y, jitter.at(1)));
 }
 
 }  // namespace
@@ -31,6 +36,7 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
                   bool transparent_film) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
   if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
+  const PixelFilterSampler filter(settings.filter);
   Image image(camera.width, camera.height, {"R", "G", "B", "A"});
   const size_t pixels = size_t(camera.width) * size_t(camera.height);
   if (sample_radiance) sample_radiance->assign(pixels * size_t(settings.spp), Vec3(0.0f));
@@ -47,7 +53,7 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
         float covered = 0.0f;
         for (int s = 0; s < settings.spp; ++s) {
           uint64_t pixel;
-          Ray ray = camera_sample(camera, settings.seed, x, y, s, &pixel);
+          Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
           float c = 0.0f;
           Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
           if (sample_radiance) (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s] = L;
@@ -86,6 +92,7 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
                 " with at least 3 channels");
   if (sample_radiance && sample_radiance->size() != size_t(camera.width) * camera.height * settings.spp)
     throw Error("stored sample radiance does not match the camera and sample count");
+  const PixelFilterSampler filter(settings.filter);
   const int chunks = std::max(1, tbb::this_task_arena::max_concurrency());
   std::vector<SceneGradients> partial(size_t(chunks), grads);
   for (auto& g : partial) g.set_zero();
@@ -103,7 +110,7 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
         if (dI.x == 0.0f && dI.y == 0.0f && dI.z == 0.0f) continue;
         for (int s = 0; s < settings.spp; ++s) {
           uint64_t pixel;
-          Ray ray = camera_sample(camera, settings.seed, x, y, s, &pixel);
+          Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
           // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
           Vec3 L = sample_radiance ? (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s]
                                    : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);

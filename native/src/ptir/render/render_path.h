@@ -1,5 +1,5 @@
-// Path-traced images: spp samples per pixel (jittered in the pixel, keyed on
-// (seed, pixel, sample)), averaged; TBB over tiles.
+// Path-traced images: spp samples per pixel (offsets drawn from the pixel filter,
+// keyed on (seed, pixel, sample)), averaged with weight 1; TBB over tiles.
 #pragma once
 
 #include <vector>

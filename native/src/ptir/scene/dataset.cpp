@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/error.h"
+#include "ptir/scene/dataset_layouts.h"
 
 namespace ptir {
 
@@ -24,7 +25,8 @@ std::string lower(std::string s) {
 
 bool is_alpha_name(const std::string& n) { return n == "A" || n == "a" || lower(n) == "alpha"; }
 
-// First existing file among base + each extension ("" if none).
+}  // namespace
+
 std::string first_existing(const fs::path& base) {
   for (const char* ext : {".png", ".exr", ".PNG", ".EXR"}) {
     fs::path p = base;
@@ -34,17 +36,16 @@ std::string first_existing(const fs::path& base) {
   return "";
 }
 
-struct Header {
-  int width = 0, height = 0, channels = 0;
-};
 
-Header read_header(const std::string& path) {
+ImageHeader read_image_header(const std::string& path) {
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw Error(path, "cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& s = in->spec();
   if (s.width <= 0 || s.height <= 0 || s.nchannels <= 0) throw Error(path, "image has no pixels");
   return {s.width, s.height, s.nchannels};
 }
+
+namespace {
 
 // Pixels as float, plus whether they are display-encoded (integer formats) and
 // which channel is alpha. PNG alpha is read unassociated (as stored).
@@ -89,11 +90,11 @@ void colour_channels(const RawImage& r, int idx[3]) {
   for (int k = 0; k < 3; ++k) idx[k] = colour.size() >= 3 ? colour[size_t(k)] : colour[0];
 }
 
-std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
-
 }  // namespace
 
-TrainingImage read_training_image(const std::string& path) {
+std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
+
+TrainingImage read_training_image(const std::string& path, const std::string& mask_path, bool black_background) {
   RawImage r = read_raw(path);
   TrainingImage t;
   t.rgb = Image(r.width, r.height, {"R", "G", "B"});
@@ -116,6 +117,24 @@ TrainingImage read_training_image(const std::string& path) {
       }
       t.rgb.pixels[p * 3 + c] = v;
     }
+  }
+  if (!mask_path.empty()) {
+    // A separate mask replaces the alpha: its first channel, as stored (integer
+    // formats are read as v / max by OIIO), 1 = supervised.
+    RawImage m = read_raw(mask_path);
+    if (m.width != r.width || m.height != r.height)
+      throw Error(mask_path, "mask is " + size_text(m.width, m.height) + ", its image " + path + " is " +
+                                 size_text(r.width, r.height));
+    for (size_t p = 0; p < n; ++p) t.alpha.pixels[p] = std::clamp(m.px[p * m.channels], 0.0f, 1.0f);
+    t.has_alpha = true;
+  }
+  if (black_background) {
+    // Pre-masked photos on black: exactly-black pixels are background.
+    for (size_t p = 0; p < n; ++p) {
+      const float* c = &t.rgb.pixels[p * 3];
+      if (c[0] == 0.0f && c[1] == 0.0f && c[2] == 0.0f) t.alpha.pixels[p] = 0.0f;
+    }
+    t.has_alpha = true;
   }
   return t;
 }
@@ -153,7 +172,7 @@ std::shared_ptr<const TrainingImage> Dataset::target(size_t i) const {
     if (cache_.size() != views.size()) cache_.resize(views.size());
     if (cache_[i]) return cache_[i];
   }
-  auto img = std::make_shared<const TrainingImage>(read_training_image(views[i].files.image));
+  auto img = std::make_shared<const TrainingImage>(read_training_image(views[i].files.image, views[i].files.mask, black_background));
   if (img->rgb.width != width || img->rgb.height != height)
     throw Error(views[i].files.image, "image is " + size_text(img->rgb.width, img->rgb.height) + ", the dataset's views are " +
                                           size_text(width, height));
@@ -197,112 +216,57 @@ bool Dataset::has_priors() const {
 
 namespace {
 
-// The optional maps of an image in `folder` (relative folder `rel` inside the root),
-// looked up under `base` (the dataset root, or the prior folder).
-std::string find_map(const fs::path& base, const fs::path& rel, const std::string& stem, const std::string& kind) {
-  const bool tensoir = stem == "rgba" || stem == "rgb";
-  if (tensoir) return first_existing(base / rel / kind);
-  std::string f = first_existing(base / rel / (stem + "_" + kind));
-  if (f.empty() && kind == "normal") f = first_existing(base / rel / (stem + "_normal_0000"));
-  return f;
+// The "pixel_filter" that DIR/dataset.json records under "cycles" (see dataset.h);
+// no file or no entry: unset. A malformed entry is an error naming the file.
+std::optional<PixelFilter> read_dataset_filter(const fs::path& root) {
+  const fs::path meta = root / "dataset.json";
+  if (!fs::exists(meta)) return std::nullopt;
+  nlohmann::json j;
+  try {
+    std::ifstream in(meta);
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw Error(meta.string(), std::string("not valid JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("cycles") || !j["cycles"].is_object() || !j["cycles"].contains("pixel_filter"))
+    return std::nullopt;
+  const nlohmann::json& f = j["cycles"]["pixel_filter"];
+  try {
+    if (f.is_string() && f.get<std::string>() == "box 1px") return PixelFilter{PixelFilterType::Box, 1.0f};
+    if (f.is_object() && f.contains("type") && f["type"].is_string() && f.contains("width") && f["width"].is_number()) {
+      PixelFilter pf{parse_pixel_filter(f["type"].get<std::string>()), f["width"].get<float>()};
+      PixelFilterSampler check(pf);  // validates the width
+      return pf;
+    }
+  } catch (const Error& e) {
+    throw Error(meta.string(), std::string("cycles.pixel_filter: ") + e.what());
+  }
+  throw Error(meta.string(), "cycles.pixel_filter must be {\"type\": \"blackman_harris\"|\"gaussian\"|\"box\", \"width\": pixels}");
+}
+
+}  // namespace
+
+PixelFilter dataset_pixel_filter(const Dataset& data) { return data.pixel_filter.value_or(PixelFilter{}); }
+
+namespace {
+
+std::unique_ptr<Dataset> load_layout(const std::string& dir, const DatasetOptions& options) {
+  if (!options.prior_dir.empty() && !fs::is_directory(options.prior_dir))
+    throw Error(options.prior_dir, "prior folder not found");
+  std::string layout = options.layout;
+  if (layout == "auto") layout = fs::is_regular_file(dir) ? "nerf" : detect_layout(dir);
+  if (layout == "nerf" || layout.empty()) return load_nerf_dataset(dir, options);  // "": its errors say what is missing
+  if (layout == "colmap") return dataset_from_capture(read_colmap_capture(dir, options), options);
+  if (layout == "3dgs") return dataset_from_capture(read_3dgs_capture(dir, options), options);
+  if (layout == "nerfstudio") return dataset_from_capture(read_nerfstudio_capture(dir, options), options);
+  throw Error(dir, "unknown dataset layout '" + options.layout + "' (auto, nerf, colmap, 3dgs, nerfstudio)");
 }
 
 }  // namespace
 
 std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptions& options) {
-  auto data = std::make_unique<Dataset>();
-  fs::path root(dir), transforms;
-  std::string split = options.split;
-  if (fs::is_regular_file(root)) {
-    transforms = root;
-    root = root.parent_path();
-    std::string stem = transforms.stem().string();
-    if (stem.rfind("transforms_", 0) == 0) split = stem.substr(11);
-  } else {
-    if (!fs::is_directory(root)) throw Error(dir, "dataset folder not found");
-    transforms = root / ("transforms_" + split + ".json");
-    if (!fs::exists(transforms)) {
-      std::string found;
-      for (const auto& e : fs::directory_iterator(root)) {
-        std::string n = e.path().filename().string();
-        if (n.rfind("transforms_", 0) == 0 && e.path().extension() == ".json") found += (found.empty() ? "" : ", ") + n;
-      }
-      throw Error(dir, "no transforms_" + split + ".json" + (found.empty() ? std::string(" (no transforms_*.json at all)")
-                                                                          : " (found: " + found + ")"));
-    }
-  }
-  data->root = root.string();
-  data->split = split;
-  data->transforms_path = transforms.string();
-  data->cache_bytes = options.cache_bytes;
-  if (!options.prior_dir.empty() && !fs::is_directory(options.prior_dir))
-    throw Error(options.prior_dir, "prior folder not found");
-
-  // Cameras (validates the JSON); the frames' file_path again, for the messages.
-  std::vector<Camera> cams = load_transforms_json(data->transforms_path);
-  nlohmann::json j;
-  {
-    std::ifstream in(data->transforms_path);
-    in >> j;
-  }
-  const auto& frames = j["frames"];
-  bool any_prior = false;
-  for (size_t f = 0; f < cams.size(); ++f) {
-    const std::string where = "frames[" + std::to_string(f) + "]";
-    const auto& fr = frames[f];
-    if (!fr.contains("file_path") || !fr["file_path"].is_string())
-      throw Error(data->transforms_path, where + " has no 'file_path' (a training view needs an image)");
-    const std::string file_path = fr["file_path"].get<std::string>();
-    Camera& cam = cams[f];
-    if (cam.image_path.empty())
-      throw Error(data->transforms_path, where + ".file_path '" + file_path + "': image not found (tried " +
-                                             (root / file_path).lexically_normal().string() +
-                                             (fs::path(file_path).has_extension() ? "" : " with .png, .exr, .jpg, .jpeg") + ")");
-    Header h = read_header(cam.image_path);
-    if (h.width != cam.width || h.height != cam.height)
-      throw Error(cam.image_path, "image is " + size_text(h.width, h.height) + " but " +
-                                      (f == 0 ? std::string("transforms 'w'/'h' say ") : "the first view is ") +
-                                      size_text(cam.width, cam.height));
-    if (f == 0) {
-      data->width = cam.width;
-      data->height = cam.height;
-    } else if (cam.width != data->width || cam.height != data->height) {
-      throw Error(cam.image_path, "image is " + size_text(cam.width, cam.height) + ", the first view is " +
-                                      size_text(data->width, data->height));
-    }
-    DatasetView v;
-    v.camera = cam;
-    v.files.image = cam.image_path;
-    fs::path img(cam.image_path);
-    fs::path rel = fs::relative(img.parent_path(), root);
-    std::string stem = img.stem().string();
-    v.files.gt_albedo = find_map(root, rel, stem, "albedo");
-    v.files.gt_roughness = find_map(root, rel, stem, "roughness");
-    v.files.gt_normal = find_map(root, rel, stem, "normal");
-    if (!options.prior_dir.empty()) {
-      v.files.prior_albedo = find_map(options.prior_dir, rel, stem, "albedo");
-      v.files.prior_roughness = find_map(options.prior_dir, rel, stem, "roughness");
-      any_prior = any_prior || !v.files.prior_albedo.empty() || !v.files.prior_roughness.empty();
-    }
-    for (const std::string* m : {&v.files.gt_albedo, &v.files.gt_roughness, &v.files.gt_normal, &v.files.prior_albedo,
-                                 &v.files.prior_roughness}) {
-      if (m->empty()) continue;
-      Header mh = read_header(*m);
-      if (mh.width != cam.width || mh.height != cam.height)
-        throw Error(*m, "map is " + size_text(mh.width, mh.height) + ", the view's image " + cam.image_path + " is " +
-                            size_text(cam.width, cam.height));
-    }
-    data->views.push_back(std::move(v));
-  }
-  if (!options.prior_dir.empty() && !any_prior)
-    throw Error(options.prior_dir, "no prior maps found for any view (expected e.g. " +
-                                       (fs::path(options.prior_dir) /
-                                        fs::relative(fs::path(data->views[0].files.image).parent_path(), root) /
-                                        (fs::path(data->views[0].files.image).stem() == "rgba" ? "albedo.png"
-                                                                                               : fs::path(data->views[0].files.image).stem().string() + "_albedo.png"))
-                                           .lexically_normal()
-                                           .string() +
-                                       ")");
+  std::unique_ptr<Dataset> data = load_layout(dir, options);
+  data->pixel_filter = read_dataset_filter(data->root);
   return data;
 }
 

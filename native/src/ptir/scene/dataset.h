@@ -1,5 +1,19 @@
-// Training datasets for the inversion: NeRF-synthetic and TensoIR layouts.
+// Training datasets for the inversion. load_dataset detects the layout of DIR:
 //
+//   NeRF-synthetic / TensoIR  DIR/transforms_<split>.json (below)
+//   COLMAP                    DIR/sparse/0/{cameras,images,points3D}.{bin,txt} (or DIR/sparse/, DIR/)
+//                             + DIR/images/ (or options.images, e.g. "images_4")
+//   3DGS output folder        DIR/cameras.json + DIR/cfg_args (source capture, image folder)
+//                             + DIR/point_cloud/iteration_N/point_cloud.ply (largest N)
+//   nerfstudio / instant-ngp  DIR/transforms.json (one file, every frame; splits by holdout)
+//
+// Real captures (the last three) have pinhole or distorted lenses; distorted
+// images are undistorted once to a pinhole and cached (undistort.h). Their split:
+// test = every `holdout`-th image in name order (Mip-NeRF 360 / 3DGS convention,
+// 8), or the names in `test_list`; train = the rest. docs/dataset_format.md
+// documents every layout, convention and choice.
+//
+// NeRF-synthetic layouts:
 //   DIR/transforms_<split>.json      cameras (camera_angle_x, frames[].transform_matrix,
 //                                    frames[].file_path with or without extension)
 //   NeRF-synthetic:  DIR/train/r_0.png            (file_path "./train/r_0")
@@ -7,7 +21,9 @@
 //
 // Images: RGBA PNG (8/16-bit, sRGB encoded, alpha = object mask, unassociated as
 // PNG stores it) or EXR/HDR (linear; EXR colour is associated with alpha, as EXR
-// requires, and is un-premultiplied here). RGB without alpha means "no mask".
+// requires, and is un-premultiplied here). RGB without alpha means "no mask":
+// every pixel is supervised (unbounded real scenes). A separate mask file (real
+// captures: masks/, <name>_mask.png, nerfstudio mask_path) replaces the alpha.
 //
 // Optional per-view ground truth, next to the image:
 //   TensoIR (image stem "rgba"/"rgb"):  <view folder>/albedo.png, roughness.png, normal.png
@@ -27,16 +43,30 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "ptir/io/image.h"
+#include "ptir/math/pixel_filter.h"
 #include "ptir/scene/camera.h"
 
 namespace ptir {
 
 struct DatasetOptions {
-  std::string split = "train";  // reads transforms_<split>.json
+  std::string split = "train";  // NeRF: reads transforms_<split>.json; captures: "train", "test" or "all"
   std::string prior_dir;        // folder with prior maps in the dataset's layout ("" = none)
+  std::string layout = "auto";  // auto (detect), nerf, colmap, 3dgs, nerfstudio
+  // Real captures.
+  std::string images;           // image folder ("" = the layout's: "images", or cfg_args' for 3DGS);
+                                // intrinsics are scaled to its images' size (e.g. "images_4")
+  int holdout = 8;              // test = every holdout-th image in name order (0: no test views)
+  std::string test_list;        // a file of test image names, one per line (overrides holdout)
+  std::string undistort_dir;    // cache of undistorted images ("" = DIR/ptir_undistorted/<images>)
+  std::string dataparser_transforms;  // nerfstudio: splatfacto's dataparser_transforms.json
+                                      // ("" = DIR/dataparser_transforms.json when present)
+  std::string world = "auto";   // nerfstudio frame: auto (dataparser when its file is found, else data),
+                                // data (transforms.json as written), dataparser, colmap (undo applied_transform)
+  bool black_background = false;  // pixels whose colour is exactly 0 are background (mask 0)
   // Training images are decoded once and kept while their total size stays under
   // this budget; beyond it each use reads the file again (a PNG read costs far
   // less than an iteration).
@@ -46,6 +76,7 @@ struct DatasetOptions {
 // The files of one view ("" where absent).
 struct ViewFiles {
   std::string image;
+  std::string mask;  // separate mask (1 = supervised), "" = the image's alpha or none
   std::string gt_albedo, gt_roughness, gt_normal;
   std::string prior_albedo, prior_roughness;
 };
@@ -65,10 +96,17 @@ struct DatasetView {
 class Dataset {
  public:
   std::string root;             // DIR
-  std::string transforms_path;  // DIR/transforms_<split>.json
+  std::string transforms_path;  // DIR/transforms_<split>.json (captures: the camera file read)
   std::string split;
+  std::string layout = "nerf";  // "nerf", "colmap", "3dgs", "nerfstudio"
+  std::string gaussians_path;   // the PLY the layout names (3DGS: point_cloud/iteration_N), "" if none
+  bool black_background = false;
   int width = 0, height = 0;    // every view has this size
   std::vector<DatasetView> views;
+  // The pixel filter its images were rendered with, from DIR/dataset.json
+  // ("cycles": {"pixel_filter": {"type": "box", "width": 1.0}}, or the older text
+  // "box 1px"); unset when the dataset does not say (photographs, other makers).
+  std::optional<PixelFilter> pixel_filter;
 
   size_t size() const { return views.size(); }
   std::vector<Camera> cameras() const;
@@ -99,8 +137,24 @@ class Dataset {
 // map has the image's size.
 std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptions& options = {});
 
-// One RGB(A) image as a TrainingImage (see above for the encodings).
-TrainingImage read_training_image(const std::string& path);
+// The filter to render a dataset's views with: the dataset's own when it records
+// one (DIR/dataset.json), else Blender's default (Blackman-Harris, 1.5 px).
+PixelFilter dataset_pixel_filter(const Dataset& data);
+
+// One RGB(A) image as a TrainingImage (see above for the encodings). With a mask
+// file, its first channel (8/16-bit: v / max; float: as is), clamped to [0, 1],
+// is the alpha; black_background sets alpha 0 where every colour channel is 0.
+TrainingImage read_training_image(const std::string& path, const std::string& mask_path = "", bool black_background = false);
+
+// The layout load_dataset would read in `dir` with layout "auto": "nerf",
+// "colmap", "3dgs", "nerfstudio", or "" when none is recognised. Order: a
+// transforms_<split>.json makes it NeRF; else cameras.json + cfg_args a 3DGS
+// output; else a COLMAP model (sparse/0, sparse or DIR itself); else transforms.json.
+std::string detect_layout(const std::string& dir);
+
+// The trained Gaussians a dataset folder names: for a 3DGS output folder
+// point_cloud/iteration_N/point_cloud.ply of the largest N; "" otherwise.
+std::string layout_gaussians(const std::string& dir);
 
 // An optional map: `channels` = 3 (colour: sRGB-decoded when 8-bit) or 1 (data,
 // first channel), `normal` = 3 data channels mapped to [-1, 1] when 8-bit.

@@ -13,7 +13,7 @@
 
 #include "ptir/io/ply.h"
 #include "ptir/math/vec.h"
-#include "ptir/scene/shading_model.h"
+#include "ptir/material/shading_model.h"
 
 namespace ptir {
 

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "ptir/math/vec.h"
-#include "ptir/scene/shading_model.h"
+#include "ptir/material/shading_model.h"
 
 namespace ptir {
 

@@ -6,7 +6,8 @@
 #include <limits>
 #include <string>
 
-#include "ptir/scene/shading_model.h"
+#include "ptir/material/shading_model.h"
+#include "ptir/math/pixel_filter.h"
 
 namespace ptir {
 
@@ -36,6 +37,7 @@ struct IntegratorSettings {
   int max_bounces = 2;  // indirect bounces, as Cycles counts them (0: direct light only)
   uint64_t seed = 0;
   BsdfModel brdf = BsdfModel::Principled;  // surface model of every vertex (scene JSON "brdf", --brdf)
+  PixelFilter filter;                    // camera-sample offsets (Blender default: Blackman-Harris 1.5 px)
   InteractionSettings interaction;       // aggregate/discrete, tau_g
   bool geometric_criterion = true;       // chi_geom gate; off: every hit with O > 0 is an interaction
   SelfIntersection self_intersection = SelfIntersection::BackfaceAware;

@@ -546,7 +546,7 @@ void parse_cameras(const Node& n, std::vector<Camera>& cams) {
 void parse_integrator(const Node& n, IntegratorSettings& s) {
   if (n.j.is_null()) return;
   n.check_keys({"spp", "bounces", "seed", "interaction", "tau_g", "geometric_criterion", "self_intersection",
-                "self_range_scale", "fixed_offset", "fixed_range", "min_throughput"});
+                "self_range_scale", "fixed_offset", "fixed_range", "min_throughput", "pixel_filter", "filter_width"});
   s.spp = int(n.integer_in("spp", s.spp, 1, 1 << 20));
   s.max_bounces = int(n.integer_in("bounces", s.max_bounces, 0, 1024));
   if (n.has("seed")) {
@@ -577,6 +577,8 @@ void parse_integrator(const Node& n, IntegratorSettings& s) {
   s.fixed_offset = n.non_negative("fixed_offset", s.fixed_offset);
   s.fixed_range = n.non_negative("fixed_range", s.fixed_range);
   s.min_throughput = n.non_negative("min_throughput", s.min_throughput);
+  s.filter.type = parse_pixel_filter(n.choice("pixel_filter", "blackman_harris", {"blackman_harris", "gaussian", "box"}));
+  s.filter.width = n.non_negative("filter_width", s.filter.width);
 }
 
 Scene parse_scene(const json& root, const Ctx& ctx) {

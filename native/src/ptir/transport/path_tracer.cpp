@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "ptir/material/bsdf.h"
+#include "ptir/math/path_sampler.h"
 #include "ptir/math/rng.h"
 #include "ptir/math/sampling.h"
 #include "ptir/transport/gradients.h"
@@ -92,7 +93,7 @@ void PathTracer::sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t 
 Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                        const PathAdjoint* adj, float* coverage, PathStats* stats) const {
   const Scene& scene = scene_;
-  const uint64_t path_key = hash_combine(hash_combine(settings.seed, pixel), sample);
+  const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
 
   // Primal: L accumulates. Replay: L_rem starts at the primal L and loses every
@@ -144,7 +145,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr));
 
     // Continue with a BSDF sample.
-    Rng rng(path_key, uint64_t(bounce), kStreamBrdf);
+    PathRng rng(path_key, uint64_t(bounce), kStreamBrdf);
     BsdfSample bs = bsdf.sample(rng.at(0), rng.at(1), rng.at(2));
     if (adj && bs.valid) {
       // Everything still remaining arrives through this BRDF value:

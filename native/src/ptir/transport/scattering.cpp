@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "ptir/math/path_sampler.h"
 #include "ptir/math/sampling.h"
 #include "ptir/transport/gradients.h"
 #include "ptir/transport/path_tracer.h"
@@ -62,7 +63,7 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
     return ev;
   }
   // chi_pass: through the field with probability T_ray, else absorbed.
-  if (si.opacity > 0.0f && !(Rng(path_key, bounce, kStreamPass).at(0) < si.transmittance)) {
+  if (si.opacity > 0.0f && !(PathRng(path_key, bounce, kStreamPass).at(0) < si.transmittance)) {
     ev.kind = NextEvent::Absorbed;
     ev.t = si.opacity > 0.0f ? si.depth : ray.tmax;
     return ev;
@@ -144,7 +145,7 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
   const auto& emitters = scene_.emitters;
   // Emitters: light sample, MIS against the BRDF density (delta lights: weight 1).
   for (uint32_t l = 0; l < emitters.size(); ++l) {
-    Rng rng(path_key, bounce, kStreamLight + l);
+    PathRng rng(path_key, bounce, kStreamLight + l);
     LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
     if (!ls.valid()) continue;
     Vec3 wi_local = frame.to_local(ls.wi);
@@ -162,7 +163,7 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
   const SceneEnvironment& env = scene_.environment;
   if (env.present()) {
     const uint32_t l = uint32_t(emitters.size());
-    Rng rng(path_key, bounce, kStreamLight + l);
+    PathRng rng(path_key, bounce, kStreamLight + l);
     const EnvLightSample es = env->sample_li(rng.at(0), rng.at(1), rng.at(2));
     const Vec3 wi = es.wi, Li = es.Li;
     const float pdf = es.pdf;

@@ -4,8 +4,8 @@
 // self-intersection rule, stochastic-transmittance shadow rays, and next-event
 // estimation of every light with MIS.
 //
-// Random-number streams: every decision draws from Rng(path_key, bounce, stream)
-// (below), and a shadow ray's Gaussian occlusion tests from a hash of
+// Random-number streams: every decision draws from PathRng(path_key, bounce, stream)
+// (math/path_sampler.h: stratified over the pixel's samples), and a shadow ray's Gaussian occlusion tests from a hash of
 // (path_key, bounce, light, Gaussian id), so a replay makes the same decisions.
 #pragma once
 
