@@ -2,7 +2,7 @@
 // posed images (METHOD §6; src/ptir/optim/optimizer.h).
 //
 //   ptir optimize --dataset DIR [--gaussians IN.ply] [--scene scene.json] --out OUT
-//       [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg] [--seed S] [--resume]
+//       [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color] [--seed S] [--resume]
 //       [--layout L] [--images images_4] [--holdout 8 | --test-list F] [--undistort-cache D]
 //       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
@@ -41,38 +41,27 @@
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
+#include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
-#include "ptir/scene/scene_json.h"
 
 namespace ptir::cli {
 
 namespace {
 
-struct OptimizeOptions {
+// The command's own options around the set-up shared with the Python module.
+struct OptimizeCommand {
   std::string dataset, gaussians, scene, out;
   std::string brdf;  // --brdf (empty: the scene file's, else principled)
   std::string split = "train";
   std::string prior;
-  int iters = 800;
-  int spp = 32;
-  int bounces = 2;
-  std::string env = "auto";
   std::string env_size = "128x64";
-  std::string env_init;
-  bool fix_env = false;
-  uint64_t seed = 0;
   bool resume = false;
-  int views_per_iter = 1;
-  int crop = 0;
   int checkpoint_every = 50;
   int threads = 0;
-  std::string loss_space = "srgb";
-  float lambda_tv = 0.095f;
-  bool optimize_metallic = false;
-  bool optimize_meshes = false;
-  FilterFlags filter;
   bool quiet = false;
+  OptimizeOptions opt;
+  FilterFlags filter;
   bool force = false;
   // Real captures (docs/dataset_format.md).
   std::string layout = "auto", images, test_list, undistort_cache, dataparser_transforms, world = "auto";
@@ -84,9 +73,9 @@ struct OptimizeOptions {
 // captures, as the paper does; a lat-long map for synthetic sets) and the
 // Gaussians a 3DGS output folder names (point_cloud/iteration_N, largest N).
 // Returns false (a usage error) when --gaussians is missing and the dataset names none.
-bool resolve_dataset_defaults(OptimizeOptions& o) {
+bool resolve_dataset_defaults(OptimizeCommand& o) {
   const std::string layout = o.layout == "auto" ? detect_layout(o.dataset) : o.layout;
-  if (o.env == "auto") o.env = (layout == "nerf" || layout.empty()) ? "latlong" : "sg";
+  if (o.opt.env == "auto") o.opt.env = (layout == "nerf" || layout.empty()) ? "latlong" : "sg";
   if (o.gaussians.empty()) {
     o.gaussians = layout_gaussians(o.dataset);
     if (o.gaussians.empty()) {
@@ -116,46 +105,15 @@ std::string duration_text(double s) {
   return b;
 }
 
-int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
-  std::optional<tbb::global_control> limit;
-  if (o.threads < 0) throw Error("--threads must be positive");
-  if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
-  if (o.iters < 0) throw Error("--iters must be >= 0");
-  if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
-  guard_outputs({{o.gaussians, o.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
-  remove_stale_outputs({o.out}, o.quiet);
+// The optimiser for the command's options (inputs loaded; resumed when asked).
+std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, const CLI::App& cmd, std::shared_ptr<const Dataset>* data) {
+  OptimizeOptions opt = o.opt;
+  char extra = 0;
+  if (std::sscanf(o.env_size.c_str(), "%dx%d%c", &opt.env_width, &opt.env_height, &extra) != 2 || opt.env_width < 1 ||
+      opt.env_height < 1)
+    throw Error("--env-size must be WIDTHxHEIGHT (e.g. 128x64), got '" + o.env_size + "'");
+  OptimizerSettings s = optimizer_settings(opt, cli_option_name);
 
-  OptimizerSettings s;
-  s.iterations = o.iters;
-  s.integrator.spp = o.spp;
-  s.integrator.max_bounces = o.bounces;
-  s.seed = o.seed;
-  s.views_per_iteration = o.views_per_iter;
-  s.crop_size = o.crop;
-  s.lambda_tv = o.lambda_tv;
-  if (o.loss_space == "srgb") s.srgb_loss = true;
-  else if (o.loss_space == "linear") s.srgb_loss = false;
-  else throw Error("--loss-space must be 'srgb' or 'linear', got '" + o.loss_space + "'");
-  if (o.env == "latlong") s.params.env = EnvMode::LatLong;
-  else if (o.env == "sg") s.params.env = EnvMode::SG;
-  else throw Error("--env must be 'latlong' or 'sg', got '" + o.env + "'");
-  {
-    int w = 0, h = 0;
-    char extra = 0;
-    if (std::sscanf(o.env_size.c_str(), "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1)
-      throw Error("--env-size must be WIDTHxHEIGHT (e.g. 128x64), got '" + o.env_size + "'");
-    s.params.env_width = w;
-    s.params.env_height = h;
-  }
-  s.params.env_init_path = o.env_init;
-  s.params.optimize_env = !o.fix_env;
-  if (o.fix_env && o.env_init.empty()) throw Error("--fix-env needs --env-init (the known environment map)");
-  s.params.optimize_metallic = o.optimize_metallic;
-  s.params.optimize_meshes = o.optimize_meshes;
-  if (o.spp < 1) throw Error("--spp must be at least 1");
-  if (o.bounces < 0) throw Error("--bounces must be at least 0");
-
-  // Inputs.
   DatasetOptions dopt;
   dopt.split = o.split;
   dopt.prior_dir = o.prior;
@@ -167,46 +125,44 @@ int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
   dopt.dataparser_transforms = o.dataparser_transforms;
   dopt.world = o.world;
   dopt.black_background = o.black_background;
-  std::shared_ptr<const Dataset> data = load_dataset(o.dataset, dopt);
+  *data = load_dataset(o.dataset, dopt);
   // The filter the views were rendered with (dataset.json), else Blender's default; the switches override it.
-  s.integrator.filter = dataset_pixel_filter(*data);
+  s.integrator.filter = dataset_pixel_filter(**data);
   apply_filter_flags(o.filter, cmd, s.integrator.filter);
-  Scene scene;
-  if (!o.scene.empty()) {
-    scene = load_scene_json(o.scene);
-    if (scene.gaussians && scene.gaussians->size() > 0)
-      throw Error(o.scene, "the scene file has Gaussians; give them with --gaussians instead (the optimiser's Gaussians "
-                           "come from one PLY)");
-    if (scene.environment.present() && !o.quiet)
-      std::fprintf(stderr, "note: the scene's environment is ignored: the environment is what gets recovered\n");
-    s.integrator.interaction = scene.integrator.interaction;
-    s.integrator.geometric_criterion = scene.integrator.geometric_criterion;
-    s.integrator.self_intersection = scene.integrator.self_intersection;
-    s.integrator.self_range_scale = scene.integrator.self_range_scale;
-    s.integrator.fixed_offset = scene.integrator.fixed_offset;
-    s.integrator.fixed_range = scene.integrator.fixed_range;
-    s.integrator.brdf = scene.integrator.brdf;
-  } else if (o.optimize_meshes) {
-    throw Error("--optimize-meshes needs --scene (the meshes come from the scene file)");
-  }
+  auto note = [&](const std::string& line) {
+    if (!o.quiet) std::fprintf(stderr, "note: %s\n", line.c_str());
+  };
+  Scene scene = prepare_optimizer_scene(o.scene, std::make_shared<GaussianField>(load_gaussians(o.gaussians)), s,
+                                        cli_option_name, note);
   cli::apply_brdf_option(o.brdf, s.integrator.brdf);
-  scene.gaussians = std::make_shared<GaussianField>(load_gaussians(o.gaussians));
-  scene.source_path = o.scene.empty() ? "command line" : o.scene;
-
-  Optimizer opt(std::move(scene), data, s);
+  auto optimizer = std::make_unique<Optimizer>(std::move(scene), *data, s);
   const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (o.resume) {
-    if (!std::filesystem::exists(ckpt)) throw Error(ckpt, "--resume: no checkpoint to continue from");
-    opt.load_checkpoint(ckpt);
-    if (!o.quiet)
-      std::fprintf(stderr, "resumed from %s at iteration %d\n", ckpt.c_str(), opt.iteration());
+    std::error_code ec;
+    if (!std::filesystem::exists(ckpt, ec)) throw Error(ckpt, "--resume: no checkpoint to continue from");
+    optimizer->load_checkpoint(ckpt);
+    if (!o.quiet) std::fprintf(stderr, "resumed from %s at iteration %d\n", ckpt.c_str(), optimizer->iteration());
   }
+  return optimizer;
+}
+
+int run_optimize(const OptimizeCommand& o, const CLI::App& cmd) {
+  std::optional<tbb::global_control> limit;
+  if (o.threads < 0) throw Error("--threads must be positive");
+  if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
+  guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
+  remove_stale_outputs({o.out}, o.quiet);
+  std::shared_ptr<const Dataset> data;
+  std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
+  Optimizer& opt = *optimizer;
+  const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (!o.quiet)
     std::fprintf(stderr,
                  "optimize: %zu Gaussians, %zu %s views %dx%d%s, %d iterations, %d spp, %d bounces, env %s, seed %llu\n",
                  opt.scene().gaussians->size(), data->size(), data->split.c_str(), data->width, data->height,
-                 data->has_priors() ? " (with priors)" : "", o.iters, o.spp, o.bounces, o.env.c_str(),
-                 (unsigned long long)o.seed);
+                 data->has_priors() ? " (with priors)" : "", o.opt.iters, o.opt.spp, o.opt.bounces, o.opt.env.c_str(),
+                 (unsigned long long)o.opt.seed);
 
   g_interrupted.store(false);
   auto previous = std::signal(SIGINT, on_sigint);
@@ -244,14 +200,14 @@ int run_optimize(const OptimizeOptions& o, const CLI::App& cmd) {
   }
   if (!o.quiet)
     std::fprintf(stderr, "wrote %s/gaussians.ply, env.exr, log.csv (%d iterations)\n", o.out.c_str(), opt.iteration());
-  (void)cmd;
   return 0;
 }
 
 }  // namespace
 
 Runner add_optimize_command(CLI::App& app) {
-  auto o = std::make_shared<OptimizeOptions>();
+  auto o = std::make_shared<OptimizeCommand>();
+  o->opt.env = "auto";  // resolved from the dataset's layout (resolve_dataset_defaults)
   CLI::App* cmd = app.add_subcommand("optimize", "Recover materials and lighting from posed images (inverse rendering)");
   cmd->add_option("--dataset", o->dataset,
                   "dataset folder: NeRF-synthetic/TensoIR (transforms_<split>.json), COLMAP (sparse/0), 3DGS output "
@@ -261,31 +217,29 @@ Runner add_optimize_command(CLI::App& app) {
                   "input 3DGS .ply (geometry, fixed); default for a 3DGS output folder: point_cloud/iteration_N (largest N)");
   cmd->add_option("--scene", o->scene, "scene file with meshes and lights to include (docs/scene_format.md)");
   cmd->add_option("--out", o->out, "output folder")->required();
-  cmd->add_option("--iters", o->iters, "iterations")->capture_default_str();
-  cmd->add_option("--spp", o->spp, "samples per pixel per iteration")->capture_default_str();
-  cmd->add_option("--bounces", o->bounces, "indirect bounces")->capture_default_str();
-  cmd->add_option("--env", o->env,
-                  "environment model: latlong (texels) or sg (24 spherical Gaussians); auto: sg for real captures, "
-                  "latlong for NeRF-synthetic sets")
+  cmd->add_option("--iters", o->opt.iters, "iterations")->capture_default_str();
+  cmd->add_option("--spp", o->opt.spp, "samples per pixel per iteration")->capture_default_str();
+  cmd->add_option("--bounces", o->opt.bounces, "indirect bounces")->capture_default_str();
+  cmd->add_option("--env", o->opt.env,
+                  "environment model: latlong (texels), sg (24 spherical Gaussians) or color (one constant colour); "
+                  "auto: sg for real captures, latlong for NeRF-synthetic sets")
       ->capture_default_str();
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();
-  cmd->add_option("--env-init", o->env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
-  cmd->add_flag("--fix-env", o->fix_env, "keep the --env-init environment fixed (known lighting)");
-  cmd->add_option("--seed", o->seed, "random seed (views, crops, paths)")->capture_default_str();
-  cli::add_brdf_option(cmd, &o->brdf);
+  cmd->add_option("--env-init", o->opt.env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
+  cmd->add_flag("--fix-env", o->opt.fix_env, "keep the --env-init environment fixed (known lighting)");
+  cmd->add_option("--seed", o->opt.seed, "random seed (views, crops, paths)")->capture_default_str();
   cmd->add_flag("--resume", o->resume, "continue from OUT/checkpoint.bin");
   cmd->add_option("--split", o->split, "dataset split (transforms_<split>.json)")->capture_default_str();
   cmd->add_option("--prior", o->prior, "folder of prior albedo/roughness maps in the dataset's layout");
-  cmd->add_option("--views-per-iter", o->views_per_iter, "training views per iteration")->capture_default_str();
-  cmd->add_option("--crop", o->crop, "random square crops of this side (0: whole images)")->capture_default_str();
+  cmd->add_option("--views-per-iter", o->opt.views_per_iter, "training views per iteration")->capture_default_str();
+  cmd->add_option("--crop", o->opt.crop, "random square crops of this side (0: whole images)")->capture_default_str();
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "iterations between checkpoints (0: only at the end)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all); resumed runs are bit-identical on the same count");
-  cmd->add_option("--loss-space", o->loss_space, "compare images in srgb or linear space")->capture_default_str();
-  cmd->add_option("--lambda-tv", o->lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
-  cmd->add_flag("--optimize-metallic", o->optimize_metallic, "also optimise metallic (default: fixed 0)");
-  cmd->add_flag("--optimize-meshes", o->optimize_meshes, "also optimise the --scene meshes' materials");
-  add_filter_flags(cmd, &o->filter);
+  cmd->add_option("--loss-space", o->opt.loss_space, "compare images in srgb or linear space")->capture_default_str();
+  cmd->add_option("--lambda-tv", o->opt.lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
+  cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
+  cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);
   cmd->add_option("--layout", o->layout, "dataset layout: auto, nerf, colmap, 3dgs, nerfstudio")->capture_default_str();
@@ -299,6 +253,7 @@ Runner add_optimize_command(CLI::App& app) {
                   "nerfstudio: splatfacto's dataparser_transforms.json (cameras into its Gaussians' frame)");
   cmd->add_option("--world", o->world, "nerfstudio world frame: auto, data, dataparser, colmap")->capture_default_str();
   cmd->add_flag("--black-background", o->black_background, "pixels that are exactly black are background (not supervised)");
+  add_filter_flags(cmd, &o->filter);
   return [o, cmd] {
     if (!resolve_dataset_defaults(*o)) return 2;
     return run_optimize(*o, *cmd);

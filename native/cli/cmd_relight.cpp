@@ -121,6 +121,94 @@ std::string safe_name(const std::string& name, size_t i) {
   return s;
 }
 
+// The scene (from --scene, or empty with --cameras) and the cameras to render
+// (resized by --width/--height); *all_cameras gets every camera, for orienting normals.
+Scene relight_scene_and_cameras(const RelightOptions& o, std::vector<Camera>* cameras, std::vector<Camera>* all_cameras) {
+  Scene scene;
+  if (!o.scene.empty()) {
+    scene = load_scene_json(o.scene);
+    if (!o.camera.empty()) cameras->push_back(scene.camera(o.camera));
+    else *cameras = scene.cameras;
+    if (cameras->empty()) throw Error(o.scene, "the scene has no camera (add one, or use --cameras)");
+    *all_cameras = scene.cameras;
+  } else {
+    *cameras = load_transforms_json(o.cameras);
+    *all_cameras = *cameras;
+    if (!o.frames.empty()) {
+      std::vector<Camera> picked;
+      for (int f : o.frames) {
+        if (f < 0 || f >= int(cameras->size()))
+          throw Error(o.cameras, "frame " + std::to_string(f) + " out of range (" + std::to_string(cameras->size()) + " frames)");
+        picked.push_back((*cameras)[size_t(f)]);
+      }
+      *cameras = picked;
+    }
+    scene.cameras = *cameras;
+    scene.source_path = "command line";
+  }
+  if (o.width < 0 || o.height < 0) throw Error("--width/--height must be positive");
+  if (o.width > 0 || o.height > 0)
+    for (Camera& c : *cameras) {
+      // Resize keeping the horizontal field of view (and the aspect ratio when only one is given).
+      int w = o.width > 0 ? o.width : int(std::lround(double(o.height) * c.width / c.height));
+      int h = o.height > 0 ? o.height : int(std::lround(double(o.width) * c.height / c.width));
+      c.width = std::max(1, w);
+      c.height = std::max(1, h);
+    }
+  for (const Camera& c : *cameras) check_image_budget(c.width, c.height, o.max_memory_gib, "camera '" + c.name + "'");
+  return scene;
+}
+
+// Adds the recovered asset (albedo scaled), the environment, lights and meshes of the options.
+void add_relight_content(const RelightOptions& o, const CLI::App& cmd, const fs::path& ply,
+                         const std::array<double, 3>& scale, Scene& scene) {
+  GaussianField asset = load_gaussians(ply.string());
+  eval::scale_albedo(asset, scale);
+  if (scene.gaussians->size() == 0) *scene.gaussians = std::move(asset);
+  else append_gaussians(*scene.gaussians, std::move(asset));
+  if (!o.env.empty()) scene.environment = Environment::load(o.env, o.env_strength, o.env_rotation);
+  for (const std::string& p : o.points) scene.emitters.emplace_back(eval::parse_point_light(p));
+  for (const std::string& a : o.areas) scene.emitters.emplace_back(eval::parse_area_light(a));
+  if (!o.meshes.empty()) {
+    std::array<double, 3> c = parse_triple(o.mesh_color, "--mesh-color");
+    if (!(o.mesh_roughness >= 0.0f && o.mesh_roughness <= 1.0f)) throw Error("--mesh-roughness must be in [0, 1]");
+    for (const std::string& m : o.meshes) {
+      TriangleMesh mesh = load_mesh(m);
+      mesh.material.base_colour = Vec3(float(c[0]), float(c[1]), float(c[2]));
+      mesh.material.roughness = o.mesh_roughness;
+      mesh.material.name = fs::path(m).stem().string();
+      scene.meshes.push_back(std::move(mesh));
+    }
+  } else if (cmd.count("--mesh-color") || cmd.count("--mesh-roughness")) {
+    throw Error("--mesh-color/--mesh-roughness need --mesh");
+  }
+  if (!scene.environment.present() && scene.emitters.empty())
+    throw Error("no light: give --env, --point or --area (or a scene file with lights or an environment)");
+}
+
+// Renders one camera and writes OUT/<name>.exr and .png (straight alpha with --transparent).
+void render_relit_view(const RelightOptions& o, const PathTracer& tracer, const IntegratorSettings& is, const Camera& cam,
+                       const std::string& name) {
+  ProgressBar bar("relight " + name, o.quiet);
+  RenderControl control;
+  control.progress = [&](float f) { bar.update(f); };
+  Image img = o.transparent ? eval::render_transparent(tracer, cam, is, control) : render_path(tracer, cam, is, control);
+  bar.finish();
+  const fs::path exr = fs::path(o.output) / (name + ".exr"), png = fs::path(o.output) / (name + ".png");
+  write_image(exr.string(), img, Encoding::Colour);
+  if (o.transparent) {
+    // PNG stores straight alpha.
+    Image straight = img;
+    for (size_t k = 0, n = size_t(img.width) * img.height; k < n; ++k) {
+      float a = img.pixels[k * 4 + 3];
+      for (int c = 0; c < 3; ++c) straight.pixels[k * 4 + c] = a > 1e-6f ? img.pixels[k * 4 + c] / a : 0.0f;
+    }
+    write_image(png.string(), straight, Encoding::Colour);
+  } else {
+    write_image(png.string(), img, Encoding::Colour);
+  }
+}
+
 int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
@@ -143,64 +231,9 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   remove_stale_outputs({o.output}, o.quiet);
   const std::array<double, 3> scale = albedo_scale_of(o);
 
-  Scene scene;
   std::vector<Camera> cameras, all_cameras;
-  if (!o.scene.empty()) {
-    scene = load_scene_json(o.scene);
-    if (!o.camera.empty()) cameras.push_back(scene.camera(o.camera));
-    else cameras = scene.cameras;
-    if (cameras.empty()) throw Error(o.scene, "the scene has no camera (add one, or use --cameras)");
-    all_cameras = scene.cameras;
-  } else {
-    cameras = load_transforms_json(o.cameras);
-    all_cameras = cameras;
-    if (!o.frames.empty()) {
-      std::vector<Camera> picked;
-      for (int f : o.frames) {
-        if (f < 0 || f >= int(cameras.size()))
-          throw Error(o.cameras, "frame " + std::to_string(f) + " out of range (" + std::to_string(cameras.size()) + " frames)");
-        picked.push_back(cameras[size_t(f)]);
-      }
-      cameras = picked;
-    }
-    scene.cameras = cameras;
-    scene.source_path = "command line";
-  }
-  if (o.width < 0 || o.height < 0) throw Error("--width/--height must be positive");
-  if (o.width > 0 || o.height > 0)
-    for (Camera& c : cameras) {
-      // Resize keeping the horizontal field of view (and the aspect ratio when only one is given).
-      int w = o.width > 0 ? o.width : int(std::lround(double(o.height) * c.width / c.height));
-      int h = o.height > 0 ? o.height : int(std::lround(double(o.width) * c.height / c.width));
-      c.width = std::max(1, w);
-      c.height = std::max(1, h);
-    }
-  for (const Camera& c : cameras) check_image_budget(c.width, c.height, o.max_memory_gib, "camera '" + c.name + "'");
-  GaussianField asset = load_gaussians(ply.string());
-  eval::scale_albedo(asset, scale);
-  if (scene.gaussians->size() == 0) *scene.gaussians = std::move(asset);
-  else append_gaussians(*scene.gaussians, std::move(asset));
-  if (!o.env.empty()) {
-    scene.environment = SceneEnvironment();
-    scene.environment.latlong = Environment::load(o.env, o.env_strength, o.env_rotation);
-  }
-  for (const std::string& p : o.points) scene.emitters.emplace_back(eval::parse_point_light(p));
-  for (const std::string& a : o.areas) scene.emitters.emplace_back(eval::parse_area_light(a));
-  if (!o.meshes.empty()) {
-    std::array<double, 3> c = parse_triple(o.mesh_color, "--mesh-color");
-    if (!(o.mesh_roughness >= 0.0f && o.mesh_roughness <= 1.0f)) throw Error("--mesh-roughness must be in [0, 1]");
-    for (const std::string& m : o.meshes) {
-      TriangleMesh mesh = load_mesh(m);
-      mesh.material.base_colour = Vec3(float(c[0]), float(c[1]), float(c[2]));
-      mesh.material.roughness = o.mesh_roughness;
-      mesh.material.name = fs::path(m).stem().string();
-      scene.meshes.push_back(std::move(mesh));
-    }
-  } else if (cmd.count("--mesh-color") || cmd.count("--mesh-roughness")) {
-    throw Error("--mesh-color/--mesh-roughness need --mesh");
-  }
-  if (!scene.environment.present() && scene.emitters.empty())
-    throw Error("no light: give --env, --point or --area (or a scene file with lights or an environment)");
+  Scene scene = relight_scene_and_cameras(o, &cameras, &all_cameras);
+  add_relight_content(o, cmd, ply, scale, scene);
 
   PathTracer tracer(scene);
   // Gaussians without normals from their files (a trainer's PLY, or scene-file Gaussians) face
@@ -214,28 +247,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   apply_filter_flags(o.filter, cmd, is.filter);
 
   fs::create_directories(o.output);
-  for (size_t i = 0; i < cameras.size(); ++i) {
-    const Camera& cam = cameras[i];
-    const std::string name = safe_name(cam.name, i);
-    ProgressBar bar("relight " + name, o.quiet);
-    RenderControl control;
-    control.progress = [&](float f) { bar.update(f); };
-    Image img = o.transparent ? eval::render_transparent(tracer, cam, is, control) : render_path(tracer, cam, is, control);
-    bar.finish();
-    const fs::path exr = fs::path(o.output) / (name + ".exr"), png = fs::path(o.output) / (name + ".png");
-    write_image(exr.string(), img, Encoding::Colour);
-    if (o.transparent) {
-      // PNG stores straight alpha.
-      Image straight = img;
-      for (size_t k = 0, n = size_t(img.width) * img.height; k < n; ++k) {
-        float a = img.pixels[k * 4 + 3];
-        for (int c = 0; c < 3; ++c) straight.pixels[k * 4 + c] = a > 1e-6f ? img.pixels[k * 4 + c] / a : 0.0f;
-      }
-      write_image(png.string(), straight, Encoding::Colour);
-    } else {
-      write_image(png.string(), img, Encoding::Colour);
-    }
-  }
+  for (size_t i = 0; i < cameras.size(); ++i) render_relit_view(o, tracer, is, cameras[i], safe_name(cameras[i].name, i));
   if (!o.quiet)
     std::fprintf(stderr,
                  "wrote %zu relit view(s) to %s (%dx%d, %d spp, %d bounces, %zu Gaussians, %zu meshes, %zu lights%s; "

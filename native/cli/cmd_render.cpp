@@ -23,9 +23,10 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "brdf_option.h"
 #include "commands.h"
@@ -133,18 +134,11 @@ void apply_integrator_flags(const RenderOptions& o, const CLI::App& cmd, Integra
   if (cmd.count("--bounces")) s.max_bounces = o.bounces;
   if (cmd.count("--seed")) s.seed = o.seed;
   cli::apply_brdf_option(o.brdf, s.brdf);
-  if (cmd.count("--interaction")) {
-    if (o.interaction == "discrete") s.interaction.mode = InteractionMode::Discrete;
-    else if (o.interaction == "aggregate") s.interaction.mode = InteractionMode::Aggregate;
-    else throw Error("--interaction must be 'aggregate' or 'discrete', got '" + o.interaction + "'");
-  }
+  if (cmd.count("--interaction")) s.interaction.mode = parse_interaction_mode(o.interaction, "--interaction");
   if (cmd.count("--tau-g")) s.interaction.tau_g = o.tau_g;
   if (o.no_geometric_criterion) s.geometric_criterion = false;
-  if (cmd.count("--self-intersection")) {
-    if (o.self_intersection == "backface") s.self_intersection = SelfIntersection::BackfaceAware;
-    else if (o.self_intersection == "fixed") s.self_intersection = SelfIntersection::FixedOffset;
-    else throw Error("--self-intersection must be 'backface' or 'fixed', got '" + o.self_intersection + "'");
-  }
+  if (cmd.count("--self-intersection"))
+    s.self_intersection = parse_self_intersection(o.self_intersection, "--self-intersection");
   apply_filter_flags(o.filter, cmd, s.filter);
   if (s.spp < 1) throw Error("--spp must be at least 1");
   if (s.max_bounces < 0) throw Error("--bounces must be at least 0");
@@ -209,7 +203,7 @@ void load_flag_form(const RenderOptions& o, const CLI::App& cmd, Scene& scene, C
   if (!o.gaussians.empty()) *scene.gaussians = load_gaussians(o.gaussians);
   for (const auto& m : o.meshes) scene.meshes.push_back(load_mesh(m));
   if (scene.gaussians->size() == 0 && scene.meshes.empty()) throw Error("nothing to render: give --gaussians and/or --mesh");
-  if (!o.env.empty()) scene.environment.latlong = Environment::load(o.env, o.env_strength, o.env_rotation);
+  if (!o.env.empty()) scene.environment = Environment::load(o.env, o.env_strength, o.env_rotation);
   else if (cmd.count("--env-strength") || cmd.count("--env-rotation")) throw Error("--env-strength/--env-rotation need --env");
   scene.cameras.push_back(camera);
   scene.source_path = "command line";
@@ -269,15 +263,13 @@ void report_render(const RenderOptions& o, const Scene& scene, const Camera& cam
                    camera.height, aov_name(*aov), gaussians, double(r.trace.hits) / std::max(1.0, samples), r.total_s);
   }
   if (o.stats_json.empty()) return;
-  std::ostringstream js;
-  js << "{\"width\": " << camera.width << ", \"height\": " << camera.height << ", \"spp\": " << settings.spp
-     << ", \"bounces\": " << settings.max_bounces << ", \"aov\": \"" << r.aov_text << "\", \"gaussians\": " << gaussians
-     << ", \"triangles\": " << triangle_count(scene) << ", \"lights\": " << scene.emitters.size()
-     << ", \"threads\": " << o.threads << ", \"load_s\": " << r.load_s << ", \"build_s\": " << r.build_s
-     << ", \"render_s\": " << r.render_s << ", \"total_s\": " << r.total_s << ", \"path_samples\": " << samples
-     << ", \"paths\": " << r.path.paths << ", \"vertices\": " << r.path.vertices
-     << ", \"shadow_rays\": " << r.path.shadow_rays << "}\n";
-  io::write_text_atomic(o.stats_json, js.str());
+  const nlohmann::ordered_json js = {
+      {"width", camera.width}, {"height", camera.height}, {"spp", settings.spp}, {"bounces", settings.max_bounces},
+      {"aov", r.aov_text}, {"gaussians", gaussians}, {"triangles", triangle_count(scene)},
+      {"lights", scene.emitters.size()}, {"threads", o.threads}, {"load_s", r.load_s}, {"build_s", r.build_s},
+      {"render_s", r.render_s}, {"total_s", r.total_s}, {"path_samples", samples}, {"paths", r.path.paths},
+      {"vertices", r.path.vertices}, {"shadow_rays", r.path.shadow_rays}};
+  io::write_text_atomic(o.stats_json, js.dump() + "\n");
 }
 
 int run_render(const RenderOptions& o, const CLI::App& cmd) {

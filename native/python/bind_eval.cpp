@@ -52,8 +52,10 @@ const Image* ptr(const std::optional<Image>& m) { return m ? &*m : nullptr; }
 
 }  // namespace
 
-void bind_eval(py::module_& m) {
-  py::module_ mm = m.def_submodule("metrics", "Evaluation metrics (METHOD §7) on numpy images");
+namespace {
+
+// mse, psnr, ssim.
+void def_image_metrics(py::module_& mm) {
   mm.def(
       "mse",
       [](EvalArray a, EvalArray b, std::optional<EvalArray> mask, int channels) {
@@ -79,6 +81,10 @@ void bind_eval(py::module_& m) {
       "Mean SSIM over 3 channels (Gaussian 11x11 window, sigma 1.5, data range 1): "
       "skimage.metrics.structural_similarity(..., gaussian_weights=True, sigma=1.5, use_sample_covariance=False, "
       "data_range=1, channel_axis=2).");
+}
+
+// The protocol's pieces: median, albedo scale, normal MAE, roughness MSE, display composite.
+void def_protocol_metrics(py::module_& mm) {
   mm.def(
       "median", [](std::vector<float> v) { return ptir::eval::median(v); }, py::arg("values"));
   mm.def(
@@ -137,6 +143,10 @@ void bind_eval(py::module_& m) {
       py::arg("rgb"), py::arg("alpha") = py::none(), py::arg("background") = std::array<float, 3>{1.0f, 1.0f, 1.0f},
       "srgb(clamp(rgb)) * alpha + background * (1 - alpha) (alpha: its last channel).");
 
+}
+
+// ptir.evaluate: the whole protocol (`ptir eval`).
+void def_evaluate(py::module_& m) {
   m.def(
       "evaluate",
       [](const std::string& dataset, const std::string& result, std::map<std::string, std::string> relight, int spp,
@@ -169,4 +179,13 @@ void bind_eval(py::module_& m) {
       py::arg("spp") = 64, py::arg("bounces") = 4, py::arg("aov_spp") = 16, py::arg("split") = "test",
       py::arg("scene") = "", py::arg("seed") = 0, py::arg("sheet_views") = 8, py::arg("log") = nullptr,
       "Runs `ptir eval` (writes RESULT/eval/) and returns metrics.json as a dict.");
+}
+
+}  // namespace
+
+void bind_eval(py::module_& m) {
+  py::module_ mm = m.def_submodule("metrics", "Evaluation metrics (METHOD §7) on numpy images");
+  def_image_metrics(mm);
+  def_protocol_metrics(mm);
+  def_evaluate(m);
 }

@@ -28,25 +28,16 @@
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
+#include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
-#include "ptir/scene/scene_json.h"
+#include "py_arrays.h"
 
 namespace py = pybind11;
 using namespace ptir;
+using namespace ptir::py_bind;
 
 namespace {
-
-using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
-
-py::object image_or_none(const Image& img, bool squeeze) {
-  if (img.width == 0) return py::none();
-  std::vector<py::ssize_t> shape = {img.height, img.width};
-  if (!(squeeze && img.channels == 1)) shape.push_back(img.channels);
-  FloatArray a(shape);
-  std::copy(img.pixels.begin(), img.pixels.end(), a.mutable_data());
-  return std::move(a);
-}
 
 py::dict log_dict(const IterationLog& l) {
   py::dict d;
@@ -100,28 +91,24 @@ std::unique_ptr<PyOptimizer> make_optimizer(py::object dataset, py::object gauss
                                             bool optimize_meshes, const std::string& split, std::optional<std::string> prior,
                                             std::optional<int> threads, int k, std::optional<std::string> env_init,
                                             bool fix_env) {
-  OptimizerSettings s;
-  s.iterations = iters;
-  s.integrator.spp = spp;
-  s.integrator.max_bounces = bounces;
-  s.seed = seed;
-  s.views_per_iteration = views_per_iter;
-  s.crop_size = crop;
-  s.lambda_tv = lambda_tv;
-  s.accel.k = k;
-  if (loss_space == "srgb") s.srgb_loss = true;
-  else if (loss_space == "linear") s.srgb_loss = false;
-  else throw Error("loss_space must be 'srgb' or 'linear', got '" + loss_space + "'");
-  if (env == "latlong") s.params.env = EnvMode::LatLong;
-  else if (env == "sg") s.params.env = EnvMode::SG;
-  else throw Error("env must be 'latlong' or 'sg', got '" + env + "'");
-  s.params.env_width = env_size.first;
-  s.params.env_height = env_size.second;
-  s.params.optimize_metallic = optimize_metallic;
-  s.params.optimize_meshes = optimize_meshes;
-  if (env_init) s.params.env_init_path = *env_init;
-  s.params.optimize_env = !fix_env;
-  if (fix_env && !env_init) throw Error("fix_env needs env_init (the known environment map)");
+  OptimizeOptions o;
+  o.iters = iters;
+  o.spp = spp;
+  o.bounces = bounces;
+  o.seed = seed;
+  o.views_per_iter = views_per_iter;
+  o.crop = crop;
+  o.loss_space = loss_space;
+  o.lambda_tv = lambda_tv;
+  o.env = env;
+  o.env_width = env_size.first;
+  o.env_height = env_size.second;
+  o.env_init = env_init ? *env_init : "";
+  o.fix_env = fix_env;
+  o.optimize_metallic = optimize_metallic;
+  o.optimize_meshes = optimize_meshes;
+  o.k = k;
+  OptimizerSettings s = optimizer_settings(o, python_option_name);
   if (threads && *threads < 1) throw Error("threads must be at least 1");
 
   auto data = dataset_from(dataset, split, prior);
@@ -139,22 +126,8 @@ std::unique_ptr<PyOptimizer> make_optimizer(py::object dataset, py::object gauss
   p->threads = threads;
   py::gil_scoped_release release;
   auto limit = p->limit();
-  Scene scene;
-  if (scene_path) {
-    scene = load_scene_json(*scene_path);
-    if (scene.gaussians && scene.gaussians->size() > 0)
-      throw Error(*scene_path, "the scene file has Gaussians; pass them as `gaussians` instead");
-    s.integrator.interaction = scene.integrator.interaction;
-    s.integrator.geometric_criterion = scene.integrator.geometric_criterion;
-    s.integrator.self_intersection = scene.integrator.self_intersection;
-    s.integrator.self_range_scale = scene.integrator.self_range_scale;
-    s.integrator.fixed_offset = scene.integrator.fixed_offset;
-    s.integrator.fixed_range = scene.integrator.fixed_range;
-  } else if (optimize_meshes) {
-    throw Error("optimize_meshes needs a scene with meshes");
-  }
-  scene.gaussians = field;
-  scene.source_path = scene_path ? *scene_path : "python";
+  Scene scene = prepare_optimizer_scene(scene_path ? *scene_path : "", field, s, python_option_name);
+  if (!scene_path) scene.source_path = "python";
   p->opt = std::make_unique<Optimizer>(std::move(scene), data, s);
   return p;
 }
@@ -193,80 +166,11 @@ std::string run(PyOptimizer& p, std::optional<std::string> out, py::object callb
 
 }  // namespace
 
-void bind_optimize(py::module_& m) {
-  py::class_<Dataset, std::shared_ptr<Dataset>>(m, "Dataset",
-                                                "Posed training images (NeRF-synthetic/TensoIR set or a real capture); see load_dataset.")
-      .def("__len__", &Dataset::size)
-      .def_readonly("root", &Dataset::root)
-      .def_readonly("split", &Dataset::split)
-      .def_readonly("transforms_path", &Dataset::transforms_path)
-      .def_readonly("width", &Dataset::width)
-      .def_readonly("height", &Dataset::height)
-      .def_readonly("layout", &Dataset::layout)
-      .def_readonly("gaussians_path", &Dataset::gaussians_path)
-      .def_property_readonly("cameras", &Dataset::cameras)
-      .def_property_readonly("view_names",
-                             [](const Dataset& d) {
-                               std::vector<std::string> n;
-                               for (const DatasetView& v : d.views) n.push_back(v.camera.name);
-                               return n;
-                             })
-      .def("files",
-           [](const Dataset& d, size_t i) {
-             const ViewFiles& f = d.views.at(i).files;
-             py::dict r;
-             r["image"] = f.image;
-             r["mask"] = f.mask;
-             r["gt_albedo"] = f.gt_albedo;
-             r["gt_roughness"] = f.gt_roughness;
-             r["gt_normal"] = f.gt_normal;
-             r["prior_albedo"] = f.prior_albedo;
-             r["prior_roughness"] = f.prior_roughness;
-             return r;
-           },
-           py::arg("index"), "Paths of view i's files ('' where absent).")
-      .def("target",
-           [](const Dataset& d, size_t i) {
-             std::shared_ptr<const TrainingImage> t;
-             {
-               py::gil_scoped_release release;
-               t = d.target(i);
-             }
-             return py::make_tuple(image_or_none(t->rgb, false), image_or_none(t->alpha, true), t->has_alpha);
-           },
-           py::arg("index"), "(rgb (h, w, 3) linear straight colour, alpha (h, w), has_alpha) of view i.")
-      .def("gt_albedo", [](const Dataset& d, size_t i) { return image_or_none(d.gt_albedo(i), false); }, py::arg("index"))
-      .def("gt_roughness", [](const Dataset& d, size_t i) { return image_or_none(d.gt_roughness(i), true); }, py::arg("index"))
-      .def("gt_normal", [](const Dataset& d, size_t i) { return image_or_none(d.gt_normal(i), false); }, py::arg("index"))
-      .def("prior_albedo", [](const Dataset& d, size_t i) { return image_or_none(d.prior_albedo(i), false); }, py::arg("index"))
-      .def("prior_roughness", [](const Dataset& d, size_t i) { return image_or_none(d.prior_roughness(i), true); },
-           py::arg("index"));
+void bind_dataset(py::module_& m);  // bind_dataset.cpp
 
-  m.def("load_dataset",
-        [](const std::string& path, const std::string& split, std::optional<std::string> prior, const std::string& layout,
-           const std::string& images, int holdout, const std::string& test_list, const std::string& undistort_cache,
-           const std::string& dataparser_transforms, const std::string& world, bool black_background) {
-          DatasetOptions o;
-          o.split = split;
-          if (prior) o.prior_dir = *prior;
-          o.layout = layout;
-          o.images = images;
-          o.holdout = holdout;
-          o.test_list = test_list;
-          o.undistort_dir = undistort_cache;
-          o.dataparser_transforms = dataparser_transforms;
-          o.world = world;
-          o.black_background = black_background;
-          py::gil_scoped_release release;
-          return std::shared_ptr<Dataset>(load_dataset(path, o));
-        },
-        py::arg("path"), py::arg("split") = "train", py::arg("prior") = py::none(), py::arg("layout") = "auto",
-        py::arg("images") = "", py::arg("holdout") = 8, py::arg("test_list") = "", py::arg("undistort_cache") = "",
-        py::arg("dataparser_transforms") = "", py::arg("world") = "auto", py::arg("black_background") = false,
-        "Read a dataset folder: NeRF-synthetic/TensoIR (transforms_<split>.json; optional GT and prior maps), or a real "
-        "capture (COLMAP, 3DGS output, nerfstudio; split train/test/all by holdout); docs/dataset_format.md.");
-  m.def("detect_layout", &detect_layout, py::arg("path"), "The dataset layout of a folder ('' if none is recognised).");
+namespace {
 
+void def_optimizer_class(py::module_& m) {
   py::class_<PyOptimizer>(m, "Optimizer",
                           "The inverse-rendering optimiser (the loop of `ptir optimize`): Adam on per-Gaussian albedo, "
                           "roughness (and optionally metallic) and the environment, gradients by path replay.")
@@ -327,6 +231,9 @@ void bind_optimize(py::module_& m) {
                              })
       .def_property_readonly("nonfinite_gradients", [](const PyOptimizer& p) { return p.opt->nonfinite_gradients(); });
 
+}
+
+void def_optimize_function(py::module_& m) {
   m.def("optimize",
         [](py::object dataset, py::object gaussians, const std::string& out, std::optional<std::string> scene, int iters,
            int spp, int bounces, const std::string& env, std::pair<int, int> env_size, uint64_t seed, bool resume,
@@ -360,4 +267,12 @@ void bind_optimize(py::module_& m) {
         py::arg("callback") = py::none(), py::arg("env_init") = py::none(), py::arg("fix_env") = false,
         "`ptir optimize` from Python: writes out/gaussians.ply, env.exr, log.csv, checkpoint.bin. Returns "
         "{'result': 'finished'|'cancelled', 'iteration': n, 'log': [...]}.");
+}
+
+}  // namespace
+
+void bind_optimize(py::module_& m) {
+  bind_dataset(m);
+  def_optimizer_class(m);
+  def_optimize_function(m);
 }

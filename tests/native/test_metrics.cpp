@@ -207,7 +207,7 @@ TEST(Relight, ParseLights) {
 TEST(Relight, TransparentFilmMatchesRenderPathOnCoveredPixels) {
   Scene scene;
   *scene.gaussians = test::gaussian_sphere(800, 0.5f, Vec3(0.6f, 0.4f, 0.2f), 0.4f, 0.0f);
-  scene.environment.latlong = Environment::constant(Vec3(0.8f, 0.9f, 1.0f), 8, 4);
+  scene.environment = Environment::constant(Vec3(0.8f, 0.9f, 1.0f), 8, 4);
   float c2w[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 3, 0, 0, 0, 1};
   Camera cam = make_camera(c2w, 0.6f, 16, 16);
   PathTracer tracer(scene);

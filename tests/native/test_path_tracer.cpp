@@ -107,7 +107,7 @@ TEST(PathTracer, PlaneUnderEnvironmentMatchesQuadrature) {
   for (float metallic : {0.0f, 1.0f}) {
     Scene scene;
     scene.meshes.push_back(floor_quad(50.0f, Vec3(0.8f, 0.6f, 0.4f), 0.4f, metallic));
-    scene.environment.latlong = Environment(map, 1.5f, 0.3f);
+    scene.environment = Environment(map, 1.5f, 0.3f);
     PathTracer tracer(scene);
     IntegratorSettings settings;
     settings.spp = 512;
@@ -116,7 +116,7 @@ TEST(PathTracer, PlaneUnderEnvironmentMatchesQuadrature) {
     Camera cam = looking_down(Vec3(0, 0, 2.0f), 0.02f, 9);
     Image img = render_path(tracer, cam, settings);
     MaterialParams brdf{Vec3(0.8f, 0.6f, 0.4f), 0.4f, metallic};
-    const Environment& env = *scene.environment.latlong;
+    const Environment& env = *scene.environment.as<Environment>();
     Vec3 expected = quadrature(model, brdf, Vec3(0, 0, 1), [&](Vec3 wi) { return env.eval(wi); }, 800, 1600);
     for (int c = 0; c < 3; ++c)
       EXPECT_NEAR(centre_mean(img, c, 4), expected[c], 0.03 * expected[c]) << to_string(model) << " metallic " << metallic;
@@ -133,7 +133,7 @@ TEST(PathTracer, WhiteGaussianSphereFurnace) {
   for (BsdfModel model : {BsdfModel::Principled, BsdfModel::DisneySimplified}) {
   Scene scene;
   *scene.gaussians = test::gaussian_sphere(40000, 1.0f, Vec3(1.0f), 0.5f, 0.0f);
-  scene.environment.latlong = Environment::constant(Vec3(1.0f), 8, 4);
+  scene.environment = Environment::constant(Vec3(1.0f), 8, 4);
   PathTracer tracer(scene);
   IntegratorSettings settings;
   settings.spp = 64;
@@ -172,7 +172,7 @@ TEST(PathTracer, SameSeedSameImageAnyThreadCount) {
   Affine light_xf;
   light_xf.translation = Vec3(0.0f, 0.0f, 2.0f);
   scene.emitters.push_back(AreaLight::from_blender(light_xf, AreaShape::Ellipse, 1.0f, 1.0f, 200.0f, Vec3(1.0f)));
-  scene.environment.latlong = Environment::constant(Vec3(0.2f, 0.3f, 0.4f), 16, 8);
+  scene.environment = Environment::constant(Vec3(0.2f, 0.3f, 0.4f), 16, 8);
   PathTracer tracer(scene);
   IntegratorSettings settings;
   settings.spp = 4;

@@ -153,11 +153,11 @@ TEST(SceneJson, FullExampleRoundTrip) {
   EXPECT_NEAR(disk.radiance.x, 0.5f * 50.0f / (4.0f * 0.25f * kPi), 1e-3f);
 
   // Environment.
-  ASSERT_TRUE(s.environment.latlong.has_value());
-  EXPECT_FALSE(s.environment.sg.has_value());
-  EXPECT_NEAR(s.environment.latlong->strength(), 2.5f, 1e-6f);
-  EXPECT_NEAR(s.environment.latlong->rotation_z(), 0.4f, 1e-6f);
-  EXPECT_EQ(s.environment.latlong->width(), 8);
+  ASSERT_TRUE(s.environment.as<Environment>());
+  EXPECT_FALSE(s.environment.as<SgEnvironment>());
+  EXPECT_NEAR(s.environment.as<Environment>()->strength(), 2.5f, 1e-6f);
+  EXPECT_NEAR(s.environment.as<Environment>()->rotation_z(), 0.4f, 1e-6f);
+  EXPECT_EQ(s.environment.as<Environment>()->width(), 8);
 
   // Cameras: one explicit, two from the transforms file.
   ASSERT_EQ(s.cameras.size(), 3u);
@@ -187,8 +187,8 @@ TEST(SceneJson, FullExampleRoundTrip) {
 
 TEST(SceneJson, DefaultsAndOtherEnvironments) {
   Scene s = scene_from_json_string(R"({"environment": {"type": "color", "color": [0.5, 1, 2], "strength": 2}})", "");
-  ASSERT_TRUE(s.environment.latlong.has_value());
-  Vec3 L = s.environment.latlong->eval(normalize(Vec3(0.3f, -0.2f, 0.5f)));
+  ASSERT_TRUE(s.environment.as<ConstantEnvironment>());
+  Vec3 L = s.environment->eval(normalize(Vec3(0.3f, -0.2f, 0.5f)));
   EXPECT_NEAR(L.x, 1.0f, 1e-6f);
   EXPECT_NEAR(L.z, 4.0f, 1e-6f);
   IntegratorSettings def;
@@ -200,9 +200,9 @@ TEST(SceneJson, DefaultsAndOtherEnvironments) {
 
   Scene sg = scene_from_json_string(R"({"environment": {"type": "sg", "lobes": 12, "raw": [-1, -2, -3]},
                                         "integrator": {"self_range_scale": "inf"}})", "");
-  ASSERT_TRUE(sg.environment.sg.has_value());
-  EXPECT_EQ(sg.environment.sg->size(), 12);
-  EXPECT_NEAR(sg.environment.sg->raw()[5].y, -2.0f, 1e-7f);
+  ASSERT_TRUE(sg.environment.as<SgEnvironment>());
+  EXPECT_EQ(sg.environment.as<SgEnvironment>()->size(), 12);
+  EXPECT_NEAR(sg.environment.as<SgEnvironment>()->raw()[5].y, -2.0f, 1e-7f);
   EXPECT_TRUE(std::isinf(sg.integrator.self_range_scale));
 
   Scene none = scene_from_json_string(R"({"environment": null, "lights": []})", "");

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <optional>
@@ -15,6 +14,7 @@
 #include "ptir/eval/contact_sheet.h"
 #include "ptir/eval/metrics.h"
 #include "ptir/eval/relight.h"
+#include "ptir/io/atomic_file.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/render/aov.h"
 #include "ptir/scene/gaussian_ply.h"
@@ -54,6 +54,28 @@ std::string view_folder(size_t i) {
   return b;
 }
 
+// Filesystem queries and folder creation at evaluate's edges: failures become
+// ptir::Error naming the path instead of std::filesystem_error.
+bool file_exists(const fs::path& p) {
+  std::error_code ec;
+  bool e = fs::exists(p, ec);
+  if (ec) throw Error(p.string(), "cannot be checked: " + ec.message());
+  return e;
+}
+
+void make_folder(const fs::path& p) {
+  std::error_code ec;
+  fs::create_directories(p, ec);
+  if (ec || !fs::is_directory(p, ec)) throw Error(p.string(), "cannot create the folder" + (ec ? ": " + ec.message() : ""));
+}
+
+std::string absolute_path(const std::string& p) {
+  std::error_code ec;
+  fs::path a = fs::absolute(p, ec);
+  if (ec) throw Error(p, "cannot resolve the path: " + ec.message());
+  return a.string();
+}
+
 // 1-channel image: 1 where a > 0.5 or b > 0.5 (the pixels an error map shows).
 Image union_mask(const Image& a, const Image& b) {
   Image out(a.width, a.height, {"Y"});
@@ -68,9 +90,9 @@ std::string relight_gt_path(const std::string& image, const std::string& name) {
   fs::path p(image);
   for (const char* ext : {".png", ".exr"}) {
     fs::path a = p.parent_path() / ("rgba_" + name + ext);
-    if (fs::exists(a)) return a.string();
+    if (file_exists(a)) return a.string();
     fs::path b = p.parent_path() / (p.stem().string() + "_" + name + ext);
-    if (fs::exists(b)) return b.string();
+    if (file_exists(b)) return b.string();
   }
   return "";
 }
@@ -92,18 +114,6 @@ struct RatioAccumulator {
     return s;
   }
 };
-
-void write_text(const fs::path& path, const std::string& text) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream f(tmp);
-    if (!f) throw Error(path.string(), "cannot write");
-    f << text;
-    if (!f) throw Error(path.string(), "write failed");
-  }
-  fs::rename(tmp, path);
-}
 
 std::string fmt(const json& v, const char* f) {
   if (v.is_null()) return "n/a";
@@ -143,26 +153,56 @@ std::string metrics_markdown(const json& m) {
   return md.str();
 }
 
-EvalReport evaluate(const EvalSettings& s) {
-  const auto t_start = Clock::now();
-  auto say = [&](const std::string& line) {
+namespace {
+
+// Everything one evaluation accumulates, shared by its passes.
+struct EvalRun {
+  explicit EvalRun(const EvalSettings& settings) : s(settings) {}
+  const EvalSettings& s;
+  std::unique_ptr<Dataset> data;
+  Scene scene;
+  std::unique_ptr<PathTracer> tracer;
+  IntegratorSettings is;
+  AovSettings as;
+  fs::path out;
+  size_t n_views = 0, sheet_n = 0;
+  std::map<std::string, std::vector<std::vector<Image>>> sheets;
+  json per_view = json::array();
+  std::vector<double> nvs_psnr, nvs_ssim, rough_mse, normal_mae, albedo_psnr, albedo_psnr_lin, relight_means;
+  RatioAccumulator ratios;
+  bool have_albedo = false;
+  std::array<double, 3> scale{1.0, 1.0, 1.0};
+  json albedo_scale_json = nullptr, relight_json = json::object();
+  double build_s = 0.0, render_s = 0.0;
+
+  void say(const std::string& line) const {
     if (s.log) s.log(line);
-  };
-  if (s.spp < 1 || s.aov_spp < 1) throw Error("eval: samples per pixel must be at least 1");
-  if (s.bounces < 0) throw Error("eval: bounces must be at least 0");
+  }
+  GaussianField& field() { return *scene.gaussians; }
+};
+
+// 1 where the ground truth's alpha > 0.5 (the protocol's foreground).
+Image foreground_mask(const Image& alpha) {
+  Image m(alpha.width, alpha.height, {"Y"});
+  for (size_t k = 0; k < m.pixels.size(); ++k) m.pixels[k] = alpha.pixels[k] > 0.5f ? 1.0f : 0.0f;
+  return m;
+}
+
+// The scene: recovered Gaussians under the recovered environment (+ the scene file's
+// meshes and lights), the tracer, normals oriented toward the test cameras.
+void load_eval_scene(EvalRun& run) {
+  const EvalSettings& s = run.s;
   const fs::path result(s.result);
   const fs::path ply = result / "gaussians.ply", env_path = result / "env.exr";
-  if (!fs::exists(ply)) throw Error(ply.string(), "no such file (the result folder of `ptir optimize` holds gaussians.ply and env.exr)");
-  if (!fs::exists(env_path)) throw Error(env_path.string(), "no such file (the recovered environment)");
-
+  if (!file_exists(ply))
+    throw Error(ply.string(), "no such file (the result folder of `ptir optimize` holds gaussians.ply and env.exr)");
+  if (!file_exists(env_path)) throw Error(env_path.string(), "no such file (the recovered environment)");
   DatasetOptions dopt;
   dopt.split = s.split;
   dopt.cache_bytes = 0;  // every image is read once
-  std::unique_ptr<Dataset> data = load_dataset(s.dataset, dopt);
-  if (data->size() == 0) throw Error(data->transforms_path, "no views");
-
-  // The scene: recovered Gaussians under the recovered environment (+ the scene file's meshes and lights).
-  Scene scene;
+  run.data = load_dataset(s.dataset, dopt);
+  if (run.data->size() == 0) throw Error(run.data->transforms_path, "no views");
+  Scene& scene = run.scene;
   if (!s.scene.empty()) {
     Scene extra = load_scene_json(s.scene);
     scene.meshes = std::move(extra.meshes);
@@ -170,238 +210,231 @@ EvalReport evaluate(const EvalSettings& s) {
     scene.integrator = extra.integrator;
   }
   *scene.gaussians = load_gaussians(ply.string());
-  GaussianField& field = *scene.gaussians;
-  scene.environment.latlong = Environment::load(env_path.string());
-  scene.cameras = data->cameras();
+  scene.environment = Environment::load(env_path.string());
+  scene.cameras = run.data->cameras();
   scene.source_path = s.result;
-  std::vector<std::pair<RelightEnv, Environment>> relights;
-  for (const RelightEnv& r : s.relight) {
-    for (const auto& other : relights)
-      if (other.first.name == r.name) throw Error("--relight: the name '" + r.name + "' is given twice");
-    relights.emplace_back(r, Environment::load(r.path));
-  }
+}
 
+void build_tracer(EvalRun& run) {
+  const EvalSettings& s = run.s;
   const auto t_build = Clock::now();
-  PathTracer tracer(scene);
-  if (!field.normals_from_file && field.size() > 0) orient_normals_to_cameras(field, tracer.accel(), scene.cameras);
-  const double build_s = seconds_since(t_build);
+  run.tracer = std::make_unique<PathTracer>(run.scene);
+  GaussianField& field = run.field();
+  if (!field.normals_from_file && field.size() > 0) orient_normals_to_cameras(field, run.tracer->accel(), run.scene.cameras);
+  run.build_s = seconds_since(t_build);
+  run.is = run.scene.integrator;
+  run.is.spp = s.spp;
+  run.is.max_bounces = s.bounces;
+  if (s.brdf) run.is.brdf = *s.brdf;
+  run.is.seed = s.seed;
+  run.is.filter = dataset_pixel_filter(*run.data);
+  if (s.filter_type) run.is.filter.type = *s.filter_type;
+  if (s.filter_width) run.is.filter.width = *s.filter_width;
+  PixelFilterSampler{run.is.filter};  // validates the width before any rendering
+  run.as.filter = run.is.filter;
+  run.as.spp = s.aov_spp;
+  run.as.seed = s.seed;
+  run.as.interaction = run.is.interaction;
+  run.out = fs::path(s.result) / "eval";
+  make_folder(run.out);
+  run.n_views = run.data->size();
+  run.sheet_n = std::min(run.n_views, size_t(std::max(0, s.sheet_views)));
+}
 
-  IntegratorSettings is = scene.integrator;
-  is.spp = s.spp;
-  is.max_bounces = s.bounces;
-  if (s.brdf) is.brdf = *s.brdf;
-  is.seed = s.seed;
-  is.filter = dataset_pixel_filter(*data);
-  if (s.filter_type) is.filter.type = *s.filter_type;
-  if (s.filter_width) is.filter.width = *s.filter_width;
-  PixelFilterSampler{is.filter};  // validates the width before any rendering
-  AovSettings as;
-  as.filter = is.filter;
-  as.spp = s.aov_spp;
-  as.seed = s.seed;
-  as.interaction = is.interaction;
+// Roughness MSE and normal MAE of view i against its ground truth (where present).
+void score_aovs(EvalRun& run, size_t i, const Image& mask, const Image& show, const TrainingImage& gt, const Image& rough,
+                const Image& normal, json& v) {
+  Image gt_rough = run.data->gt_roughness(i);
+  if (gt_rough.width > 0) {
+    double e = roughness_mse(gt_rough, rough, &mask);
+    run.rough_mse.push_back(e);
+    v["roughness_mse"] = e;
+    if (i < run.sheet_n) {
+      Image d(gt_rough.width, gt_rough.height, {"Y"});
+      for (size_t k = 0; k < d.pixels.size(); ++k)
+        d.pixels[k] = mask.pixels[k] > 0.5f ? std::fabs(gt_rough.pixels[k * gt_rough.channels] - rough.pixels[k * rough.channels]) : 0.0f;
+      run.sheets["roughness"].push_back({grey_to_rgb(gt_rough, &gt.alpha), grey_to_rgb(rough, &rough),
+                                         heatmap(d, kRoughnessErrorScale, &show)});
+    }
+  }
+  Image gt_normal = run.data->gt_normal(i);
+  if (gt_normal.width > 0) {
+    double e = normal_mae_deg(gt_normal, normal, &mask);
+    run.normal_mae.push_back(e);
+    v["normal_mae_deg"] = e;
+    if (i < run.sheet_n)
+      run.sheets["normal"].push_back({normals_to_rgb(gt_normal, &gt.alpha), normals_to_rgb(normal, &normal),
+                                      heatmap(angle_difference(gt_normal, normal), kNormalErrorScale, &show)});
+  }
+}
 
-  const fs::path out = result / "eval";
-  fs::create_directories(out);
-  const size_t n_views = data->size();
-  const size_t sheet_n = std::min(n_views, size_t(std::max(0, s.sheet_views)));
-  std::map<std::string, std::vector<std::vector<Image>>> sheets;
+// Pass 1 for view i: the novel view and the AOVs, written and scored.
+void evaluate_view(EvalRun& run, size_t i) {
+  const EvalSettings& s = run.s;
+  const PathTracer& tracer = *run.tracer;
+  const Camera& cam = run.data->views[i].camera;
+  const fs::path vdir = run.out / view_folder(i);
+  make_folder(vdir);
+  const auto t0 = Clock::now();
+  Image rgba = render_transparent(tracer, cam, run.is, s.control);
+  Image albedo = render_aov(tracer.accel(), cam, Aov::Albedo, run.as, s.control);
+  Image rough = render_aov(tracer.accel(), cam, Aov::Roughness, run.as, s.control);
+  Image metal = render_aov(tracer.accel(), cam, Aov::Metallic, run.as, s.control);
+  Image normal = render_aov(tracer.accel(), cam, Aov::Normal, run.as, s.control);
+  run.render_s += seconds_since(t0);
+  write_image((vdir / "rgba.exr").string(), rgba);
+  write_image((vdir / "albedo.exr").string(), albedo);
+  write_image((vdir / "roughness.exr").string(), rough);
+  write_image((vdir / "metallic.exr").string(), metal);
+  write_image((vdir / "normal.exr").string(), normal);
 
-  json per_view = json::array();
-  std::vector<double> nvs_psnr, nvs_ssim, rough_mse, normal_mae;
-  RatioAccumulator ratios;
-  bool have_albedo = false;
-  double render_s = 0.0;
+  json v = {{"view", view_folder(i)}, {"camera", cam.name}};
+  std::shared_ptr<const TrainingImage> gt = run.data->target(i);
+  const Image mask = foreground_mask(gt->alpha);
+  const Image show = union_mask(mask, rgba);
+  const Image ours_rgb = unpremultiply(rgba);
+  const Image ours_disp = composite_srgb(ours_rgb, &rgba);
+  const Image gt_disp = composite_srgb(gt->rgb, &gt->alpha);
+  double p = capped(psnr(ours_disp, gt_disp)), q = ssim(ours_disp, gt_disp);
+  run.nvs_psnr.push_back(p);
+  run.nvs_ssim.push_back(q);
+  v["nvs_psnr"] = p;
+  v["nvs_ssim"] = q;
+  if (i < run.sheet_n)
+    run.sheets["nvs"].push_back({gt_disp, ours_disp, heatmap(abs_difference(gt_disp, ours_disp), kColourErrorScale, &show)});
 
-  // Pass 1: novel views and AOVs.
-  for (size_t i = 0; i < n_views; ++i) {
-    const Camera& cam = data->views[i].camera;
-    const fs::path vdir = out / view_folder(i);
-    fs::create_directories(vdir);
+  Image gt_albedo = run.data->gt_albedo(i);
+  if (gt_albedo.width > 0) {
+    run.have_albedo = true;
+    run.ratios.add(gt_albedo, albedo, mask);
+  }
+  score_aovs(run, i, mask, show, *gt, rough, normal, v);
+  const bool has_normal_gt = v.contains("normal_mae_deg");
+  run.per_view.push_back(v);
+  char line[256];
+  std::snprintf(line, sizeof line, "eval %s: NVS %.2f dB / SSIM %.4f%s", view_folder(i).c_str(), p, q,
+                has_normal_gt ? "" : " (no normal ground truth)");
+  run.say(line);
+}
+
+// The albedo scale over all views, then the albedo PSNR per view (our AOV read back).
+void score_albedo(EvalRun& run) {
+  if (!run.have_albedo) return;
+  run.scale = run.ratios.scale();
+  run.ratios = RatioAccumulator();
+  run.albedo_scale_json = {run.scale[0], run.scale[1], run.scale[2]};
+  for (size_t i = 0; i < run.n_views; ++i) {
+    Image gt_albedo = run.data->gt_albedo(i);
+    if (gt_albedo.width == 0) continue;
+    std::shared_ptr<const TrainingImage> gt = run.data->target(i);
+    const Image mask = foreground_mask(gt->alpha);
+    Image pred = read_image((run.out / view_folder(i) / "albedo.exr").string(), Encoding::Data);
+    Image aligned = apply_scale(pred, run.scale);
+    Image gt_clamped = apply_scale(gt_albedo, {1.0, 1.0, 1.0});
+    Image a_srgb = srgb_encode(aligned), g_srgb = srgb_encode(gt_clamped);
+    double p = capped(psnr(a_srgb, g_srgb, &mask)), pl = capped(psnr(aligned, gt_clamped, &mask));
+    run.albedo_psnr.push_back(p);
+    run.albedo_psnr_lin.push_back(pl);
+    run.per_view[i]["albedo_psnr"] = p;
+    run.per_view[i]["albedo_psnr_linear"] = pl;
+    if (i < run.sheet_n)
+      run.sheets["albedo"].push_back({composite_srgb(gt_albedo, &gt->alpha), composite_srgb(aligned, &pred),
+                                      heatmap(abs_difference(a_srgb, g_srgb), kColourErrorScale, &mask)});
+  }
+  char line[160];
+  std::snprintf(line, sizeof line, "eval: albedo scale %.4f %.4f %.4f, albedo PSNR %.2f dB", run.scale[0], run.scale[1],
+                run.scale[2], mean_or_null(run.albedo_psnr).get<double>());
+  run.say(line);
+}
+
+// Every view relit under one environment (the albedo already scaled), scored where
+// the relit ground truth exists.
+void relight_views(EvalRun& run, const RelightEnv& r, const Environment& env) {
+  run.scene.environment = env;
+  std::vector<double> ps, ss;
+  for (size_t i = 0; i < run.n_views; ++i) {
+    const Camera& cam = run.data->views[i].camera;
     const auto t0 = Clock::now();
-    Image rgba = render_transparent(tracer, cam, is, s.control);
-    Image albedo = render_aov(tracer.accel(), cam, Aov::Albedo, as, s.control);
-    Image rough = render_aov(tracer.accel(), cam, Aov::Roughness, as, s.control);
-    Image metal = render_aov(tracer.accel(), cam, Aov::Metallic, as, s.control);
-    Image normal = render_aov(tracer.accel(), cam, Aov::Normal, as, s.control);
-    render_s += seconds_since(t0);
-    write_image((vdir / "rgba.exr").string(), rgba);
-    write_image((vdir / "albedo.exr").string(), albedo);
-    write_image((vdir / "roughness.exr").string(), rough);
-    write_image((vdir / "metallic.exr").string(), metal);
-    write_image((vdir / "normal.exr").string(), normal);
-
-    json v = {{"view", view_folder(i)}, {"camera", cam.name}};
-    std::shared_ptr<const TrainingImage> gt = data->target(i);
-    const Image mask = [&] {
-      Image m(gt->alpha.width, gt->alpha.height, {"Y"});
-      for (size_t k = 0; k < m.pixels.size(); ++k) m.pixels[k] = gt->alpha.pixels[k] > 0.5f ? 1.0f : 0.0f;
-      return m;
-    }();
-    const Image show = union_mask(mask, rgba);
-    const Image ours_rgb = unpremultiply(rgba);
-    const Image ours_disp = composite_srgb(ours_rgb, &rgba);
-    const Image gt_disp = composite_srgb(gt->rgb, &gt->alpha);
+    Image rgba = render_transparent(*run.tracer, cam, run.is, run.s.control);
+    run.render_s += seconds_since(t0);
+    write_image((run.out / view_folder(i) / ("rgba_" + r.name + ".exr")).string(), rgba);
+    std::string gt_path = relight_gt_path(run.data->views[i].files.image, r.name);
+    if (gt_path.empty()) continue;
+    TrainingImage gt = read_training_image(gt_path);
+    if (gt.rgb.width != rgba.width || gt.rgb.height != rgba.height) throw Error(gt_path, "size differs from the view's camera");
+    const Image ours_disp = composite_srgb(unpremultiply(rgba), &rgba);
+    const Image gt_disp = composite_srgb(gt.rgb, &gt.alpha);
     double p = capped(psnr(ours_disp, gt_disp)), q = ssim(ours_disp, gt_disp);
-    nvs_psnr.push_back(p);
-    nvs_ssim.push_back(q);
-    v["nvs_psnr"] = p;
-    v["nvs_ssim"] = q;
-    if (i < sheet_n) sheets["nvs"].push_back({gt_disp, ours_disp, heatmap(abs_difference(gt_disp, ours_disp), kColourErrorScale, &show)});
-
-    Image gt_albedo = data->gt_albedo(i);
-    if (gt_albedo.width > 0) {
-      have_albedo = true;
-      ratios.add(gt_albedo, albedo, mask);
-    }
-    Image gt_rough = data->gt_roughness(i);
-    if (gt_rough.width > 0) {
-      double e = roughness_mse(gt_rough, rough, &mask);
-      rough_mse.push_back(e);
-      v["roughness_mse"] = e;
-      if (i < sheet_n) {
-        Image d(gt_rough.width, gt_rough.height, {"Y"});
-        for (size_t k = 0; k < d.pixels.size(); ++k)
-          d.pixels[k] = mask.pixels[k] > 0.5f ? std::fabs(gt_rough.pixels[k * gt_rough.channels] - rough.pixels[k * rough.channels]) : 0.0f;
-        sheets["roughness"].push_back({grey_to_rgb(gt_rough, &gt->alpha), grey_to_rgb(rough, &rough),
-                                       heatmap(d, kRoughnessErrorScale, &show)});
-      }
-    }
-    Image gt_normal = data->gt_normal(i);
-    if (gt_normal.width > 0) {
-      double e = normal_mae_deg(gt_normal, normal, &mask);
-      normal_mae.push_back(e);
-      v["normal_mae_deg"] = e;
-      if (i < sheet_n)
-        sheets["normal"].push_back({normals_to_rgb(gt_normal, &gt->alpha), normals_to_rgb(normal, &normal),
-                                    heatmap(angle_difference(gt_normal, normal), kNormalErrorScale, &show)});
-    }
-    per_view.push_back(v);
-    char line[256];
-    std::snprintf(line, sizeof line, "eval %s: NVS %.2f dB / SSIM %.4f%s", view_folder(i).c_str(), p, q,
-                  gt_normal.width > 0 ? "" : " (no normal ground truth)");
-    say(line);
-  }
-
-  // Albedo scale over all views, then the albedo PSNR per view (our AOV read back).
-  json albedo_scale_json = nullptr;
-  std::array<double, 3> scale{1.0, 1.0, 1.0};
-  std::vector<double> albedo_psnr, albedo_psnr_lin;
-  if (have_albedo) {
-    scale = ratios.scale();
-    ratios = RatioAccumulator();
-    albedo_scale_json = {scale[0], scale[1], scale[2]};
-    for (size_t i = 0; i < n_views; ++i) {
-      Image gt_albedo = data->gt_albedo(i);
-      if (gt_albedo.width == 0) continue;
-      std::shared_ptr<const TrainingImage> gt = data->target(i);
-      Image mask(gt->alpha.width, gt->alpha.height, {"Y"});
-      for (size_t k = 0; k < mask.pixels.size(); ++k) mask.pixels[k] = gt->alpha.pixels[k] > 0.5f ? 1.0f : 0.0f;
-      Image pred = read_image((out / view_folder(i) / "albedo.exr").string(), Encoding::Data);
-      Image aligned = apply_scale(pred, scale);
-      Image gt_clamped = apply_scale(gt_albedo, {1.0, 1.0, 1.0});
-      Image a_srgb = srgb_encode(aligned), g_srgb = srgb_encode(gt_clamped);
-      double p = capped(psnr(a_srgb, g_srgb, &mask)), pl = capped(psnr(aligned, gt_clamped, &mask));
-      albedo_psnr.push_back(p);
-      albedo_psnr_lin.push_back(pl);
-      per_view[i]["albedo_psnr"] = p;
-      per_view[i]["albedo_psnr_linear"] = pl;
-      if (i < sheet_n) {
-        sheets["albedo"].push_back({composite_srgb(gt_albedo, &gt->alpha), composite_srgb(aligned, &pred),
-                                    heatmap(abs_difference(a_srgb, g_srgb), kColourErrorScale, &mask)});
-      }
-    }
-    char line[160];
-    std::snprintf(line, sizeof line, "eval: albedo scale %.4f %.4f %.4f, albedo PSNR %.2f dB", scale[0], scale[1], scale[2],
-                  mean_or_null(albedo_psnr).get<double>());
-    say(line);
-  }
-
-  // Relighting with the scaled albedo.
-  json relight_json = json::object();
-  std::vector<double> relight_means;
-  if (!relights.empty()) {
-    scale_albedo(field, scale);
-    for (auto& [r, env] : relights) {
-      scene.environment.latlong = env;
-      std::vector<double> ps, ss;
-      for (size_t i = 0; i < n_views; ++i) {
-        const Camera& cam = data->views[i].camera;
-        const auto t0 = Clock::now();
-        Image rgba = render_transparent(tracer, cam, is, s.control);
-        render_s += seconds_since(t0);
-        write_image((out / view_folder(i) / ("rgba_" + r.name + ".exr")).string(), rgba);
-        std::string gt_path = relight_gt_path(data->views[i].files.image, r.name);
-        if (gt_path.empty()) continue;
-        TrainingImage gt = read_training_image(gt_path);
-        if (gt.rgb.width != rgba.width || gt.rgb.height != rgba.height)
-          throw Error(gt_path, "size differs from the view's camera");
-        const Image ours_disp = composite_srgb(unpremultiply(rgba), &rgba);
-        const Image gt_disp = composite_srgb(gt.rgb, &gt.alpha);
-        double p = capped(psnr(ours_disp, gt_disp)), q = ssim(ours_disp, gt_disp);
-        ps.push_back(p);
-        ss.push_back(q);
-        per_view[i]["relight"][r.name] = {{"psnr", p}, {"ssim", q}};
-        if (i < sheet_n) {
-          Image mask(gt.alpha.width, gt.alpha.height, {"Y"});
-          for (size_t k = 0; k < mask.pixels.size(); ++k) mask.pixels[k] = gt.alpha.pixels[k] > 0.5f ? 1.0f : 0.0f;
-          Image show = union_mask(mask, rgba);
-          sheets["relight_" + r.name].push_back(
-              {gt_disp, ours_disp, heatmap(abs_difference(gt_disp, ours_disp), kColourErrorScale, &show)});
-        }
-      }
-      json e = {{"env", r.path}, {"psnr", mean_or_null(ps)}, {"ssim", mean_or_null(ss)}, {"views", ps.size()}};
-      relight_json[r.name] = e;
-      if (!ps.empty()) relight_means.push_back(e["psnr"].get<double>());
-      char line[200];
-      std::snprintf(line, sizeof line, "eval: relight %s: %s", r.name.c_str(),
-                    ps.empty() ? "rendered (no ground truth)" : (fmt(e["psnr"], "%.2f") + " dB").c_str());
-      say(line);
+    ps.push_back(p);
+    ss.push_back(q);
+    run.per_view[i]["relight"][r.name] = {{"psnr", p}, {"ssim", q}};
+    if (i < run.sheet_n) {
+      Image show = union_mask(foreground_mask(gt.alpha), rgba);
+      run.sheets["relight_" + r.name].push_back(
+          {gt_disp, ours_disp, heatmap(abs_difference(gt_disp, ours_disp), kColourErrorScale, &show)});
     }
   }
+  json e = {{"env", r.path}, {"psnr", mean_or_null(ps)}, {"ssim", mean_or_null(ss)}, {"views", ps.size()}};
+  run.relight_json[r.name] = e;
+  if (!ps.empty()) run.relight_means.push_back(e["psnr"].get<double>());
+  char line[200];
+  std::snprintf(line, sizeof line, "eval: relight %s: %s", r.name.c_str(),
+                ps.empty() ? "rendered (no ground truth)" : (fmt(e["psnr"], "%.2f") + " dB").c_str());
+  run.say(line);
+}
 
-  // Contact sheets: upscaled so that small images are still legible.
+// Contact sheets, upscaled so that small images are still legible; returns their file names.
+std::vector<std::string> write_contact_sheets(const EvalRun& run) {
   std::vector<std::string> sheet_files;
-  for (auto& [name, rows] : sheets) {
+  for (auto& [name, rows] : run.sheets) {
     if (rows.empty()) continue;
     const int tile = rows[0][0].width;
     const int k = std::max(1, 256 / std::max(1, tile));
-    fs::path f = out / ("sheet_" + name + ".png");
+    fs::path f = run.out / ("sheet_" + name + ".png");
     write_image(f.string(), contact_sheet(rows, std::min(k, 4)), Encoding::Data);
     sheet_files.push_back(f.filename().string());
   }
+  return sheet_files;
+}
 
+json metrics_json(const EvalRun& run, const std::vector<std::string>& sheet_files, double total_s) {
+  const EvalSettings& s = run.s;
   json m;
-  m["dataset"] = fs::absolute(s.dataset).string();
-  m["result"] = fs::absolute(s.result).string();
+  m["dataset"] = absolute_path(s.dataset);
+  m["result"] = absolute_path(s.result);
   m["split"] = s.split;
-  m["views"] = n_views;
-  m["gaussians"] = field.size();
+  m["views"] = run.n_views;
+  m["gaussians"] = run.scene.gaussians->size();
   m["settings"] = {{"spp", s.spp}, {"bounces", s.bounces}, {"aov_spp", s.aov_spp}, {"seed", s.seed},
                    {"background", "white (sRGB composite)"}, {"foreground", "ground-truth alpha > 0.5"}};
-  m["albedo_scale"] = albedo_scale_json;
-  m["albedo_psnr"] = mean_or_null(albedo_psnr);
-  m["albedo_psnr_linear"] = mean_or_null(albedo_psnr_lin);
-  m["nvs_psnr"] = mean_or_null(nvs_psnr);
-  m["nvs_ssim"] = mean_or_null(nvs_ssim);
-  m["relight"] = relight_json;
-  m["relight_psnr"] = mean_or_null(relight_means);
-  m["roughness_mse"] = mean_or_null(rough_mse);
-  m["normal_mae_deg"] = mean_or_null(normal_mae);
-  m["per_view"] = per_view;
+  m["albedo_scale"] = run.albedo_scale_json;
+  m["albedo_psnr"] = mean_or_null(run.albedo_psnr);
+  m["albedo_psnr_linear"] = mean_or_null(run.albedo_psnr_lin);
+  m["nvs_psnr"] = mean_or_null(run.nvs_psnr);
+  m["nvs_ssim"] = mean_or_null(run.nvs_ssim);
+  m["relight"] = run.relight_json;
+  m["relight_psnr"] = mean_or_null(run.relight_means);
+  m["roughness_mse"] = mean_or_null(run.rough_mse);
+  m["normal_mae_deg"] = mean_or_null(run.normal_mae);
+  m["per_view"] = run.per_view;
   m["sheets"] = sheet_files;
-  m["seconds"] = {{"build", build_s}, {"render", render_s}, {"total", seconds_since(t_start)}};
+  m["seconds"] = {{"build", run.build_s}, {"render", run.render_s}, {"total", total_s}};
+  return m;
+}
 
-  EvalReport rep;
-  rep.metrics = m;
+std::string report_markdown(const EvalRun& run, const json& m) {
+  const EvalSettings& s = run.s;
+  const std::array<double, 3>& scale = run.scale;
   std::ostringstream md;
   md << "# Evaluation of " << m["result"].get<std::string>() << "\n\n";
-  md << "Dataset `" << m["dataset"].get<std::string>() << "`, " << n_views << " " << s.split << " views, " << field.size()
-     << " Gaussians; renders " << s.spp << " spp, " << s.bounces << " bounces; AOVs " << s.aov_spp << " spp.\n\n";
+  md << "Dataset `" << m["dataset"].get<std::string>() << "`, " << run.n_views << " " << s.split << " views, "
+     << run.scene.gaussians->size() << " Gaussians; renders " << s.spp << " spp, " << s.bounces << " bounces; AOVs "
+     << s.aov_spp << " spp.\n\n";
   md << metrics_markdown(m);
   md << "\nAlbedo scale (per channel, median gt/ours, linear): ";
-  md << (have_albedo ? fmt(json(scale[0]), "%.4f") + " " + fmt(json(scale[1]), "%.4f") + " " + fmt(json(scale[2]), "%.4f")
-                     : std::string("n/a (no albedo ground truth)"))
+  md << (run.have_albedo
+             ? fmt(json(scale[0]), "%.4f") + " " + fmt(json(scale[1]), "%.4f") + " " + fmt(json(scale[2]), "%.4f")
+             : std::string("n/a (no albedo ground truth)"))
      << ".\n\nProtocol (METHOD §7): NVS/relight compare sRGB display values composited over white, whole image; "
         "albedo PSNR over foreground pixels (gt alpha > 0.5) after the scale, in sRGB (linear: "
      << fmt(m["albedo_psnr_linear"], "%.2f")
@@ -409,11 +442,48 @@ EvalReport evaluate(const EvalSettings& s) {
         "Relighting uses the scaled albedo. PSNR of identical images is reported as 100 dB.\n\n"
         "Contact sheets (rows = views; columns = ground truth | ours | error): colour error full scale = 0.25 "
         "(sRGB display difference), roughness 0.5, normal 45°.\n";
-  rep.markdown = md.str();
-  rep.out_dir = out.string();
-  write_text(out / "metrics.json", m.dump(1) + "\n");
-  write_text(out / "metrics.md", rep.markdown);
+  return md.str();
+}
+
+EvalReport evaluate_unguarded(const EvalSettings& s) {
+  const auto t_start = Clock::now();
+  if (s.spp < 1 || s.aov_spp < 1) throw Error("eval: samples per pixel must be at least 1");
+  if (s.bounces < 0) throw Error("eval: bounces must be at least 0");
+  EvalRun run(s);
+  load_eval_scene(run);
+  std::vector<std::pair<RelightEnv, Environment>> relights;
+  for (const RelightEnv& r : s.relight) {
+    for (const auto& other : relights)
+      if (other.first.name == r.name) throw Error("--relight: the name '" + r.name + "' is given twice");
+    relights.emplace_back(r, Environment::load(r.path));
+  }
+  build_tracer(run);
+  for (size_t i = 0; i < run.n_views; ++i) evaluate_view(run, i);
+  score_albedo(run);
+  if (!relights.empty()) {
+    scale_albedo(run.field(), run.scale);
+    for (const auto& [r, env] : relights) relight_views(run, r, env);
+  }
+  const std::vector<std::string> sheet_files = write_contact_sheets(run);
+
+  EvalReport rep;
+  rep.metrics = metrics_json(run, sheet_files, seconds_since(t_start));
+  rep.markdown = report_markdown(run, rep.metrics);
+  rep.out_dir = run.out.string();
+  io::write_text_atomic((run.out / "metrics.json").string(), rep.metrics.dump(1) + "\n");
+  io::write_text_atomic((run.out / "metrics.md").string(), rep.markdown);
   return rep;
+}
+
+}  // namespace
+
+EvalReport evaluate(const EvalSettings& s) {
+  try {
+    return evaluate_unguarded(s);
+  } catch (const fs::filesystem_error& e) {
+    // Any filesystem failure not already reported (readers, writers) names its path.
+    throw Error(e.path1().empty() ? s.result : e.path1().string(), e.code().message());
+  }
 }
 
 }  // namespace ptir::eval

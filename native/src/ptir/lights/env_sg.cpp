@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include <nlohmann/json.hpp>
+
 #include "ptir/core/error.h"
+#include "ptir/core/number_text.h"
 
 namespace ptir {
 
@@ -61,6 +64,12 @@ void SgEnvironment::update() {
   const int n = size();
   if (int(raw_.size()) != n || int(sharpness_.size()) != n)
     throw Error("SgEnvironment: raw, axes and sharpness must have the same length");
+  for (Vec3& a : axes_) a = normalize(a);
+  update_amplitudes();
+}
+
+void SgEnvironment::update_amplitudes() {
+  const int n = size();
   amplitude_.resize(size_t(n));
   lobe_prob_.assign(size_t(n), 0.0f);
   lobe_cdf_.assign(size_t(n) + 1, 0.0f);
@@ -68,7 +77,6 @@ void SgEnvironment::update() {
   double total = 0.0;
   for (int i = 0; i < n; ++i) {
     if (!(sharpness_[i] > 0.0f)) throw Error("SgEnvironment: lobe sharpness must be positive");
-    axes_[i] = normalize(axes_[i]);
     amplitude_[i] = amplitude_from_raw(raw_[i], gamma_);
     energy[i] = std::max(0.0, double(luminance(amplitude_[i]))) * lobe_integral(sharpness_[i]);
     if (!std::isfinite(energy[i])) energy[i] = 0.0;
@@ -151,21 +159,59 @@ float SgEnvironment::pdf(Vec3 v) const {
   return float(p);
 }
 
-Image SgEnvironment::to_latlong(int w, int h) const {
-  if (w <= 0 || h <= 0) throw Error("SgEnvironment::to_latlong: size must be positive");
-  Image img(w, h, {"R", "G", "B"});
-  for (int y = 0; y < h; ++y) {
-    const double theta = kPiD * (y + 0.5) / h;  // row 0 = top = +z
-    for (int x = 0; x < w; ++x) {
-      const double u = (x + 0.5) / w;
-      const double phi = kPiD * (1.0 - 2.0 * u);  // u = 0.5 -> +x
-      Vec3 d(float(std::sin(theta) * std::cos(phi)), float(std::sin(theta) * std::sin(phi)),
-             float(std::cos(theta)));
-      Vec3 L = eval(d);
-      for (int c = 0; c < 3; ++c) img.at(x, y, c) = L[c];
-    }
+Image SgEnvironment::to_latlong(int w, int h) const { return rasterise_latlong(*this, w, h); }
+
+std::string SgEnvironment::describe() const { return "sg " + std::to_string(size()) + " lobes"; }
+
+EnvLightSample SgEnvironment::sample_li(float u0, float u1, float u2) const {
+  SgSample s = sample(u0, u1, u2);
+  return {s.wi, s.Li, s.pdf};
+}
+
+void SgEnvironment::adjoint(Vec3 d, Vec3 d_Le, float* grad) const {
+  // L's channel c depends only on x_i's channel c.
+  thread_local std::vector<Vec3> d_raw;
+  d_eval_d_raw(d, d_raw);
+  for (size_t i = 0; i < d_raw.size(); ++i) {
+    Vec3 g = d_Le * d_raw[i];
+    grad[3 * i] += g.x;
+    grad[3 * i + 1] += g.y;
+    grad[3 * i + 2] += g.z;
   }
-  return img;
+}
+
+void SgEnvironment::get_raw(float* raw) const {
+  for (size_t i = 0; i < raw_.size(); ++i) {
+    raw[3 * i] = raw_[i].x;
+    raw[3 * i + 1] = raw_[i].y;
+    raw[3 * i + 2] = raw_[i].z;
+  }
+}
+
+void SgEnvironment::set_raw(const float* raw) {
+  for (size_t i = 0; i < raw_.size(); ++i) raw_[i] = Vec3(raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]);
+  // Not update(): the axes are unchanged, and renormalising them again would move
+  // them by an ulp per call, so a resumed optimisation (fewer calls on a fresh
+  // object) would drift apart from an uninterrupted one.
+  update_amplitudes();
+}
+
+void SgEnvironment::raw_gradient(const float* /*raw*/, const float* d_value, float* d_raw) const {
+  // The values are the raw amplitudes themselves.
+  for (size_t i = 0; i < 3 * raw_.size(); ++i) d_raw[i] = d_value[i];
+}
+
+bool SgEnvironment::parameters_json(nlohmann::ordered_json* out) const {
+  using ojson = nlohmann::ordered_json;
+  auto v3 = [](Vec3 v) { return ojson::array({json_number(v.x), json_number(v.y), json_number(v.z)}); };
+  ojson lobes = ojson::array();
+  for (int i = 0; i < size(); ++i)
+    lobes.push_back(ojson{{"axis", v3(axes_[size_t(i)])},
+                          {"sharpness", json_number(sharpness_[size_t(i)])},
+                          {"raw", v3(raw_[size_t(i)])},
+                          {"amplitude", v3(amplitude(i))}});
+  *out = ojson{{"gamma", json_number(gamma_)}, {"lobes", lobes}};
+  return true;
 }
 
 }  // namespace ptir

@@ -16,11 +16,15 @@
 //
 // After changing raw(), axes() or sharpness() call update() (recomputes c_i and the
 // lobe selection probabilities). Directions are world directions, z up.
+//
+// As an EnvironmentLight: the parameters are the raw amplitudes x_i (3 per lobe)
+// and raw = value (the activation is inside L).
 #pragma once
 
 #include <vector>
 
 #include "ptir/io/image.h"
+#include "ptir/lights/environment_light.h"
 #include "ptir/math/vec.h"
 
 namespace ptir {
@@ -33,7 +37,7 @@ struct SgSample {
   bool valid() const { return pdf > 0.0f; }
 };
 
-class SgEnvironment {
+class SgEnvironment final : public EnvironmentLight {
  public:
   static constexpr int kDefaultLobes = 24;
   static constexpr float kDefaultGamma = 0.3f;
@@ -63,7 +67,7 @@ class SgEnvironment {
   // Integral over the sphere of exp(lambda (eta . v - 1)): 2 pi / lambda (1 - e^{-2 lambda}).
   static double lobe_integral(float lambda);
 
-  Vec3 eval(Vec3 v) const;
+  Vec3 eval(Vec3 v) const override;
   // dL(v)/dx_i per channel (L's channel c depends only on x_i's channel c):
   //   dc_i/dx_i * exp(lambda_i (eta_i . v - 1)).
   Vec3 d_eval_d_raw(Vec3 v, int i) const;
@@ -72,7 +76,7 @@ class SgEnvironment {
 
   // Mixture sampling from three uniforms (u0 picks the lobe).
   SgSample sample(float u0, float u1, float u2) const;
-  float pdf(Vec3 v) const;
+  float pdf(Vec3 v) const override;
   // One lobe: exact inverse-CDF sample and its density.
   Vec3 sample_lobe(int i, float u1, float u2) const;
   float lobe_pdf(int i, Vec3 v) const;
@@ -80,9 +84,23 @@ class SgEnvironment {
 
   // Rasterises L to a w x h lat-long RGB image in the Environment orientation (row 0
   // = top = +z, u = 0.5 = +x), each texel evaluated at its centre direction.
-  Image to_latlong(int w, int h) const;
+  Image to_latlong(int w, int h) const override;
+
+  // EnvironmentLight (sample_li is sample()).
+  std::unique_ptr<EnvironmentLight> clone() const override { return std::make_unique<SgEnvironment>(*this); }
+  const char* type() const override { return "sg"; }
+  std::string describe() const override;
+  EnvLightSample sample_li(float u0, float u1, float u2) const override;
+  size_t parameter_count() const override { return 3 * raw_.size(); }
+  void adjoint(Vec3 d, Vec3 d_Le, float* grad) const override;
+  void get_raw(float* raw) const override;
+  void set_raw(const float* raw) override;
+  void raw_gradient(const float* raw, const float* d_value, float* d_raw) const override;
+  // {"gamma": g, "lobes": [{"axis", "sharpness", "raw", "amplitude"}, ...]}
+  bool parameters_json(nlohmann::ordered_json* out) const override;
 
  private:
+  void update_amplitudes();  // c_i and the lobe selection (update() without renormalising axes)
   float gamma_;
   std::vector<Vec3> raw_, axes_;
   std::vector<float> sharpness_;

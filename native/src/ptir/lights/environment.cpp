@@ -161,4 +161,48 @@ float Environment::pdf(Vec3 d) const {
   return float(double(distribution_.pdf_cell(ix, iy)) / (2.0 * kPiD * kPiD * sin_theta));
 }
 
+// ---- EnvironmentLight
+
+std::string Environment::describe() const {
+  return "latlong " + std::to_string(width_) + "x" + std::to_string(height_);
+}
+
+EnvLightSample Environment::sample_li(float u0, float u1, float /*u2*/) const {
+  EnvSample s = sample(u0, u1);
+  return {s.wi, s.Li, s.pdf};
+}
+
+void Environment::adjoint(Vec3 d, Vec3 d_Le, float* grad) const {
+  // Le = strength * texel(d) (nearest lookup): one texel receives it all.
+  int t = texel_index(d);
+  if (t < 0) return;
+  Vec3 g = d_Le * strength_;
+  float* p = grad + 3 * size_t(t);
+  p[0] += g.x;
+  p[1] += g.y;
+  p[2] += g.z;
+}
+
+void Environment::get_raw(float* raw) const {
+  for (size_t i = 0; i < texels_.size(); ++i) raw[i] = std::log(std::max(texels_[i], 1e-8f));
+}
+
+void Environment::set_raw(const float* raw) {
+  for (size_t i = 0; i < texels_.size(); ++i) texels_[i] = std::exp(raw[i]);
+  rebuild_sampling();
+}
+
+void Environment::raw_gradient(const float* raw, const float* d_value, float* d_raw) const {
+  for (size_t i = 0; i < texels_.size(); ++i) d_raw[i] = d_value[i] * std::exp(raw[i]);
+}
+
+Image Environment::to_latlong(int /*w*/, int /*h*/) const {
+  if (rotation_z_ != 0.0f) return rasterise_latlong(*this, width_, height_);
+  Image img(width_, height_, {"R", "G", "B"});
+  img.pixels = texels_;
+  if (strength_ != 1.0f)
+    for (float& v : img.pixels) v *= strength_;
+  return img;
+}
+
 }  // namespace ptir

@@ -33,6 +33,9 @@
 // theta of the direction itself (the Jacobian of (u, t) -> sphere). At the poles
 // (sin theta = 0) pdf() returns 0 and sample() returns an invalid sample (pdf 0),
 // a set of measure zero. An all-black map samples (u, t) uniformly.
+//
+// As an EnvironmentLight: the parameters are the texels (3 per texel, row-major,
+// strength not applied); raw = log(texel) (texels are exp(raw), so stay positive).
 #pragma once
 
 #include <string>
@@ -40,6 +43,7 @@
 
 #include "ptir/io/image.h"
 #include "ptir/lights/distribution.h"
+#include "ptir/lights/environment_light.h"
 #include "ptir/math/vec.h"
 
 namespace ptir {
@@ -56,7 +60,7 @@ struct EnvUV {
   float u = 0, v = 0;
 };
 
-class Environment {
+class Environment final : public EnvironmentLight {
  public:
   // A 1x1 black map.
   Environment();
@@ -94,11 +98,23 @@ class Environment {
   void texel_coords(Vec3 d, int* x, int* y) const;
 
   // Radiance arriving from world direction d (strength applied).
-  Vec3 eval(Vec3 d) const;
+  Vec3 eval(Vec3 d) const override;
   // Importance-sampled direction from two uniforms.
   EnvSample sample(float u0, float u1) const;
   // Solid-angle density of sample() producing d.
-  float pdf(Vec3 d) const;
+  float pdf(Vec3 d) const override;
+
+  // EnvironmentLight (sample_li uses u0, u1 like sample()).
+  std::unique_ptr<EnvironmentLight> clone() const override { return std::make_unique<Environment>(*this); }
+  const char* type() const override { return "latlong"; }
+  std::string describe() const override;
+  EnvLightSample sample_li(float u0, float u1, float u2) const override;
+  size_t parameter_count() const override { return texels_.size(); }
+  void adjoint(Vec3 d, Vec3 d_Le, float* grad) const override;
+  void get_raw(float* raw) const override;
+  void set_raw(const float* raw) override;
+  void raw_gradient(const float* raw, const float* d_value, float* d_raw) const override;
+  Image to_latlong(int w, int h) const override;
 
  private:
   void local_angles(Vec3 d, double* u, double* t, double* sin_theta) const;

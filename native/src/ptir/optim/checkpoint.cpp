@@ -1,22 +1,21 @@
 #include "ptir/optim/checkpoint.h"
 
-#include <unistd.h>
-
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
 
 namespace ptir {
 
-namespace fs = std::filesystem;
 
 namespace {
 
 constexpr char kMagic[8] = {'P', 'T', 'I', 'R', 'C', 'K', 'P', 'T'};
 constexpr uint32_t kVersion = 1;
+// The SG environment's group kind before every environment model became one group.
+constexpr uint32_t kEnvSgBeforeOneGroup = 4;
 
 uint64_t fnv1a(const std::string& s) {
   uint64_t h = 1469598103934665603ull;
@@ -77,31 +76,7 @@ struct Reader {
   }
 };
 
-void write_bytes_atomic(const std::string& path, const std::string& bytes) {
-  fs::path target(path);
-  fs::path tmp = target.parent_path() / ("." + target.filename().string() + ".tmp" + std::to_string(getpid()));
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(path, "cannot write (temp file " + tmp.string() + ")");
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw Error(path, "writing failed (disk full?)");
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path, "cannot move the finished file into place: " + ec.message());
-  }
-}
-
 }  // namespace
-
-void write_text_atomic(const std::string& path, const std::string& text) { write_bytes_atomic(path, text); }
 
 void write_checkpoint(const std::string& path, const Checkpoint& c) {
   Writer w;
@@ -132,7 +107,7 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
     w.str(l.views);
   }
   w.pod(fnv1a(w.buf));
-  write_bytes_atomic(path, w.buf);
+  io::write_bytes_atomic(path, w.buf.data(), w.buf.size());
 }
 
 Checkpoint read_checkpoint(const std::string& path) {
@@ -162,6 +137,7 @@ Checkpoint read_checkpoint(const std::string& path) {
     CheckpointGroup g;
     uint32_t kind = r.pod<uint32_t>();
     if (kind > uint32_t(ParamKind::MeshMetallic)) throw Error(path, "checkpoint has an unknown parameter group");
+    if (kind == kEnvSgBeforeOneGroup) kind = uint32_t(ParamKind::Environment);
     g.kind = ParamKind(kind);
     g.lr = r.pod<float>();
     g.adam_t = r.pod<uint64_t>();

@@ -9,7 +9,7 @@
 //
 // File: little-endian binary, "PTIRCKPT" + version, ..., FNV-1a 64 checksum of
 // everything before it (truncation and corruption are detected). Written
-// atomically (temp file in the same folder, then rename).
+// atomically (io/atomic_file.h).
 #pragma once
 
 #include <cstdint>
@@ -57,8 +57,5 @@ Checkpoint read_checkpoint(const std::string& path);
 
 // Throws Error(path, ...) listing every key whose value differs (or is missing).
 void check_fingerprint(const std::string& path, const Fingerprint& stored, const Fingerprint& current);
-
-// Writes a text file atomically (temp file + rename); throws Error naming the file.
-void write_text_atomic(const std::string& path, const std::string& text);
 
 }  // namespace ptir

@@ -120,11 +120,15 @@ class Optimizer {
   void save_checkpoint(const std::string& path) const { write_checkpoint(path, checkpoint()); }
   void load_checkpoint(const std::string& path) { restore(read_checkpoint(path), path); }
 
-  // OUT/gaussians.ply, OUT/env.exr, OUT/log.csv (plus OUT/env_sg.json with SGs and
-  // OUT/mesh_materials.json when mesh materials are optimised); each atomic.
+  // OUT/gaussians.ply, OUT/env.exr, OUT/log.csv (plus OUT/env_<type>.json for an
+  // environment whose parameters the image does not carry -- env_sg.json with SGs
+  // -- and OUT/mesh_materials.json when mesh materials are optimised); each atomic.
+  // (optimizer_outputs.cpp; checkpoint()/restore()/run_optimizer in
+  // optimizer_checkpoint.cpp; fingerprint() in optimizer_fingerprint.cpp.)
   void write_outputs(const std::string& dir) const;
   std::string log_csv() const;
-  // The recovered environment as a lat-long RGB image (SGs rasterised at env_width x env_height).
+  // The recovered environment as a lat-long RGB image (a lat-long map's own texels;
+  // other models rasterised at env_width x env_height).
   Image environment_image() const;
 
   const Scene& scene() const { return *scene_; }
@@ -145,8 +149,17 @@ class Optimizer {
   std::vector<ViewPick> pick_views(int it) const;
 
  private:
+  struct ViewWork;  // one view of an iteration (optimizer.cpp)
   void apply();
   const std::array<int, 4>& mask_box(size_t view) const;
+  ViewWork view_work(int it, size_t v, const ViewPick& pick) const;
+  float loss_encode(float c) const;             // linear -> loss space
+  float loss_encode_derivative(float c) const;
+  // The image loss of one view (and its gradient through the path replay), then
+  // the regularisers on its primary-hit material maps; both add to `log`.
+  void image_term(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control, IterationLog& log);
+  void regulariser_terms(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control,
+                         IterationLog& log);
 
   OptimizerSettings settings_;
   std::unique_ptr<Scene> scene_;

@@ -19,8 +19,7 @@ const char* param_kind_name(ParamKind k) {
     case ParamKind::GaussianAlbedo: return "albedo";
     case ParamKind::GaussianRoughness: return "roughness";
     case ParamKind::GaussianMetallic: return "metallic";
-    case ParamKind::EnvLatLong: return "env_latlong";
-    case ParamKind::EnvSg: return "env_sg";
+    case ParamKind::Environment: return "environment";
     case ParamKind::MeshColour: return "mesh_base_colour";
     case ParamKind::MeshRoughness: return "mesh_roughness";
     case ParamKind::MeshMetallic: return "mesh_metallic";
@@ -46,21 +45,40 @@ size_t Parameters::count() const {
   return n;
 }
 
+const char* env_mode_name(EnvMode m) {
+  switch (m) {
+    case EnvMode::LatLong: return "latlong";
+    case EnvMode::SG: return "sg";
+    case EnvMode::Constant: return "color";
+  }
+  return "?";
+}
+
+EnvMode parse_env_mode(const std::string& name, const std::string& what) {
+  for (EnvMode m : {EnvMode::LatLong, EnvMode::SG, EnvMode::Constant})
+    if (name == env_mode_name(m)) return m;
+  throw Error(what + " must be 'latlong' or 'sg' or 'color', got '" + name + "'");
+}
+
 void install_environment(Scene& scene, const ParameterSettings& s) {
   scene.environment = SceneEnvironment();
   if (!s.env_init_path.empty()) {
     if (s.env != EnvMode::LatLong) throw Error(s.env_init_path, "an initial environment map needs the lat-long environment model");
-    scene.environment.latlong = Environment::load(s.env_init_path);
+    Environment env = Environment::load(s.env_init_path);
     // Texels are exp(raw): keep them strictly positive.
-    for (float& t : scene.environment.latlong->texels()) t = std::max(t, 1e-6f);
-    scene.environment.latlong->rebuild_sampling();
+    for (float& t : env.texels()) t = std::max(t, 1e-6f);
+    env.rebuild_sampling();
+    scene.environment = std::move(env);
   } else if (s.env == EnvMode::LatLong) {
     if (s.env_width < 1 || s.env_height < 1) throw Error("environment size must be positive");
     if (!(s.env_init > 0.0f)) throw Error("initial environment radiance must be positive (texels are exp(raw))");
-    scene.environment.latlong = Environment::constant(Vec3(s.env_init), s.env_width, s.env_height);
-  } else {
+    scene.environment = Environment::constant(Vec3(s.env_init), s.env_width, s.env_height);
+  } else if (s.env == EnvMode::SG) {
     if (s.sg_lobes < 1) throw Error("the SG environment needs at least one lobe");
-    scene.environment.sg = SgEnvironment(s.sg_lobes);
+    scene.environment = SgEnvironment(s.sg_lobes);
+  } else {
+    if (!(s.env_init > 0.0f)) throw Error("initial environment radiance must be positive (the colour is exp(raw))");
+    scene.environment = ConstantEnvironment(Vec3(s.env_init));
   }
 }
 
@@ -71,17 +89,11 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
   p.groups.push_back({ParamKind::GaussianRoughness, s.lr_roughness, std::vector<float>(n, roughness_to_raw(s.init_roughness))});
   if (s.optimize_metallic)
     p.groups.push_back({ParamKind::GaussianMetallic, s.lr_metallic, std::vector<float>(n, logit_clamped(s.init_metallic_optimised))});
-  if (!s.optimize_env) {
-    // Fixed lighting: no group.
-  } else if (scene.environment.latlong) {
-    const Environment& env = *scene.environment.latlong;
-    std::vector<float> raw(env.texels().size());
-    for (size_t i = 0; i < raw.size(); ++i) raw[i] = std::log(std::max(env.texels()[i], 1e-8f));
-    p.groups.push_back({ParamKind::EnvLatLong, s.lr_env, std::move(raw)});
-  } else if (scene.environment.sg) {
-    std::vector<float> raw;
-    for (const Vec3& x : scene.environment.sg->raw()) raw.insert(raw.end(), {x.x, x.y, x.z});
-    p.groups.push_back({ParamKind::EnvSg, s.lr_env, std::move(raw)});
+  // Fixed lighting (or none): no group.
+  if (s.optimize_env && scene.environment.present()) {
+    std::vector<float> raw(scene.environment.parameter_count());
+    scene.environment->get_raw(raw.data());
+    p.groups.push_back({ParamKind::Environment, s.lr_env, std::move(raw)});
   }
   if (s.optimize_meshes && !scene.meshes.empty()) {
     const size_t m = scene.meshes.size();
@@ -124,20 +136,10 @@ void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& sc
         check_size(g, n);
         for (size_t i = 0; i < n; ++i) f.metallic[i] = sigmoid(g.raw[i]);
         break;
-      case ParamKind::EnvLatLong: {
-        if (!scene.environment.latlong) throw Error("parameters hold a lat-long environment, the scene has none");
-        Environment& env = *scene.environment.latlong;
-        check_size(g, env.texels().size());
-        for (size_t i = 0; i < g.raw.size(); ++i) env.texels()[i] = std::exp(g.raw[i]);
-        env.rebuild_sampling();
-        break;
-      }
-      case ParamKind::EnvSg: {
-        if (!scene.environment.sg) throw Error("parameters hold an SG environment, the scene has none");
-        SgEnvironment& sg = *scene.environment.sg;
-        check_size(g, 3 * size_t(sg.size()));
-        for (int i = 0; i < sg.size(); ++i) sg.raw()[size_t(i)] = Vec3(g.raw[3 * i], g.raw[3 * i + 1], g.raw[3 * i + 2]);
-        sg.update();
+      case ParamKind::Environment: {
+        if (!scene.environment.present()) throw Error("parameters hold an environment, the scene has none");
+        check_size(g, scene.environment.parameter_count());
+        scene.environment->set_raw(g.raw.data());
         break;
       }
       case ParamKind::MeshColour:
@@ -157,7 +159,7 @@ void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& sc
   }
 }
 
-std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGradients& gr) {
+std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGradients& gr, const Scene& scene) {
   std::vector<std::vector<float>> out;
   out.reserve(p.groups.size());
   auto dsig = [](float x) {
@@ -180,15 +182,11 @@ std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGr
         check_size(g, gr.gaussian_metallic.size());
         for (size_t i = 0; i < d.size(); ++i) d[i] = gr.gaussian_metallic[i] * dsig(g.raw[i]);
         break;
-      case ParamKind::EnvLatLong:
-        check_size(g, 3 * gr.env_texels.size());
-        for (size_t i = 0; i < gr.env_texels.size(); ++i)
-          for (int c = 0; c < 3; ++c) d[3 * i + c] = gr.env_texels[i][c] * std::exp(g.raw[3 * i + c]);
-        break;
-      case ParamKind::EnvSg:
-        check_size(g, 3 * gr.sg_raw.size());
-        for (size_t i = 0; i < gr.sg_raw.size(); ++i)
-          for (int c = 0; c < 3; ++c) d[3 * i + c] = gr.sg_raw[i][c];
+      case ParamKind::Environment:
+        check_size(g, gr.environment.size());
+        if (!scene.environment.present() || scene.environment.parameter_count() != g.raw.size())
+          throw Error("the environment gradients do not match the scene's environment");
+        scene.environment->raw_gradient(g.raw.data(), gr.environment.data(), d.data());
         break;
       case ParamKind::MeshColour:
         check_size(g, 3 * gr.mesh_base_colour.size());

@@ -4,8 +4,10 @@
 //   Gaussian albedo     a = sigmoid(x)                    (3 per Gaussian)
 //   Gaussian roughness  r = 0.09 + 0.9 sigmoid(x)         (PTIR's range [0.09, 0.99])
 //   Gaussian metallic   m = sigmoid(x)                    (optional; else fixed, default 0)
-//   lat-long env texel  L = exp(x)                        (3 per texel, strength 1)
-//   SG env amplitudes   x itself (SgEnvironment activates c = exp(softplus(x)/gamma) - 1)
+//   environment         the model's own raw view (EnvironmentLight::set_raw):
+//     lat-long texel    L = exp(x)                        (3 per texel, strength 1)
+//     SG amplitudes     x itself (SgEnvironment activates c = exp(softplus(x)/gamma) - 1)
+//     constant colour   L = exp(x)                        (3)
 //   mesh materials      base colour sigmoid, roughness as above, metallic sigmoid (optional)
 //
 // Geometry, opacity and normals are not parameters (fixed during inversion).
@@ -22,7 +24,12 @@
 
 namespace ptir {
 
-enum class EnvMode { LatLong, SG };
+// The learnable environment model: lat-long map, spherical Gaussians, or one colour.
+enum class EnvMode { LatLong, SG, Constant };
+// "latlong", "sg", "color" (the scene-JSON type names); parse throws Error
+// "<what> must be 'latlong' or 'sg' or 'color', got 'x'".
+const char* env_mode_name(EnvMode m);
+EnvMode parse_env_mode(const std::string& name, const std::string& what = "env");
 
 // Activations (exposed for tests).
 constexpr float kRoughnessMin = 0.09f;
@@ -41,7 +48,7 @@ struct ParameterSettings {
   bool optimize_metallic = false;
   EnvMode env = EnvMode::LatLong;
   int env_width = 128, env_height = 64;  // the benchmark setting
-  float env_init = 0.5f;                 // lat-long texels start at this radiance (PTIR)
+  float env_init = 0.5f;                 // lat-long texels (or the constant) start at this radiance (PTIR)
   // Known lighting: start the lat-long environment from this map (its size wins
   // over env_width/height) instead of the constant env_init.
   std::string env_init_path;
@@ -52,7 +59,17 @@ struct ParameterSettings {
   float lr_albedo = 0.035f, lr_roughness = 0.025f, lr_metallic = 0.035f, lr_env = 0.035f, lr_mesh = 0.035f;
 };
 
-enum class ParamKind { GaussianAlbedo, GaussianRoughness, GaussianMetallic, EnvLatLong, EnvSg, MeshColour, MeshRoughness, MeshMetallic };
+// The numbers are stored in checkpoints. 4 was the SG environment's before every
+// environment became one group; checkpoints read it as Environment.
+enum class ParamKind {
+  GaussianAlbedo = 0,
+  GaussianRoughness = 1,
+  GaussianMetallic = 2,
+  Environment = 3,
+  MeshColour = 5,
+  MeshRoughness = 6,
+  MeshMetallic = 7
+};
 const char* param_kind_name(ParamKind k);
 
 struct ParameterGroup {
@@ -69,7 +86,8 @@ struct Parameters {
 };
 
 // Replaces the scene's environment with the learnable one of `s` (lat-long of
-// env_width x env_height at env_init, or sg_lobes SGs at PTIR's initialisation).
+// env_width x env_height at env_init, sg_lobes SGs at PTIR's initialisation, or
+// a constant env_init).
 void install_environment(Scene& scene, const ParameterSettings& s);
 
 // Raw parameters at the initial values of `s`, sized for `scene` (whose
@@ -82,7 +100,8 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s);
 void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& scene);
 
 // dLoss/d(raw) for every group, from the adjoints w.r.t. activated values; same
-// shapes as the groups' raw vectors. Reads the current activated values from raw.
-std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGradients& g);
+// shapes as the groups' raw vectors. Reads the current activated values from raw;
+// the environment group is chained by the scene's environment model.
+std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGradients& g, const Scene& scene);
 
 }  // namespace ptir

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <string>
 
 #include "ptir/material/shading_model.h"
 #include "ptir/math/pixel_filter.h"
@@ -22,6 +23,14 @@ enum class SelfIntersection {
   BackfaceAware,  // skip back-facing Gaussians (d.n_i > 0) within a range scaled to the interaction's Gaussians
   FixedOffset,    // PTIR code: origin + offset d, skip hits t <= range with n_i.d > 0.1 (world units)
 };
+
+// The names used by scene files, the CLI, the Python module and checkpoints:
+// "aggregate"/"discrete" and "backface"/"fixed". parse_* throws Error
+// "<what> must be 'a' or 'b', got 'x'".
+const char* interaction_mode_name(InteractionMode m);
+InteractionMode parse_interaction_mode(const std::string& name, const std::string& what = "interaction");
+const char* self_intersection_name(SelfIntersection s);
+SelfIntersection parse_self_intersection(const std::string& name, const std::string& what = "self_intersection");
 
 struct IntegratorSettings {
   int spp = 32;

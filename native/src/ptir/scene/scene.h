@@ -4,26 +4,20 @@
 #pragma once
 
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
 #include "ptir/lights/emitters.h"
+#include "ptir/lights/env_constant.h"
 #include "ptir/lights/env_sg.h"
 #include "ptir/lights/environment.h"
+#include "ptir/lights/environment_light.h"
 #include "ptir/scene/camera.h"
 #include "ptir/scene/gaussians.h"
 #include "ptir/scene/mesh.h"
 #include "ptir/scene/render_settings.h"
 
 namespace ptir {
-
-// The environment: none (black), a lat-long map, or spherical Gaussians.
-struct SceneEnvironment {
-  std::optional<Environment> latlong;
-  std::optional<SgEnvironment> sg;
-  bool present() const { return latlong.has_value() || sg.has_value(); }
-};
 
 struct Scene {
   std::shared_ptr<GaussianField> gaussians = std::make_shared<GaussianField>();
@@ -32,7 +26,7 @@ struct Scene {
   // Per emitter: whether camera rays see its surface (Blender's Ray Visibility >
   // Camera). Missing entries mean visible.
   std::vector<uint8_t> emitter_visible_camera;
-  SceneEnvironment environment;
+  SceneEnvironment environment;  // any EnvironmentLight, or none (black)
   std::vector<Camera> cameras;
   IntegratorSettings integrator;
   std::string source_path;  // the scene file, for messages

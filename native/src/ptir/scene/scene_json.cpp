@@ -488,12 +488,12 @@ void parse_environment(const Node& n, SceneEnvironment& env) {
     std::string path = n.file("file");
     float strength = n.non_negative("strength", 1.0f);
     float rot = n.number("rotation_z", 0.0f);
-    env.latlong = with_context(n["file"], [&] { return Environment::load(path, strength, rot); });
+    env = with_context(n["file"], [&] { return Environment::load(path, strength, rot); });
   } else if (type == "color") {
     n.check_keys({"type", "color", "strength"});
     Vec3 c = n.colour("color", Vec3(1.0f));
     float strength = n.non_negative("strength", 1.0f);
-    env.latlong = Environment::constant(c * strength);
+    env = ConstantEnvironment(c, strength);
   } else {
     n.check_keys({"type", "lobes", "gamma", "raw"});
     int lobes = int(n.integer_in("lobes", SgEnvironment::kDefaultLobes, 1, 4096));
@@ -512,7 +512,7 @@ void parse_environment(const Node& n, SceneEnvironment& env) {
       }
     }
     sg.update();
-    env.sg = std::move(sg);
+    env = std::move(sg);
   }
 }
 
@@ -555,14 +555,16 @@ void parse_integrator(const Node& n, IntegratorSettings& s) {
       sn.fail("must be a non-negative integer");
     s.seed = sn.j.get<uint64_t>();
   }
-  s.interaction.mode = n.choice("interaction", "aggregate", {"aggregate", "discrete"}) == "discrete"
-                           ? InteractionMode::Discrete
-                           : InteractionMode::Aggregate;
+  const InteractionMode modes[] = {InteractionMode::Aggregate, InteractionMode::Discrete};
+  s.interaction.mode = parse_interaction_mode(
+      n.choice("interaction", interaction_mode_name(s.interaction.mode),
+               {interaction_mode_name(modes[0]), interaction_mode_name(modes[1])}));
   s.interaction.tau_g = n.number_in("tau_g", s.interaction.tau_g, 0.0f, 1.0f);
   s.geometric_criterion = n.boolean("geometric_criterion", s.geometric_criterion);
-  s.self_intersection = n.choice("self_intersection", "backface", {"backface", "fixed"}) == "fixed"
-                            ? SelfIntersection::FixedOffset
-                            : SelfIntersection::BackfaceAware;
+  const SelfIntersection rules[] = {SelfIntersection::BackfaceAware, SelfIntersection::FixedOffset};
+  s.self_intersection = parse_self_intersection(
+      n.choice("self_intersection", self_intersection_name(s.self_intersection),
+               {self_intersection_name(rules[0]), self_intersection_name(rules[1])}));
   if (n.contains("self_range_scale")) {
     Node r = n["self_range_scale"];
     if (r.j.is_null() || (r.j.is_string() && r.j.get<std::string>() == "inf"))

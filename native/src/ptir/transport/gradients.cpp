@@ -13,9 +13,7 @@ SceneGradients SceneGradients::zeros_like(const Scene& scene) {
   g.mesh_base_colour.assign(scene.meshes.size(), Vec3(0.0f));
   g.mesh_roughness.assign(scene.meshes.size(), 0.0f);
   g.mesh_metallic.assign(scene.meshes.size(), 0.0f);
-  if (scene.environment.latlong)
-    g.env_texels.assign(size_t(scene.environment.latlong->width()) * scene.environment.latlong->height(), Vec3(0.0f));
-  if (scene.environment.sg) g.sg_raw.assign(scene.environment.sg->raw().size(), Vec3(0.0f));
+  g.environment.assign(scene.environment.parameter_count(), 0.0f);
   return g;
 }
 
@@ -36,7 +34,7 @@ void accumulate(std::vector<T>& a, const std::vector<T>& b) {
 void SceneGradients::set_zero() {
   zero(gaussian_albedo); zero(gaussian_roughness); zero(gaussian_metallic);
   zero(mesh_base_colour); zero(mesh_roughness); zero(mesh_metallic);
-  zero(env_texels); zero(sg_raw);
+  zero(environment);
 }
 
 void SceneGradients::add(const SceneGradients& o) {
@@ -46,8 +44,7 @@ void SceneGradients::add(const SceneGradients& o) {
   accumulate(mesh_base_colour, o.mesh_base_colour);
   accumulate(mesh_roughness, o.mesh_roughness);
   accumulate(mesh_metallic, o.mesh_metallic);
-  accumulate(env_texels, o.env_texels);
-  accumulate(sg_raw, o.sg_raw);
+  accumulate(environment, o.environment);
 }
 
 }  // namespace ptir

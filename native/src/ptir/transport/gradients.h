@@ -1,7 +1,8 @@
 // Adjoint buffers of the differentiable scene parameters, in the units the
 // renderer uses (activated values): per-Gaussian albedo, roughness, metallic; per
-// mesh material base colour, roughness, metallic; lat-long environment texels
-// (linear RGB before strength); spherical-Gaussian raw amplitudes.
+// mesh material base colour, roughness, metallic; the environment's learnable
+// parameters (EnvironmentLight::parameter_count() values: lat-long texels
+// before strength, SG raw amplitudes, or a constant's colour).
 #pragma once
 
 #include <vector>
@@ -18,8 +19,7 @@ struct SceneGradients {
   std::vector<Vec3> mesh_base_colour;
   std::vector<float> mesh_roughness;
   std::vector<float> mesh_metallic;
-  std::vector<Vec3> env_texels;  // row-major like Environment::texels()
-  std::vector<Vec3> sg_raw;      // per lobe
+  std::vector<float> environment;  // EnvironmentLight::adjoint() layout
 
   // Zero-filled buffers sized for the scene.
   static SceneGradients zeros_like(const Scene& scene);

@@ -27,18 +27,10 @@ PathTracer::PathTracer(const Scene& scene, const AccelSettings& accel_settings) 
 namespace {
 
 // Radiance of the environment seen along d (black when the scene has none).
-Vec3 environment_radiance(const SceneEnvironment& env, Vec3 d) {
-  if (env.latlong) return env.latlong->eval(d);
-  if (env.sg) return env.sg->eval(d);
-  return Vec3(0.0f);
-}
+Vec3 environment_radiance(const SceneEnvironment& env, Vec3 d) { return env.eval(d); }
 
 // Solid-angle density with which next-event estimation samples d from the environment.
-float environment_pdf(const SceneEnvironment& env, Vec3 d) {
-  if (env.latlong) return env.latlong->pdf(d);
-  if (env.sg) return env.sg->pdf(d);
-  return 0.0f;
-}
+float environment_pdf(const SceneEnvironment& env, Vec3 d) { return env.pdf(d); }
 
 // Emission of every light surface the ray crosses before max_t (area lights,
 // finite point lights, suns with an angle; none are in the Embree scene and, as in

@@ -137,15 +137,7 @@ bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, ui
 
 void Scatterer::environment_adjoint(Vec3 d, Vec3 d_Le, SceneGradients& grads) const {
   const SceneEnvironment& env = scene_.environment;
-  if (env.latlong && !grads.env_texels.empty()) {
-    // Le = strength * texel(d) (nearest lookup): one texel receives it all.
-    int texel = env.latlong->texel_index(d);
-    if (texel >= 0) grads.env_texels[size_t(texel)] += d_Le * env.latlong->strength();
-  } else if (env.sg && !grads.sg_raw.empty()) {
-    thread_local std::vector<Vec3> d_raw;
-    env.sg->d_eval_d_raw(d, d_raw);
-    for (size_t i = 0; i < d_raw.size(); ++i) grads.sg_raw[i] += d_Le * d_raw[i];
-  }
+  if (env.present() && !grads.environment.empty()) env->adjoint(d, d_Le, grads.environment.data());
 }
 
 Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key, uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint) const {
@@ -172,15 +164,9 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
   if (env.present()) {
     const uint32_t l = uint32_t(emitters.size());
     PathRng rng(path_key, bounce, kStreamLight + l);
-    Vec3 wi, Li;
-    float pdf = 0.0f;
-    if (env.latlong) {
-      EnvSample es = env.latlong->sample(rng.at(0), rng.at(1));
-      wi = es.wi, Li = es.Li, pdf = es.pdf;
-    } else {
-      SgSample ss = env.sg->sample(rng.at(0), rng.at(1), rng.at(2));
-      wi = ss.wi, Li = ss.Li, pdf = ss.pdf;
-    }
+    const EnvLightSample es = env->sample_li(rng.at(0), rng.at(1), rng.at(2));
+    const Vec3 wi = es.wi, Li = es.Li;
+    const float pdf = es.pdf;
     if (pdf > 0.0f) {
       Vec3 wi_local = frame.to_local(wi);
       BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);

@@ -1,0 +1,95 @@
+// The optimiser's checkpoints (capture and restore of its state; the file
+// format is checkpoint.h) and the loop that writes them (run_optimizer).
+#include <filesystem>
+
+#include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
+#include "ptir/optim/optimizer.h"
+
+namespace ptir {
+
+namespace fs = std::filesystem;
+
+Checkpoint Optimizer::checkpoint() const {
+  Checkpoint c;
+  c.iteration = uint64_t(iteration_);
+  c.fingerprint = fingerprint();
+  for (size_t i = 0; i < params_.groups.size(); ++i) {
+    CheckpointGroup g;
+    g.kind = params_.groups[i].kind;
+    g.lr = params_.groups[i].lr;
+    g.raw = params_.groups[i].raw;
+    g.m = adam_[i].m;
+    g.v = adam_[i].v;
+    g.adam_t = adam_[i].t;
+    c.groups.push_back(std::move(g));
+  }
+  c.normals = scene_->gaussians->normal;
+  c.log = log_;
+  return c;
+}
+
+void Optimizer::restore(const Checkpoint& c, const std::string& path) {
+  check_fingerprint(path, c.fingerprint, fingerprint());
+  if (c.groups.size() != params_.groups.size()) throw Error(path, "checkpoint has a different set of parameter groups");
+  for (size_t i = 0; i < c.groups.size(); ++i) {
+    const CheckpointGroup& g = c.groups[i];
+    if (g.kind != params_.groups[i].kind || g.raw.size() != params_.groups[i].raw.size())
+      throw Error(path, std::string("checkpoint parameter group '") + param_kind_name(g.kind) + "' does not match");
+  }
+  if (c.normals.size() != scene_->gaussians->size()) throw Error(path, "checkpoint has a different Gaussian count");
+  for (size_t i = 0; i < c.groups.size(); ++i) {
+    const CheckpointGroup& g = c.groups[i];
+    params_.groups[i].raw = g.raw;
+    params_.groups[i].lr = g.lr;
+    adam_[i].lr = g.lr;
+    adam_[i].m = g.m;
+    adam_[i].v = g.v;
+    adam_[i].t = g.adam_t;
+  }
+  scene_->gaussians->normal = c.normals;
+  iteration_ = int(c.iteration);
+  log_ = c.log;
+  apply();
+}
+
+RunResult run_optimizer(Optimizer& opt, const RunOptions& o) {
+  const bool write = !o.out_dir.empty();
+  const std::string ckpt = write ? (fs::path(o.out_dir) / "checkpoint.bin").string() : "";
+  if (write) {
+    std::error_code ec;
+    fs::create_directories(o.out_dir, ec);
+    if (!fs::is_directory(o.out_dir)) throw Error(o.out_dir, "cannot create the output folder");
+  }
+  bool cancelled = false;
+  while (opt.iteration() < opt.settings().iterations) {
+    if (o.cancel && o.cancel->load()) {
+      cancelled = true;
+      break;
+    }
+    IterationLog log;
+    try {
+      log = opt.step(o.cancel);
+    } catch (const Cancelled&) {
+      cancelled = true;
+      break;
+    }
+    bool go_on = o.on_iteration ? o.on_iteration(log) : true;
+    if (write && o.checkpoint_every > 0 && opt.iteration() % o.checkpoint_every == 0 &&
+        opt.iteration() < opt.settings().iterations) {
+      opt.save_checkpoint(ckpt);
+      io::write_text_atomic((fs::path(o.out_dir) / "log.csv").string(), opt.log_csv());
+    }
+    if (!go_on) {
+      cancelled = true;
+      break;
+    }
+  }
+  if (write) {
+    opt.save_checkpoint(ckpt);
+    opt.write_outputs(o.out_dir);
+  }
+  return cancelled ? RunResult::Cancelled : RunResult::Finished;
+}
+
+}  // namespace ptir

@@ -1,0 +1,101 @@
+// The optimiser's fingerprint: the inputs and settings a checkpoint must match
+// to be resumed (checkpoint.h). Values are text; the keys and their texts are
+// part of the checkpoint format, so existing entries keep their spelling.
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <sstream>
+
+#include "ptir/core/number_text.h"
+#include "ptir/math/rng.h"
+#include "ptir/optim/optimizer.h"
+
+namespace ptir {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string num(double v) { return num_text(v); }
+
+uint64_t hash_floats(uint64_t h, const float* p, size_t n) {
+  for (size_t i = 0; i < n; ++i) {
+    uint32_t bits;
+    std::memcpy(&bits, &p[i], 4);
+    h = hash_combine(h, bits);
+  }
+  return h;
+}
+
+// The learnable environment's settings: "latlong WxH init", "sg N", "color init".
+std::string env_settings_text(const ParameterSettings& ps) {
+  switch (ps.env) {
+    case EnvMode::LatLong:
+      return "latlong " + std::to_string(ps.env_width) + "x" + std::to_string(ps.env_height) + " " + num(ps.env_init);
+    case EnvMode::SG: return "sg " + std::to_string(ps.sg_lobes);
+    case EnvMode::Constant: return "color " + num(ps.env_init);
+  }
+  return "?";
+}
+
+}  // namespace
+
+Fingerprint Optimizer::fingerprint() const {
+  const GaussianField& f = *scene_->gaussians;
+  const IntegratorSettings& is = settings_.integrator;
+  const ParameterSettings& ps = settings_.params;
+  uint64_t geo = 0;
+  geo = hash_floats(geo, reinterpret_cast<const float*>(f.position.data()), 3 * f.size());
+  geo = hash_floats(geo, reinterpret_cast<const float*>(f.scale.data()), 3 * f.size());
+  geo = hash_floats(geo, reinterpret_cast<const float*>(f.rotation.data()), 4 * f.size());
+  geo = hash_floats(geo, f.opacity.data(), f.size());
+  for (const TriangleMesh& m : scene_->meshes) geo = hash_floats(geo, reinterpret_cast<const float*>(m.vertices.data()), 3 * m.vertices.size());
+  uint64_t views = 0;
+  for (const DatasetView& v : dataset_->views) {
+    views = hash_combine(views, std::hash<std::string>()(v.camera.name));
+    views = hash_floats(views, &v.camera.cam_to_world.linear.m[0][0], 9);
+    views = hash_floats(views, &v.camera.cam_to_world.translation.x, 3);
+  }
+  std::ostringstream hx, hv;
+  hx << std::hex << geo;
+  hv << std::hex << views;
+  return {
+      {"gaussians", std::to_string(f.size())},
+      {"meshes", std::to_string(scene_->meshes.size())},
+      {"lights", std::to_string(scene_->emitters.size())},
+      {"geometry_hash", hx.str()},
+      {"views", std::to_string(dataset_->size())},
+      {"views_hash", hv.str()},
+      {"image_size", std::to_string(dataset_->width) + "x" + std::to_string(dataset_->height)},
+      {"priors", dataset_->has_priors() ? "yes" : "no"},
+      {"seed", std::to_string(settings_.seed)},
+      {"spp", std::to_string(is.spp)},
+      {"bounces", std::to_string(is.max_bounces)},
+      {"brdf", to_string(is.brdf)},
+      {"interaction", interaction_mode_name(is.interaction.mode)},
+      {"tau_g", num(is.interaction.tau_g)},
+      {"geometric_criterion", is.geometric_criterion ? "1" : "0"},
+      {"self_intersection", self_intersection_name(is.self_intersection)},
+      {"k", std::to_string(settings_.accel.k)},
+      {"views_per_iteration", std::to_string(settings_.views_per_iteration)},
+      {"crop", std::to_string(settings_.crop_size)},
+      {"loss", num(settings_.loss.lambda_ssim) + (settings_.loss.binomial_filter ? " blur" : " noblur") +
+                   (settings_.srgb_loss ? " srgb" : " linear")},
+      {"mask_threshold", num(settings_.mask_threshold)},
+      {"lambda_tv", num(settings_.lambda_tv)},
+      {"prior", num(settings_.prior_start) + " " + num(settings_.prior_end) + " " + std::to_string(settings_.prior_iterations)},
+      {"init", num(ps.init_albedo) + " " + num(ps.init_roughness) + " " + num(ps.init_metallic) + " " +
+                   num(ps.init_metallic_optimised)},
+      {"metallic", ps.optimize_metallic ? "optimised" : "fixed"},
+      {"env", env_settings_text(ps)},
+      {"env_init", ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()},
+      {"env_optimised", ps.optimize_env ? "1" : "0"},
+      {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
+      {"lr", num(ps.lr_albedo) + " " + num(ps.lr_roughness) + " " + num(ps.lr_metallic) + " " + num(ps.lr_env) + " " +
+                 num(ps.lr_mesh)},
+      {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},
+      {"orient_normals", settings_.orient_normals ? "1" : "0"},
+  };
+}
+
+}  // namespace ptir

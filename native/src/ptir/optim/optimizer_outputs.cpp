@@ -1,0 +1,74 @@
+// The optimiser's outputs (OUT/gaussians.ply, env.exr, log.csv, and the
+// environment's or mesh materials' JSON side files), each written atomically.
+#include <filesystem>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "ptir/core/error.h"
+#include "ptir/core/number_text.h"
+#include "ptir/io/atomic_file.h"
+#include "ptir/io/image.h"
+#include "ptir/optim/optimizer.h"
+#include "ptir/scene/gaussian_ply.h"
+
+namespace ptir {
+
+namespace fs = std::filesystem;
+using ojson = nlohmann::ordered_json;
+
+namespace {
+
+std::string num(double v) { return num_text(v); }
+
+ojson rgb_json(Vec3 v) { return ojson::array({json_number(v.x), json_number(v.y), json_number(v.z)}); }
+
+// OUT/mesh_materials.json: the optimised material of every mesh, by name.
+std::string mesh_materials_json(const std::vector<TriangleMesh>& meshes) {
+  ojson list = ojson::array();
+  for (const TriangleMesh& m : meshes)
+    list.push_back(ojson{{"name", m.name},
+                         {"base_colour", rgb_json(m.material.base_colour)},
+                         {"roughness", json_number(m.material.roughness)},
+                         {"metallic", json_number(m.material.metallic)}});
+  return ojson{{"meshes", list}}.dump(2) + "\n";
+}
+
+}  // namespace
+
+std::string Optimizer::log_csv() const {
+  std::ostringstream s;
+  s << "iteration,loss,image,tv,prior,prior_weight,seconds,primal_s,backward_s,regulariser_s,update_s,cpu_s,primal_cpu_s,"
+       "backward_cpu_s,views\n";
+  for (const IterationLog& l : log_) {
+    s << l.iteration << ',' << num(l.loss) << ',' << num(l.image) << ',' << num(l.tv) << ',' << num(l.prior) << ','
+      << num(l.prior_weight) << ',' << num(l.seconds) << ',' << num(l.primal_s) << ',' << num(l.backward_s) << ','
+      << num(l.regulariser_s) << ',' << num(l.update_s) << ',' << num(l.cpu_s) << ',' << num(l.primal_cpu_s) << ','
+      << num(l.backward_cpu_s) << ',' << l.views << '\n';
+  }
+  return s.str();
+}
+
+Image Optimizer::environment_image() const {
+  if (!scene_->environment.present()) return Image(1, 1, {"R", "G", "B"});
+  return scene_->environment->to_latlong(settings_.params.env_width, settings_.params.env_height);
+}
+
+void Optimizer::write_outputs(const std::string& dir) const {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir)) throw Error(dir, "cannot create the output folder");
+  const fs::path out(dir);
+  save_gaussians((out / "gaussians.ply").string(), *scene_->gaussians);
+  write_image((out / "env.exr").string(), environment_image(), Encoding::Colour);
+  io::write_text_atomic((out / "log.csv").string(), log_csv());
+  // Models whose parameters the lat-long image does not carry exactly (SGs) add env_<type>.json.
+  ojson env_params;
+  if (scene_->environment.present() && scene_->environment->parameters_json(&env_params))
+    io::write_text_atomic((out / ("env_" + std::string(scene_->environment->type()) + ".json")).string(),
+                          env_params.dump(2) + "\n");
+  if (params_.find(ParamKind::MeshColour))
+    io::write_text_atomic((out / "mesh_materials.json").string(), mesh_materials_json(scene_->meshes));
+}
+
+}  // namespace ptir

@@ -1,0 +1,72 @@
+#include "ptir/optim/optimizer_setup.h"
+
+#include "ptir/core/error.h"
+#include "ptir/scene/scene_json.h"
+
+namespace ptir {
+
+std::string cli_option_name(const std::string& snake_case) {
+  std::string s = "--" + snake_case;
+  for (char& c : s)
+    if (c == '_') c = '-';
+  return s;
+}
+
+std::string python_option_name(const std::string& snake_case) { return snake_case; }
+
+OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames& names) {
+  if (o.iters < 0) throw Error(names("iters") + " must be >= 0");
+  if (o.spp < 1) throw Error(names("spp") + " must be at least 1");
+  if (o.bounces < 0) throw Error(names("bounces") + " must be at least 0");
+  OptimizerSettings s;
+  s.iterations = o.iters;
+  s.integrator.spp = o.spp;
+  s.integrator.max_bounces = o.bounces;
+  s.seed = o.seed;
+  s.views_per_iteration = o.views_per_iter;
+  s.crop_size = o.crop;
+  s.lambda_tv = o.lambda_tv;
+  s.accel.k = o.k;
+  if (o.loss_space == "srgb") s.srgb_loss = true;
+  else if (o.loss_space == "linear") s.srgb_loss = false;
+  else throw Error(names("loss_space") + " must be 'srgb' or 'linear', got '" + o.loss_space + "'");
+  s.params.env = parse_env_mode(o.env, names("env"));
+  if (o.env_width < 1 || o.env_height < 1) throw Error(names("env_size") + " must be positive");
+  s.params.env_width = o.env_width;
+  s.params.env_height = o.env_height;
+  s.params.env_init_path = o.env_init;
+  s.params.optimize_env = !o.fix_env;
+  if (o.fix_env && o.env_init.empty())
+    throw Error(names("fix_env") + " needs " + names("env_init") + " (the known environment map)");
+  s.params.optimize_metallic = o.optimize_metallic;
+  s.params.optimize_meshes = o.optimize_meshes;
+  return s;
+}
+
+Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<GaussianField> field, OptimizerSettings& s,
+                              const OptionNames& names, const std::function<void(const std::string&)>& note) {
+  Scene scene;
+  if (!scene_path.empty()) {
+    scene = load_scene_json(scene_path);
+    if (scene.gaussians && scene.gaussians->size() > 0)
+      throw Error(scene_path, "the scene file has Gaussians; give them with " + names("gaussians") +
+                                  " instead (the optimiser's Gaussians come from one PLY)");
+    if (scene.environment.present() && note)
+      note("the scene's environment is ignored: the environment is what gets recovered");
+    const IntegratorSettings& is = scene.integrator;
+    s.integrator.interaction = is.interaction;
+    s.integrator.geometric_criterion = is.geometric_criterion;
+    s.integrator.self_intersection = is.self_intersection;
+    s.integrator.self_range_scale = is.self_range_scale;
+    s.integrator.fixed_offset = is.fixed_offset;
+    s.integrator.fixed_range = is.fixed_range;
+    s.integrator.brdf = is.brdf;
+  } else if (s.params.optimize_meshes) {
+    throw Error(names("optimize_meshes") + " needs " + names("scene") + " (the meshes come from the scene file)");
+  }
+  scene.gaussians = std::move(field);
+  scene.source_path = scene_path.empty() ? "command line" : scene_path;
+  return scene;
+}
+
+}  // namespace ptir

@@ -1,0 +1,54 @@
+// The set-up shared by `ptir optimize` (cli/cmd_optimize.cpp) and the Python
+// module's ptir.Optimizer / ptir.optimize (python/bind_optimize.cpp): the
+// options both take, checked and turned into OptimizerSettings, and the scene
+// the optimiser starts from.
+//
+// Messages name the options the way the caller spells them: OptionNames maps a
+// snake_case name ("env_init") to "--env-init" for the CLI and leaves it as is
+// for Python.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "ptir/optim/optimizer.h"
+#include "ptir/scene/scene.h"
+
+namespace ptir {
+
+using OptionNames = std::function<std::string(const std::string& snake_case)>;
+std::string cli_option_name(const std::string& snake_case);     // "env_init" -> "--env-init"
+std::string python_option_name(const std::string& snake_case);  // unchanged
+
+struct OptimizeOptions {
+  int iters = 800;
+  int spp = 32;
+  int bounces = 2;
+  uint64_t seed = 0;
+  int views_per_iter = 1;
+  int crop = 0;
+  std::string loss_space = "srgb";
+  float lambda_tv = 0.095f;
+  std::string env = "latlong";  // EnvMode name: latlong, sg, color
+  int env_width = 128, env_height = 64;
+  std::string env_init;          // "" = constant start
+  bool fix_env = false;
+  bool optimize_metallic = false;
+  bool optimize_meshes = false;
+  int k = AccelSettings{}.k;     // k-buffer size of the tracer
+};
+
+// The checked settings; throws Error naming the offending option.
+OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames& names);
+
+// The scene the optimiser starts from: the scene file's meshes and lights (none
+// when scene_path is ""), whose interaction settings replace those of `s` (its
+// spp/bounces do not), with `field` as its Gaussians. A scene file with Gaussians
+// is refused (they come from one PLY); its environment is replaced by the
+// learnable one later, and `note` (optional) is told so. optimize_meshes needs a
+// scene file.
+Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<GaussianField> field, OptimizerSettings& s,
+                              const OptionNames& names, const std::function<void(const std::string&)>& note = {});
+
+}  // namespace ptir
