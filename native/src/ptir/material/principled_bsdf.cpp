@@ -113,7 +113,8 @@ PrincipledBsdf::PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatt
 
   G1o_ = ggx_smith_G1(wo, alpha_);
   multiscatter_ = multiscatter && p.roughness > kMultiscatterMinRoughness;
-  lambda_o_ = smith_lambda(wo, alpha_);
+  if (multiscatter_) lambda_o_ = smith_lambda(wo, alpha_);
+  F_V_ = schlick5(wo.z);
   if (multiscatter_) {
     GgxEnergy e = ggx_energy(wo.z, r_);
     ms_k_ = 1.0f / e.E - 1.0f;
@@ -132,7 +133,7 @@ PrincipledBsdf::PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatt
 }
 
 float PrincipledBsdf::diffuse_shape(Vec3 wi) const {
-  const float FL = schlick5(wi.z), FV = schlick5(wo_.z);
+  const float FL = schlick5(wi.z), FV = F_V_;
   const float RR = r_diffuse_ * (1.0f + dot(wo_, wi));
   const float bracket = (1.0f - 0.5f * FV) * (1.0f - 0.5f * FL) + RR * (FL + FV + FL * FV * (RR - 1.0f));
   return bracket * wi.z * kInvPi;
@@ -143,6 +144,7 @@ PrincipledBsdf::SpecularTerms PrincipledBsdf::specular_terms(Vec3 wi) const {
   t.h = half_vector_of(wo_, wi);
   if (!(t.h.z > 0.0f)) return t;
   const float D = ggx_D(t.h, alpha_);
+  t.D = D;
   // Plain GGX: separable G1(wo) G1(wi); Multiscatter GGX's single-scattering part:
   // height-correlated G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (Cycles' multi-GGX).
   const float G = multiscatter_ ? 1.0f / (1.0f + lambda_o_ + smith_lambda(wi, alpha_)) : G1o_ * ggx_smith_G1(wi, alpha_);
@@ -151,9 +153,9 @@ PrincipledBsdf::SpecularTerms PrincipledBsdf::specular_terms(Vec3 wi) const {
   return t;
 }
 
-float PrincipledBsdf::specular_pdf(Vec3 wi, Vec3 h) const {
+float PrincipledBsdf::specular_pdf(float D) const {
   // Visible normals reflected about h: G1(wo) max(0, wo.h) D / (n.wo) * 1 / (4 wo.h).
-  return G1o_ * ggx_D(h, alpha_) * 0.25f / wo_.z;
+  return G1o_ * D * 0.25f / wo_.z;
 }
 
 Vec3 PrincipledBsdf::eval(Vec3 wi) const {
@@ -167,7 +169,7 @@ Vec3 PrincipledBsdf::eval(Vec3 wi) const {
 float PrincipledBsdf::pdf(Vec3 wi) const {
   if (!above_ || !(wi.z > 0.0f)) return 0.0f;
   const Vec3 h = half_vector_of(wo_, wi);
-  const float ps = h.z > 0.0f ? specular_pdf(wi, h) : 0.0f;
+  const float ps = h.z > 0.0f ? specular_pdf(ggx_D(h, alpha_)) : 0.0f;
   return p_spec_ * ps + (1.0f - p_spec_) * wi.z * kInvPi;
 }
 
@@ -178,7 +180,7 @@ BsdfEvalPdf PrincipledBsdf::eval_pdf(Vec3 wi) const {
   const Vec3 F = cspec0_ * (1.0f - st.FH) + Vec3(st.FH);
   const Vec3 M = Vec3(1.0f) + cspec0_ * ms_k_;
   r.f = diffuse_weight_ * diffuse_shape(wi) + F * M * st.S;
-  const float ps = st.h.z > 0.0f ? specular_pdf(wi, st.h) : 0.0f;
+  const float ps = st.h.z > 0.0f ? specular_pdf(st.D) : 0.0f;
   r.pdf = p_spec_ * ps + (1.0f - p_spec_) * wi.z * kInvPi;
   return r;
 }
@@ -249,7 +251,7 @@ Vec3 PrincipledBsdf::eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
   // Roughness: the diffuse retro-reflection term and the specular lobe.
   float dKd_dr = 0.0f;
   if (p_.roughness >= 0.0f && p_.roughness <= 1.0f) {
-    const float FL = schlick5(wi.z), FV = schlick5(wo_.z);
+    const float FL = schlick5(wi.z), FV = F_V_;
     const float lv1 = 1.0f + dot(wo_, wi);
     const float RR = r_diffuse_ * lv1;
     dKd_dr = (FL + FV + FL * FV * (2.0f * RR - 1.0f)) * lv1 * wi.z * kInvPi;

@@ -79,12 +79,13 @@ class PrincipledBsdf {
   // Per-channel specular value S (no Fresnel, no compensation) and Fresnel blend FH at wi.
   struct SpecularTerms {
     float S = 0.0f;   // D G1(wo) G1(wi) / (4 n.wo)   (cosine-weighted, F = 1)
+    float D = 0.0f;   // GGX D(h)
     float FH = 0.0f;  // interpolation factor of the Fresnel colour
     Vec3 h;
   };
   SpecularTerms specular_terms(Vec3 wi) const;
   float diffuse_shape(Vec3 wi) const;  // the bracket of the diffuse lobe times n.wi / pi
-  float specular_pdf(Vec3 wi, Vec3 h) const;
+  float specular_pdf(float D) const;  // density of the specular strategy, given D(h)
 
   MaterialParams p_;
   Vec3 wo_;
@@ -96,6 +97,7 @@ class PrincipledBsdf {
   Vec3 cspec0_;
   Vec3 diffuse_weight_;       // (1 - m) b
   float G1o_ = 1.0f;
+  float F_V_ = 0.0f;          // (1 - n.wo)^5 of the diffuse lobe
   bool multiscatter_ = false; // compensation active (multiscatter and r > 0.075)
   float lambda_o_ = 0.0f;     // Smith Lambda(wo) (height-correlated G of Multiscatter GGX)
   float ms_k_ = 0.0f;         // (1 - E) / E at n.wo
