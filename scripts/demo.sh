@@ -10,7 +10,7 @@
 #   3. evaluate  ptir eval (with both relight environments) -> out/demo/result/eval/
 #                (metrics.md, metrics.json, contact sheets sheet_*.png, every render as EXR);
 #                also the oracle (true materials, training light) as the ceiling the
-#                Principled-vs-Disney model mismatch leaves -> out/sample_dataset/oracle/eval/
+#                splat-vs-mesh representation leaves -> out/sample_dataset/oracle/eval/
 #   4. relight   ptir relight: the recovered asset on a floor in front of a wall, under the
 #                sunset sky plus an area and a point light, two views at 200x200 -> out/demo/relight/
 #   5. gallery   every AOV of the Suzanne splat sample (scripts/make_sample_splat.py) -> out/demo/aovs/
