@@ -228,6 +228,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-init", o->opt.env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
   cmd->add_flag("--fix-env", o->opt.fix_env, "keep the --env-init environment fixed (known lighting)");
   cmd->add_option("--seed", o->opt.seed, "random seed (views, crops, paths)")->capture_default_str();
+  cli::add_brdf_option(cmd, &o->brdf);
   cmd->add_flag("--resume", o->resume, "continue from OUT/checkpoint.bin");
   cmd->add_option("--split", o->split, "dataset split (transforms_<split>.json)")->capture_default_str();
   cmd->add_option("--prior", o->prior, "folder of prior albedo/roughness maps in the dataset's layout");

@@ -33,6 +33,7 @@ REPO = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
 sys.path.insert(0, os.path.join(REPO, "addon"))
 
+import blender_kit as kit  # noqa: E402
 import make_dataset  # noqa: E402
 from dataset import envmaps, exr, scene as dscene, splat  # noqa: E402
 from ptir_blender.blender import scene_export  # noqa: E402
@@ -59,7 +60,7 @@ def main():
     scene = bpy.context.scene
     env_path = os.path.join(a.out_dir, "studio.exr")
     exr.write_exr(env_path, envmaps.make_envmap("studio", 128, 64))
-    dscene.set_environment(scene, env_path)
+    kit.set_environment(scene, env_path)
     cam = dscene.camera_object(scene)
     from mathutils import Matrix
     cam.matrix_world = Matrix(make_dataset.test_poses(8, 4.0)[0].tolist())

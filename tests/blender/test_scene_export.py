@@ -137,7 +137,9 @@ def test_export_meshes_and_materials(exported):
     meshes = {m["name"]: m for m in doc["meshes"]}
     assert sorted(meshes) == ["Cube_0", "Cube_1", "Lamp plane"]  # "Hidden" (hide_render) is skipped
     matte, shiny, glow = meshes["Cube_0"]["material"], meshes["Cube_1"]["material"], meshes["Lamp plane"]["material"]
-    assert matte["base_color"] == pytest.approx([0.2, 0.4, 0.6]) and matte["roughness"] == 1.0
+    # Diffuse BSDF -> the engine's Oren-Nayar with the node's roughness (default 0: Lambert).
+    assert matte["base_color"] == pytest.approx([0.2, 0.4, 0.6]) and matte["roughness"] == 0.0
+    assert matte["shader"] == "diffuse" and shiny["shader"] == "principled"
     assert matte["metallic"] == 0.0 and matte["emission"] == [0, 0, 0]
     assert shiny["base_color"] == pytest.approx([0.9, 0.8, 0.1]) and shiny["roughness"] == pytest.approx(0.35)
     assert shiny["metallic"] == 1.0 and shiny["emission"] == pytest.approx([2.0, 1.0, 0.5])

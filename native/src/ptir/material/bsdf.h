@@ -35,9 +35,11 @@ inline BsdfKind resolve_bsdf(BsdfModel model, SurfaceShader shader) {
 
 class Bsdf {
  public:
-  Bsdf(BsdfKind kind, const MaterialParams& p, Vec3 wo) : kind_(kind), p_(p), wo_(wo) {
+  // min_specular_prob: sampling only (Principled's lower bound on picking its specular lobe).
+  Bsdf(BsdfKind kind, const MaterialParams& p, Vec3 wo, float min_specular_prob = kMinSpecularProb)
+      : kind_(kind), p_(p), wo_(wo) {
     if (kind == BsdfKind::PrincipledGGX || kind == BsdfKind::PrincipledMultiGGX)
-      principled_.emplace(p, wo, kind == BsdfKind::PrincipledMultiGGX);
+      principled_.emplace(p, wo, kind == BsdfKind::PrincipledMultiGGX, min_specular_prob);
     else if (kind == BsdfKind::OrenNayar)
       oren_nayar_.emplace(p, wo);
   }

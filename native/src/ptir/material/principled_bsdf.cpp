@@ -90,7 +90,8 @@ float specular_to_eta(float specular) {
   return 2.0f / (1.0f - std::sqrt(0.08f * s)) - 1.0f;
 }
 
-PrincipledBsdf::PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatter) : p_(p), wo_(wo) {
+PrincipledBsdf::PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatter, float min_specular_prob)
+    : p_(p), wo_(wo) {
   above_ = wo.z > 0.0f;
   const float m = std::clamp(p.metallic, 0.0f, 1.0f);
   p_.metallic = m;
@@ -129,7 +130,7 @@ PrincipledBsdf::PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatt
   const float c0 = std::clamp(0.08f * p.specular * (1.0f - m) + m, 0.0f, 1.0f);
   const float w_s = (c0 * (1.0f - FH_n) + FH_n) * (1.0f + c0 * ms_k_);
   const float w_d = 0.5f * (1.0f - m);
-  p_spec_ = (w_s + w_d) > 0.0f ? std::clamp(w_s / (w_s + w_d), kMinLobeProb, 1.0f - kMinLobeProb) : 0.5f;
+  p_spec_ = (w_s + w_d) > 0.0f ? std::clamp(w_s / (w_s + w_d), std::min(min_specular_prob, 1.0f - kMinDiffuseProb), 1.0f - kMinDiffuseProb) : 0.5f;
 }
 
 float PrincipledBsdf::diffuse_shape(Vec3 wi) const {

@@ -27,7 +27,9 @@
 // diffuse weight (1 - m) b — both with a nominal base colour b = 1/2, so that the
 // albedo changes no sampling decision; P_spec is kept within [0.1, 0.9] so both
 // lobes always have density (the derivative of either lobe is then estimated
-// everywhere). The diffuse lobe is cosine-weighted.
+// everywhere); the inversion raises the specular bound to 1/2 (optim/optimizer_setup),
+// where specular samples carry the roughness and highlight gradients. The diffuse
+// lobe is cosine-weighted.
 //
 // Roughness below kPrincipledMinRoughness is clamped for the specular lobe (Cycles
 // switches to a delta mirror when alpha^2 <= 1e-7, i.e. r < 0.018; our transport
@@ -46,7 +48,9 @@ constexpr float kPrincipledMinRoughness = 0.02f;
 // Cycles uses single-scattering GGX for the "Multiscatter GGX" distribution at or below this roughness.
 constexpr float kMultiscatterMinRoughness = 0.075f;
 // Bounds of the specular lobe's selection probability.
-constexpr float kMinLobeProb = 0.1f;
+// (the specular bound is the default of IntegratorSettings::min_specular_probability).
+constexpr float kMinSpecularProb = 0.1f;
+constexpr float kMinDiffuseProb = 0.1f;
 
 // Exact unpolarised Fresnel reflectance of a dielectric interface (cosi = cos of
 // the incident angle, eta = relative IOR); 1 under total internal reflection.
@@ -61,7 +65,9 @@ float smith_lambda_dalpha(Vec3 w, float alpha);
 
 class PrincipledBsdf {
  public:
-  PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatter);
+  // min_specular_prob: lower bound of the specular lobe's selection probability
+  // (sampling only: any bound gives the same expectation).
+  PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatter, float min_specular_prob = kMinSpecularProb);
 
   Vec3 eval(Vec3 wi) const;   // f~ = f max(n.wi, 0); zero unless n.wo > 0 and n.wi > 0
   float pdf(Vec3 wi) const;   // density of sample()

@@ -72,6 +72,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"spp", std::to_string(is.spp)},
       {"bounces", std::to_string(is.max_bounces)},
       {"brdf", to_string(is.brdf)},
+      {"min_specular_probability", num(is.min_specular_probability)},
       {"interaction", interaction_mode_name(is.interaction.mode)},
       {"tau_g", num(is.interaction.tau_g)},
       {"geometric_criterion", is.geometric_criterion ? "1" : "0"},

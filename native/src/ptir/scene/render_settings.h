@@ -37,6 +37,10 @@ struct IntegratorSettings {
   int max_bounces = 2;  // indirect bounces, as Cycles counts them (0: direct light only)
   uint64_t seed = 0;
   BsdfModel brdf = BsdfModel::Principled;  // surface model of every vertex (scene JSON "brdf", --brdf)
+  // Lower bound on the Principled BSDF's specular-lobe sampling probability: 0.1
+  // renders with Cycles-like noise; the optimiser uses 1/2 (more specular samples
+  // for roughness and highlight gradients). Sampling only: same expectation.
+  float min_specular_probability = 0.1f;
   PixelFilter filter;                    // camera-sample offsets (Blender default: Blackman-Harris 1.5 px)
   InteractionSettings interaction;       // aggregate/discrete, tau_g
   bool geometric_criterion = true;       // chi_geom gate; off: every hit with O > 0 is an interaction

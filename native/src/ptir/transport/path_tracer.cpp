@@ -136,7 +136,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     if (stats) stats->vertices++;
     Frame frame(ev.n);
     Vec3 wo = frame.to_local(-ray.d);
-    const Bsdf bsdf(resolve_bsdf(settings.brdf, ev.shader), ev.material, wo);
+    const Bsdf bsdf(resolve_bsdf(settings.brdf, ev.shader), ev.material, wo, settings.min_specular_probability);
     SpawnContext here = scatterer.spawn_context(ev, ray);
     MaterialGrad vertex_grad;
 
