@@ -14,6 +14,22 @@ namespace {
 
 constexpr unsigned kNoGeometry = RTC_INVALID_GEOMETRY_ID;
 
+// An Embree ray (single) for `ray` starting at tnear, with no hit yet.
+RTCRayHit embree_ray(const Ray& ray, float tnear) {
+  RTCRayHit rh;
+  rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
+  rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
+  rh.ray.tnear = tnear;
+  rh.ray.tfar = ray.tmax;
+  rh.ray.time = 0.0f;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
+  rh.hit.geomID = kNoGeometry;
+  rh.hit.instID[0] = kNoGeometry;
+  return rh;
+}
+
 void gaussian_bounds(const RTCBoundsFunctionArguments* args) {
   const auto* boxes = static_cast<const std::vector<RTCBounds>*>(args->geometryUserPtr);
   *args->bounds_o = (*boxes)[args->primID];
@@ -140,17 +156,7 @@ int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianH
   KBuffer& kb = rc.buffer[0];
   kb.reset(buffer, settings_.k, T0, min_transmittance);
 
-  RTCRayHit rh;
-  rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
-  rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
-  rh.ray.tnear = t_start;
-  rh.ray.tfar = ray.tmax;
-  rh.ray.time = 0.0f;
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.ray.id = 0;
-  rh.ray.flags = 0;
-  rh.hit.geomID = kNoGeometry;
-  rh.hit.instID[0] = kNoGeometry;
+  RTCRayHit rh = embree_ray(ray, t_start);
   rtcIntersect1(impl_->scene, &rc.context, &rh);
   if (candidates) *candidates += rc.candidates;
 
@@ -171,17 +177,7 @@ int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianH
 MeshHit SceneAccel::closest_mesh(const Ray& ray) const {
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
-  RTCRayHit rh;
-  rh.ray.org_x = ray.o.x; rh.ray.org_y = ray.o.y; rh.ray.org_z = ray.o.z;
-  rh.ray.dir_x = ray.d.x; rh.ray.dir_y = ray.d.y; rh.ray.dir_z = ray.d.z;
-  rh.ray.tnear = ray.tmin;
-  rh.ray.tfar = ray.tmax;
-  rh.ray.time = 0.0f;
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.ray.id = 0;
-  rh.ray.flags = 0;
-  rh.hit.geomID = kNoGeometry;
-  rh.hit.instID[0] = kNoGeometry;
+  RTCRayHit rh = embree_ray(ray, ray.tmin);
   rtcIntersect1(impl_->mesh_scene, &ctx, &rh);
   MeshHit hit;
   if (rh.hit.geomID == kNoGeometry) return hit;

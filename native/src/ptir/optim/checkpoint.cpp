@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "ptir/core/fnv1a.h"
 #include "ptir/core/error.h"
 #include "ptir/io/atomic_file.h"
 
@@ -17,14 +18,6 @@ constexpr uint32_t kVersion = 1;
 // The SG environment's group kind before every environment model became one group.
 constexpr uint32_t kEnvSgBeforeOneGroup = 4;
 
-uint64_t fnv1a(const std::string& s) {
-  uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  return h;
-}
 
 struct Writer {
   std::string buf;

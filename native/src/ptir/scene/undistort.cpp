@@ -9,6 +9,7 @@
 #include <limits>
 #include <vector>
 
+#include "ptir/core/fnv1a.h"
 #include "ptir/core/error.h"
 #include "ptir/io/atomic_file.h"
 
@@ -65,14 +66,6 @@ PinholeWindow plan_undistortion(const LensModel& lens, const std::string& where)
 
 namespace {
 
-uint64_t fnv1a(const std::string& s) {
-  uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  return h;
-}
 
 std::string cache_key(const std::string& src, const LensModel& lens, const PinholeWindow& w) {
   std::error_code ec;
