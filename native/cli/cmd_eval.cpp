@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "brdf_option.h"
+#include "capture_flags.h"
 #include "commands.h"
 #include "filter_flags.h"
 #include "output_guard.h"
@@ -37,6 +38,7 @@ struct EvalOptions {
   int sheet_views = 8;
   int threads = 0;
   FilterFlags filter;
+  CaptureFlags capture;  // real captures: the same switches as optimize
   bool quiet = false;
   bool force = false;
 };
@@ -51,6 +53,7 @@ int run_eval(const EvalOptions& o, const CLI::App& cmd) {
   s.dataset = o.dataset;
   s.result = o.result;
   s.split = o.split;
+  apply_capture_flags(o.capture, s.dataset_options);
   s.scene = o.scene;
   for (const std::string& r : o.relight) s.relight.push_back(eval::parse_relight(r));
   const std::string out = o.result + "/eval";
@@ -106,6 +109,7 @@ Runner add_eval_command(CLI::App& app) {
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);
   add_filter_flags(cmd, &o->filter);
+  add_capture_flags(cmd, &o->capture);
   return [o, cmd] { return run_eval(*o, *cmd); };
 }
 

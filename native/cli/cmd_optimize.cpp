@@ -35,6 +35,7 @@
 #include <string>
 
 #include "brdf_option.h"
+#include "capture_flags.h"
 #include "commands.h"
 #include "output_guard.h"
 #include "filter_flags.h"
@@ -63,10 +64,7 @@ struct OptimizeCommand {
   OptimizeOptions opt;
   FilterFlags filter;
   bool force = false;
-  // Real captures (docs/dataset_format.md).
-  std::string layout = "auto", images, test_list, undistort_cache, dataparser_transforms, world = "auto";
-  int holdout = 8;
-  bool black_background = false;
+  CaptureFlags capture;  // real captures (docs/dataset_format.md)
 };
 
 // Defaults that depend on the dataset: the environment model (24 SGs for real
@@ -74,7 +72,7 @@ struct OptimizeCommand {
 // Gaussians a 3DGS output folder names (point_cloud/iteration_N, largest N).
 // Returns false (a usage error) when --gaussians is missing and the dataset names none.
 bool resolve_dataset_defaults(OptimizeCommand& o) {
-  const std::string layout = o.layout == "auto" ? detect_layout(o.dataset) : o.layout;
+  const std::string layout = o.capture.layout == "auto" ? detect_layout(o.dataset) : o.capture.layout;
   if (o.opt.env == "auto") o.opt.env = (layout == "nerf" || layout.empty()) ? "latlong" : "sg";
   if (o.gaussians.empty()) {
     o.gaussians = layout_gaussians(o.dataset);
@@ -117,14 +115,7 @@ std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, const CLI::A
   DatasetOptions dopt;
   dopt.split = o.split;
   dopt.prior_dir = o.prior;
-  dopt.layout = o.layout;
-  dopt.images = o.images;
-  dopt.holdout = o.holdout;
-  dopt.test_list = o.test_list;
-  dopt.undistort_dir = o.undistort_cache;
-  dopt.dataparser_transforms = o.dataparser_transforms;
-  dopt.world = o.world;
-  dopt.black_background = o.black_background;
+  apply_capture_flags(o.capture, dopt);
   *data = load_dataset(o.dataset, dopt);
   // The filter the views were rendered with (dataset.json), else Blender's default; the switches override it.
   s.integrator.filter = dataset_pixel_filter(**data);
@@ -243,17 +234,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);
-  cmd->add_option("--layout", o->layout, "dataset layout: auto, nerf, colmap, 3dgs, nerfstudio")->capture_default_str();
-  cmd->add_option("--images", o->images, "real captures: image folder (e.g. images_4; intrinsics are scaled to it)");
-  cmd->add_option("--holdout", o->holdout, "real captures: every Nth image (name order) is a test view (0: none)")
-      ->capture_default_str();
-  cmd->add_option("--test-list", o->test_list, "real captures: file of test image names, one per line (instead of --holdout)");
-  cmd->add_option("--undistort-cache", o->undistort_cache,
-                  "real captures: folder for the undistorted images (default DATASET/ptir_undistorted/<images>)");
-  cmd->add_option("--dataparser-transforms", o->dataparser_transforms,
-                  "nerfstudio: splatfacto's dataparser_transforms.json (cameras into its Gaussians' frame)");
-  cmd->add_option("--world", o->world, "nerfstudio world frame: auto, data, dataparser, colmap")->capture_default_str();
-  cmd->add_flag("--black-background", o->black_background, "pixels that are exactly black are background (not supervised)");
+  add_capture_flags(cmd, &o->capture);
   add_filter_flags(cmd, &o->filter);
   return [o, cmd] {
     if (!resolve_dataset_defaults(*o)) return 2;

@@ -398,3 +398,23 @@ def test_shared_mask_of_a_distorted_capture_is_undistorted_once(tmp_path):
     src_x = rgb[..., 0]
     assert has_alpha
     assert np.all(alpha[src_x < W / 2 - 1] == 0) and np.all(alpha[src_x > W / 2 + 1] == 1)
+
+
+def test_eval_takes_the_capture_switches(tmp_path):
+    """`ptir eval` reads a capture with the same switches as optimize: the hold-out decides the views."""
+    src = write_colmap(tmp_path / "cap", PINHOLE)
+    write_splat_ply(tmp_path / "g.ply", [[0, 0, 0], [0.2, 0, 0]], [0.3, 0.3, 0.01])
+    res = tmp_path / "res"
+    r = subprocess.run([str(CLI), "optimize", "--dataset", str(src), "--gaussians", str(tmp_path / "g.ply"), "--out",
+                        str(res), "--iters", "1", "--spp", "1", "--bounces", "0", "--threads", "2", "-q"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    views = {}
+    for holdout in (8, 3):
+        r = subprocess.run([str(CLI), "eval", "--dataset", str(src), "--result", str(res), "--holdout", str(holdout),
+                            "--spp", "1", "--aov-spp", "1", "--sheet-views", "0", "--threads", "2"],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        views[holdout] = json.loads((res / "eval" / "metrics.json").read_text())["views"]
+    # 10 images in name order: every 8th (0, 8) or every 3rd (0, 3, 6, 9) is a test view.
+    assert views == {8: 2, 3: 4}, views

@@ -197,7 +197,7 @@ void load_eval_scene(EvalRun& run) {
   if (!file_exists(ply))
     throw Error(ply.string(), "no such file (the result folder of `ptir optimize` holds gaussians.ply and env.exr)");
   if (!file_exists(env_path)) throw Error(env_path.string(), "no such file (the recovered environment)");
-  DatasetOptions dopt;
+  DatasetOptions dopt = s.dataset_options;
   dopt.split = s.split;
   dopt.cache_bytes = 0;  // every image is read once
   run.data = load_dataset(s.dataset, dopt);

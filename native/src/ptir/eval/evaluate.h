@@ -37,6 +37,7 @@
 #include "ptir/core/render_control.h"
 #include "ptir/material/shading_model.h"
 #include "ptir/math/pixel_filter.h"
+#include "ptir/scene/dataset.h"
 
 namespace ptir::eval {
 
@@ -49,6 +50,7 @@ struct EvalSettings {
   std::string dataset;            // dataset folder (TensoIR / NeRF-synthetic layout)
   std::string result;             // folder with gaussians.ply and env.exr
   std::string split = "test";
+  DatasetOptions dataset_options; // how to read the dataset (layout, images folder, hold-out; split is set from above)
   std::string scene;              // optional scene file: its meshes and lights are added
   std::vector<RelightEnv> relight;
   int spp = 64;                   // path-traced renders

@@ -1,0 +1,43 @@
+// The dataset-reading switches `optimize` and `eval` share (real captures:
+// docs/dataset_format.md), and how they fill DatasetOptions.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "ptir/scene/dataset.h"
+
+namespace ptir::cli {
+
+struct CaptureFlags {
+  std::string layout = "auto", images, test_list, undistort_cache, dataparser_transforms, world = "auto";
+  int holdout = 8;
+  bool black_background = false;
+};
+
+inline void add_capture_flags(CLI::App* cmd, CaptureFlags* f) {
+  cmd->add_option("--layout", f->layout, "dataset layout: auto, nerf, colmap, 3dgs, nerfstudio")->capture_default_str();
+  cmd->add_option("--images", f->images, "real captures: image folder (e.g. images_4; intrinsics are scaled to it)");
+  cmd->add_option("--holdout", f->holdout, "real captures: every Nth image (name order) is a test view (0: none)")
+      ->capture_default_str();
+  cmd->add_option("--test-list", f->test_list, "real captures: file of test image names, one per line (instead of --holdout)");
+  cmd->add_option("--undistort-cache", f->undistort_cache,
+                  "real captures: folder for the undistorted images (default DATASET/ptir_undistorted/<images>)");
+  cmd->add_option("--dataparser-transforms", f->dataparser_transforms,
+                  "nerfstudio: splatfacto's dataparser_transforms.json (cameras into its Gaussians' frame)");
+  cmd->add_option("--world", f->world, "nerfstudio world frame: auto, data, dataparser, colmap")->capture_default_str();
+  cmd->add_flag("--black-background", f->black_background, "pixels that are exactly black are background (not supervised)");
+}
+
+inline void apply_capture_flags(const CaptureFlags& f, DatasetOptions& d) {
+  d.layout = f.layout;
+  d.images = f.images;
+  d.holdout = f.holdout;
+  d.test_list = f.test_list;
+  d.undistort_dir = f.undistort_cache;
+  d.dataparser_transforms = f.dataparser_transforms;
+  d.world = f.world;
+  d.black_background = f.black_background;
+}
+
+}  // namespace ptir::cli
