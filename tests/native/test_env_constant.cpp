@@ -45,13 +45,7 @@ Vec3 reflected_constant(BsdfModel model, const MaterialParams& params, Vec3 wo, 
   return sum * L;
 }
 
-double centre_mean(const Image& img, int c, int r) {
-  double s = 0;
-  int n = 0;
-  for (int y = img.height / 2 - r; y <= img.height / 2 + r; ++y)
-    for (int x = img.width / 2 - r; x <= img.width / 2 + r; ++x, ++n) s += img.at(x, y, c);
-  return s / n;
-}
+using test::centre_mean;
 
 }  // namespace
 

@@ -4,10 +4,20 @@
 #include <cmath>
 #include <random>
 
+#include "ptir/io/image.h"
 #include "ptir/scene/gaussians.h"
 #include "ptir/scene/mesh.h"
 
 namespace ptir::test {
+
+// Mean of the centre block of pixels (radius r) of channel c.
+inline double centre_mean(const Image& img, int c, int r) {
+  double s = 0;
+  int n = 0;
+  for (int y = img.height / 2 - r; y <= img.height / 2 + r; ++y)
+    for (int x = img.width / 2 - r; x <= img.width / 2 + r; ++x, ++n) s += img.at(x, y, c);
+  return s / n;
+}
 
 // Adds one Gaussian with the given activated values and a default material.
 inline void add_gaussian(GaussianField& f, Vec3 mu, Vec3 scale, std::array<float, 4> q, float opacity,
