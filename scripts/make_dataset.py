@@ -7,13 +7,15 @@ Run inside Blender 3.4 (headless):
     blender -b --factory-startup -noaudio --python-exit-code 1 -P scripts/make_dataset.py -- \
         --out DIR [--blend FILE] [--res 100] [--train 16] [--test 8] [--spp 64] [--bounces 4]
         [--subdiv 2] [--train-env studio] [--relight-envs sunset,sky] [--env-size 128x64]
-        [--threads N] [--save-blend FILE]
+        [--threads N] [--save-blend FILE] [--textured] [--metal-fraction F] [--texture-seed N]
 
 The object: with --blend, the mesh objects of the file's collection "PTIR_Object"
 (else every renderable mesh); without, the bundled sample built in code
 (scripts/dataset/scene.py: Suzanne on a pedestal, four Principled parts with
 metallic 0 and known colour/roughness; sample_blends/sample_object.blend is the
-same object saved by sample_blends/build_sample_object.py).
+same object saved by sample_blends/build_sample_object.py). With --textured every
+material's base colour and roughness (and, with --metal-fraction, metallic patches)
+become per-polygon noise patterns (scripts/dataset/textures.py); the oracle stays exact.
 
 Writes (docs/dataset_format.md has the conventions):
     DIR/transforms_train.json, transforms_test.json   NeRF-synthetic cameras
@@ -41,7 +43,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
-from dataset import envmaps, exr, png, scene as dscene, splat  # noqa: E402
+from dataset import envmaps, exr, png, scene as dscene, splat, textures  # noqa: E402
 
 
 def parse_args():
@@ -60,6 +62,9 @@ def parse_args():
     p.add_argument("--env-size", default="128x64", help="environment map size WxH (default 128x64)")
     p.add_argument("--threads", type=int, default=0, help="Cycles threads (0: all)")
     p.add_argument("--save-blend", help="also save the object scene (no cameras/world) to this .blend")
+    p.add_argument("--textured", action="store_true", help="noise-textured base colour and roughness per polygon")
+    p.add_argument("--metal-fraction", type=float, default=0.0, help="with --textured: fraction of metallic polygons")
+    p.add_argument("--texture-seed", type=int, default=1, help="with --textured: the pattern's seed")
     a = p.parse_args(argv)
     a.relight_envs = [e for e in a.relight_envs.split(",") if e]
     for name in [a.train_env] + a.relight_envs:
@@ -175,6 +180,14 @@ def object_splats(objs):
         if len(start) == 0:
             continue
         g, keep = splat.polygons_to_gaussians(loops, start, total)
+        per_polygon = textures.polygon_materials(o)
+        if per_polygon is not None:  # textured: each Gaussian takes its polygon's values
+            albedo, rough, metal = (v[keep] for v in per_polygon)
+            g["albedo"] = albedo * (1.0 - metal)[:, None]
+            g["roughness"], g["metallic"] = rough, metal
+            g["display_colour"] = png.srgb_encode(albedo)
+            pieces.append(g)
+            continue
         mats = [s.material for s in o.material_slots] or [None]
         vals = []
         for m in mats:
@@ -226,6 +239,10 @@ def main():
         source = "built-in sample (subdiv %d)" % a.subdiv
     if not objs:
         raise RuntimeError("no mesh objects to capture")
+    if a.textured:
+        textures.texture_objects(objs, dscene.material_values, seed=a.texture_seed, metal_fraction=a.metal_fraction)
+        log("textured: per-polygon noise in base colour and roughness%s" %
+            (", metallic patches on %.0f%%" % (100 * a.metal_fraction) if a.metal_fraction > 0 else ""))
     if a.save_blend:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(a.save_blend), compress=True, copy=True)
         log("saved %s" % a.save_blend)
@@ -286,6 +303,9 @@ def main():
     for o in objs:
         for s in o.material_slots:
             if s.material and s.material.name not in parts:
+                if s.material.get("ptir_face_textured"):
+                    parts[s.material.name] = {"textured": "per-polygon face attributes (scripts/dataset/textures.py)"}
+                    continue
                 c, r, mt, exact = dscene.material_values(s.material)
                 parts[s.material.name] = {"base_color": [round(float(v), 6) for v in c], "roughness": round(float(r), 6),
                                           "metallic": round(float(mt), 6), "exact": exact}
@@ -305,6 +325,7 @@ def main():
         "splat": "gaussians.ply",
         "oracle": "oracle",
         "materials": parts,
+        "textured": {"seed": a.texture_seed, "metal_fraction": a.metal_fraction} if a.textured else None,
         "encodings": {"rgba": "sRGB 8-bit, straight alpha = coverage",
                       "albedo": "sRGB 8-bit (Diffuse Color pass = base colour x (1 - metallic)), alpha = coverage",
                       "roughness": "linear 8-bit grey, alpha = coverage",

@@ -230,6 +230,15 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all); resumed runs are bit-identical on the same count");
   cmd->add_option("--loss-space", o->opt.loss_space, "compare images in srgb or linear space")->capture_default_str();
   cmd->add_option("--lambda-tv", o->opt.lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
+  cmd->add_option("--lr-final", o->opt.lr_final,
+                  "learning rate at the last iteration, as a fraction of the initial one (1: constant)")
+      ->capture_default_str();
+  cmd->add_option("--lr-decay-start", o->opt.lr_decay_start,
+                  "fraction of the iterations after which the learning rate decays (exponentially)")
+      ->capture_default_str();
+  cmd->add_option("--env-adam", o->opt.env_adam,
+                  "environment step normalisation: shared (one Adam second moment for all texels) or texel")
+      ->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");

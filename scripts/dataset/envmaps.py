@@ -53,6 +53,10 @@ PRESETS = {
     # Relight 2: a clear blue sky with a high white sun on the other side, green ground.
     "sky": ((0.20, 0.38, 0.80), (0.60, 0.70, 0.85), (0.12, 0.16, 0.08),
             [((16.0, 15.0, 13.5), 120.0, 60.0, 100.0)]),
+    # Relight 3: an overcast day -- a bright, nearly uniform grey sky, a soft brighter
+    # patch where the sun hides, warm grey ground.
+    "overcast": ((0.62, 0.64, 0.68), (0.52, 0.52, 0.53), (0.16, 0.14, 0.12),
+                 [((1.6, 1.6, 1.7), 30.0, 45.0, 3.0)]),
 }
 
 

@@ -12,7 +12,9 @@
 
 #include "ptir/core/error.h"
 #include "ptir/eval/contact_sheet.h"
+#include "ptir/eval/env_score.h"
 #include "ptir/eval/metrics.h"
+#include "ptir/eval/tensoir_albedo.h"
 #include "ptir/eval/relight.h"
 #include "ptir/io/atomic_file.h"
 #include "ptir/scene/dataset.h"
@@ -139,7 +141,10 @@ std::string metrics_markdown(const json& m) {
   std::ostringstream md;
   md << "| metric | ours | PTIR paper (TensoIR set, 800², reference only) |\n";
   md << "|---|---:|---:|\n";
-  md << "| Albedo PSNR (dB, scale-aligned, sRGB) ↑ | " << fmt(m.value("albedo_psnr", json()), "%.2f") << " | 32.12 |\n";
+  md << "| Albedo PSNR (dB, scale-aligned, sRGB, foreground) ↑ | " << fmt(m.value("albedo_psnr", json()), "%.2f")
+     << " | |\n";
+  md << "| Albedo PSNR (dB, TensoIR's protocol: white background, gamma 2.2) ↑ | "
+     << fmt(m.value("albedo_psnr_tensoir", json()), "%.2f") << " | 32.12 |\n";
   md << "| NVS PSNR (dB) ↑ | " << fmt(m.value("nvs_psnr", json()), "%.2f") << " | 36.17 |\n";
   md << "| NVS SSIM ↑ | " << fmt(m.value("nvs_ssim", json()), "%.4f") << " | – |\n";
   const json relight = m.value("relight", json::object());
@@ -150,6 +155,10 @@ std::string metrics_markdown(const json& m) {
        << " / " << fmt(it.value().value("ssim", json()), "%.4f") << " | |\n";
   md << "| Roughness MSE ↓ | " << fmt(m.value("roughness_mse", json()), "%.4f") << " | 0.015 |\n";
   md << "| Normal MAE (°) ↓ | " << fmt(m.value("normal_mae_deg", json()), "%.2f") << " | 4.03 |\n";
+  const json env = m.value("environment", json());
+  if (env.is_object())
+    md << "| Environment PSNR (dB, scale-aligned; sky only) ↑ | " << fmt(env["psnr"], "%.2f") << "; "
+       << fmt(env["psnr_upper"], "%.2f") << " | |\n";
   return md.str();
 }
 
@@ -170,9 +179,10 @@ struct EvalRun {
   json per_view = json::array();
   std::vector<double> nvs_psnr, nvs_ssim, rough_mse, normal_mae, albedo_psnr, albedo_psnr_lin, relight_means;
   RatioAccumulator ratios;
+  std::unique_ptr<TensoirAlbedoScore> tensoir;  // TensoIR's albedo protocol, beside ours
   bool have_albedo = false;
   std::array<double, 3> scale{1.0, 1.0, 1.0};
-  json albedo_scale_json = nullptr, relight_json = json::object();
+  json albedo_scale_json = nullptr, relight_json = json::object(), env_json = nullptr;
   double build_s = 0.0, render_s = 0.0;
 
   void say(const std::string& line) const {
@@ -307,6 +317,8 @@ void evaluate_view(EvalRun& run, size_t i) {
   if (gt_albedo.width > 0) {
     run.have_albedo = true;
     run.ratios.add(gt_albedo, albedo, mask);
+    if (!run.tensoir) run.tensoir = std::make_unique<TensoirAlbedoScore>(run.n_views);
+    run.tensoir->add_ratios(i, gt_albedo, albedo, gt->alpha);
   }
   score_aovs(run, i, mask, show, *gt, rough, normal, v);
   const bool has_normal_gt = v.contains("normal_mae_deg");
@@ -323,12 +335,14 @@ void score_albedo(EvalRun& run) {
   run.scale = run.ratios.scale();
   run.ratios = RatioAccumulator();
   run.albedo_scale_json = {run.scale[0], run.scale[1], run.scale[2]};
+  const std::array<double, 3> tensoir_scale = run.tensoir->scale();
   for (size_t i = 0; i < run.n_views; ++i) {
     Image gt_albedo = run.data->gt_albedo(i);
     if (gt_albedo.width == 0) continue;
     std::shared_ptr<const TrainingImage> gt = run.data->target(i);
     const Image mask = foreground_mask(gt->alpha);
     Image pred = read_image((run.out / view_folder(i) / "albedo.exr").string(), Encoding::Data);
+    run.tensoir->add_error(gt_albedo, pred, gt->alpha, tensoir_scale);
     Image aligned = apply_scale(pred, run.scale);
     Image gt_clamped = apply_scale(gt_albedo, {1.0, 1.0, 1.0});
     Image a_srgb = srgb_encode(aligned), g_srgb = srgb_encode(gt_clamped);
@@ -383,6 +397,26 @@ void relight_views(EvalRun& run, const RelightEnv& r, const Environment& env) {
   run.say(line);
 }
 
+// The recovered environment against the dataset's training environment, when it
+// records one (env_score.h): metrics and sheet_environment.png.
+void score_recovered_environment(EvalRun& run, std::vector<std::string>& sheet_files) {
+  const std::string gt_path = dataset_training_environment(run.s.dataset);
+  const fs::path ours_path = fs::path(run.s.result) / "env.exr";
+  if (gt_path.empty() || !file_exists(ours_path.string())) return;
+  const EnvScore e = score_environment(read_image(ours_path.string(), Encoding::Data), read_image(gt_path, Encoding::Data));
+  run.env_json = {{"psnr", e.psnr}, {"psnr_upper", e.psnr_upper}, {"scale", {e.scale[0], e.scale[1], e.scale[2]}},
+                  {"truth", absolute_path(gt_path)},
+                  {"protocol", "per-channel solid-angle energy match, Reinhard + sRGB display, solid-angle weighted"}};
+  if (run.s.sheet_views > 0) {
+    write_image((run.out / "sheet_environment.png").string(), e.sheet, Encoding::Data);
+    sheet_files.push_back("sheet_environment.png");
+  }
+  char line[160];
+  std::snprintf(line, sizeof line, "eval: environment PSNR %.2f dB (sky %.2f dB) after scale %.3f %.3f %.3f", e.psnr,
+                e.psnr_upper, e.scale[0], e.scale[1], e.scale[2]);
+  run.say(line);
+}
+
 // Contact sheets, upscaled so that small images are still legible; returns their file names.
 std::vector<std::string> write_contact_sheets(const EvalRun& run) {
   std::vector<std::string> sheet_files;
@@ -410,12 +444,14 @@ json metrics_json(const EvalRun& run, const std::vector<std::string>& sheet_file
   m["albedo_scale"] = run.albedo_scale_json;
   m["albedo_psnr"] = mean_or_null(run.albedo_psnr);
   m["albedo_psnr_linear"] = mean_or_null(run.albedo_psnr_lin);
+  m["albedo_psnr_tensoir"] = run.tensoir ? json(run.tensoir->psnr()) : json(nullptr);
   m["nvs_psnr"] = mean_or_null(run.nvs_psnr);
   m["nvs_ssim"] = mean_or_null(run.nvs_ssim);
   m["relight"] = run.relight_json;
   m["relight_psnr"] = mean_or_null(run.relight_means);
   m["roughness_mse"] = mean_or_null(run.rough_mse);
   m["normal_mae_deg"] = mean_or_null(run.normal_mae);
+  m["environment"] = run.env_json;
   m["per_view"] = run.per_view;
   m["sheets"] = sheet_files;
   m["seconds"] = {{"build", run.build_s}, {"render", run.render_s}, {"total", total_s}};
@@ -464,7 +500,8 @@ EvalReport evaluate_unguarded(const EvalSettings& s) {
     scale_albedo(run.field(), run.scale);
     for (const auto& [r, env] : relights) relight_views(run, r, env);
   }
-  const std::vector<std::string> sheet_files = write_contact_sheets(run);
+  std::vector<std::string> sheet_files = write_contact_sheets(run);
+  score_recovered_environment(run, sheet_files);
 
   EvalReport rep;
   rep.metrics = metrics_json(run, sheet_files, seconds_since(t_start));

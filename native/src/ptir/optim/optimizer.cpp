@@ -101,6 +101,9 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   if (settings_.integrator.max_bounces < 0) throw Error("bounces must be at least 0");
   if (settings_.views_per_iteration < 1) throw Error("views per iteration must be at least 1");
   if (settings_.crop_size < 0) throw Error("crop size must be >= 0");
+  if (!(settings_.lr_final > 0.0f && settings_.lr_final <= 1.0f)) throw Error("the final learning-rate factor must be in (0, 1]");
+  if (!(settings_.lr_decay_start >= 0.0f && settings_.lr_decay_start < 1.0f))
+    throw Error("the learning-rate decay start must be in [0, 1)");
   GaussianField& field = *scene_->gaussians;
   const size_t n = field.size();
   if (field.normal.size() != n) init_normals_shortest_axis(field);
@@ -110,7 +113,10 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
 
   install_environment(*scene_, settings_.params);
   params_ = make_parameters(*scene_, settings_.params);
-  for (const ParameterGroup& g : params_.groups) adam_.emplace_back(g.raw.size(), g.lr, settings_.adam);
+  for (const ParameterGroup& g : params_.groups) {
+    adam_.emplace_back(g.raw.size(), g.lr, settings_.adam);
+    adam_.back().shared_second_moment = g.kind == ParamKind::Environment && settings_.env_shared_moment;
+  }
   apply();
   tracer_ = std::make_unique<PathTracer>(*scene_, settings_.accel);
   if (settings_.orient_normals && !field.normals_from_file && n > 0) {
@@ -130,6 +136,13 @@ double Optimizer::prior_weight(int it) const {
   if (settings_.prior_iterations <= 0) return settings_.prior_end;
   double f = std::min(1.0, double(it) / double(settings_.prior_iterations));
   return settings_.prior_start + (settings_.prior_end - settings_.prior_start) * f;
+}
+
+double Optimizer::lr_factor(int it) const {
+  const double n = double(settings_.iterations), start = settings_.lr_decay_start * n;
+  if (settings_.lr_final == 1.0f || n <= 0.0 || double(it) <= start) return 1.0;
+  const double f = std::min(1.0, (double(it) - start) / std::max(1.0, n - 1.0 - start));
+  return std::pow(double(settings_.lr_final), f);
 }
 
 const std::array<int, 4>& Optimizer::mask_box(size_t view) const {
@@ -208,7 +221,11 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
         d = 0.0f;
         ++nonfinite_;
       }
-  for (size_t i = 0; i < params_.groups.size(); ++i) adam_[i].step(params_.groups[i].raw, raw[i]);
+  const double lr_scale = lr_factor(iteration_);
+  for (size_t i = 0; i < params_.groups.size(); ++i) {
+    adam_[i].lr = float(params_.groups[i].lr * lr_scale);
+    adam_[i].step(params_.groups[i].raw, raw[i]);
+  }
   apply();
   log.update_s = seconds_since(t0);
   log.seconds = seconds_since(t_start);
@@ -271,15 +288,26 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     masked += in;
   }
   if (masked == 0) return;
+  // Outside the mask the prediction is replaced by the target (a constant): the
+  // 3x3 blur and the 11x11 SSIM windows of pixels inside then see the target
+  // there, and no gradient leaks out through them -- else the silhouette's
+  // neighbours (environment seen past the object) are pulled toward the object's
+  // colour, which drew dark object outlines into the recovered environment.
+  if (w.full->has_alpha)
+    for (size_t p = 0; p < w.px; ++p)
+      if (mask.pixels[p] == 0.0f)
+        for (int c = 0; c < 3; ++c) pred.pixels[p * 3 + c] = w.target.pixels[p * 3 + c];
   Image d_pred;
   log.image += inv_k * image_loss(pred, w.target, w.full->has_alpha ? &mask : nullptr, settings_.loss,
                                   with_gradients ? &d_pred : nullptr);
   if (!with_gradients) return;
   // Through the loss-space curve to the linear render.
   Image d_render(pk.w, pk.h, {"R", "G", "B"});
-  for (size_t p = 0; p < w.px; ++p)
+  for (size_t p = 0; p < w.px; ++p) {
+    if (w.full->has_alpha && mask.pixels[p] == 0.0f) continue;  // the target stands there: no gradient
     for (int c = 0; c < 3; ++c)
       d_render.pixels[p * 3 + c] = inv_k * d_pred.pixels[p * d_pred.channels + c] * loss_encode_derivative(render.pixels[p * 4 + c]);
+  }
   if (all_zero(d_render)) return;
   t0 = Clock::now();
   c0 = process_cpu_seconds();

@@ -32,7 +32,9 @@
 // surface; fixed: geometry is not optimised) are both >= mask_threshold (0.99),
 // so silhouette pixels -- a blend of object and background whose background
 // half differs between the two -- neither bias the materials nor the
-// environment. Targets without alpha use every pixel (the environment seen
+// environment. Outside the mask the prediction is replaced by the target before
+// the blur and SSIM, so no gradient leaks through their windows to unmasked
+// pixels. Targets without alpha use every pixel (the environment seen
 // directly then supervises the environment too). The regularisers use the pixels
 // whose target alpha >= mask_threshold and whose primary ray found a valid
 // interaction (AOV coverage > tau_g).
@@ -88,6 +90,13 @@ struct OptimizerSettings {
   int prior_iterations = 400;
   ParameterSettings params;
   AdamSettings adam;
+  // Learning-rate schedule: every group's rate is constant up to lr_decay_start x
+  // iterations, then decays exponentially to lr_final x its rate at the last
+  // iteration (1 = PTIR's constant rate). See lr_factor().
+  float lr_final = 1.0f;
+  float lr_decay_start = 0.5f;
+  // The environment's Adam uses one second moment for all its texels (adam.h).
+  bool env_shared_moment = false;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
   // The primal pass keeps every sample's radiance (12 bytes per pixel and sample)
   // so the replay need not recompute it, while that fits this budget; beyond it
@@ -124,6 +133,8 @@ class Optimizer {
 
   // Prior-map weight at (0-based) iteration it.
   double prior_weight(int it) const;
+  // The learning-rate multiplier at (0-based) iteration it (the schedule above).
+  double lr_factor(int it) const;
 
   Fingerprint fingerprint() const;
   Checkpoint checkpoint() const;

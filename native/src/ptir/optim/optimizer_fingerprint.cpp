@@ -94,6 +94,8 @@ Fingerprint Optimizer::fingerprint() const {
       {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
       {"lr", num(ps.lr_albedo) + " " + num(ps.lr_roughness) + " " + num(ps.lr_metallic) + " " + num(ps.lr_env) + " " +
                  num(ps.lr_mesh)},
+      {"lr_schedule", num(settings_.lr_final) + " from " + num(settings_.lr_decay_start)},
+      {"env_adam", settings_.env_shared_moment ? "shared" : "texel"},
       {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},
       {"orient_normals", settings_.orient_normals ? "1" : "0"},
   };

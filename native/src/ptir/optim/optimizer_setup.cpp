@@ -26,6 +26,13 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.views_per_iteration = o.views_per_iter;
   s.crop_size = o.crop;
   s.lambda_tv = o.lambda_tv;
+  if (!(o.lr_final > 0.0f && o.lr_final <= 1.0f)) throw Error(names("lr_final") + " must be in (0, 1]");
+  if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");
+  s.lr_final = o.lr_final;
+  s.lr_decay_start = o.lr_decay_start;
+  if (o.env_adam != "shared" && o.env_adam != "texel")
+    throw Error(names("env_adam") + " must be 'shared' or 'texel', got '" + o.env_adam + "'");
+  s.env_shared_moment = o.env_adam == "shared";
   s.accel.k = o.k;
   if (o.loss_space == "srgb") s.srgb_loss = true;
   else if (o.loss_space == "linear") s.srgb_loss = false;

@@ -30,6 +30,9 @@ struct OptimizeOptions {
   int crop = 0;
   std::string loss_space = "srgb";
   float lambda_tv = 0.095f;
+  float lr_final = OptimizerSettings{}.lr_final;
+  float lr_decay_start = OptimizerSettings{}.lr_decay_start;
+  std::string env_adam = OptimizerSettings{}.env_shared_moment ? "shared" : "texel";
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start

@@ -1,0 +1,142 @@
+#!/usr/bin/env python3
+"""Where the inversion loses quality: `ptir optimize` + `ptir eval` on one Cycles
+dataset under a set of ablations, one table row each.
+
+    bench/ablate_inversion.py --dataset out/sample_dataset [--build build] [--out out/ablate]
+        [--iters 300] [--spp 8] [--rows base,gt_env,gt_normals,...] [--eval-spp 32]
+
+Rows (each changes one thing against `base`, the given iterations x spp):
+    base          ptir optimize with the defaults but --iters/--spp
+    gt_env        the true training environment given and frozen (--env-init + --fix-env)
+    gt_normals    the true (face) normals in the PLY (oracle/gaussians.ply; its materials are not used)
+    gt_both       both of the above
+    spp4          4x the samples per pixel
+    iters4        4x the iterations
+    views4        4 views per iteration
+    no_tv         edge-aware TV off (--lambda-tv 0)
+    linear_loss   the image loss on linear values
+    lr_decay      the learning rate decays to 0.1x over the second half (--lr-final 0.1)
+    env_shared    one Adam second moment for all environment texels (--env-adam shared)
+    env_texel     per-texel Adam second moments (--env-adam texel)
+    lr_env        lr_decay and env_shared together
+    oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
+Extra optimize flags for every row: --extra "...".
+
+Prints a Markdown table (albedo PSNR foreground sRGB / linear and TensoIR's protocol,
+relight PSNR, roughness MSE, normal MAE, albedo scale, minutes) and writes it to
+OUT/ablation.md. Runs are kept in OUT/<row>/ and reused when their settings match.
+"""
+
+import argparse
+import json
+import os
+import shlex
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+ROWS = {
+    "base": [],
+    "gt_env": ["--env-init", "{env}", "--fix-env"],
+    "gt_normals": ["--gaussians", "{oracle_ply}"],
+    "gt_both": ["--env-init", "{env}", "--fix-env", "--gaussians", "{oracle_ply}"],
+    "spp4": ["--spp", "{spp4}"],
+    "iters4": ["--iters", "{iters4}"],
+    "views4": ["--views-per-iter", "4"],
+    "no_tv": ["--lambda-tv", "0"],
+    "linear_loss": ["--loss-space", "linear"],
+    "lr_decay": ["--lr-final", "0.1"],
+    "env_shared": ["--env-adam", "shared"],
+    "env_texel": ["--env-adam", "texel"],
+    "lr_env": ["--lr-final", "0.1", "--env-adam", "shared"],
+}
+
+
+def run(cmd, log):
+    with open(log, "w") as f:
+        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
+    if r.returncode != 0:
+        sys.exit("ablate: failed (%s), see %s" % (" ".join(cmd[:2]), log))
+
+
+def optimise(a, row, out_dir, meta):
+    env = os.path.join(a.dataset, meta["envmaps"][meta["train_env"]])
+    subst = {"env": env, "oracle_ply": os.path.join(a.dataset, "oracle", "gaussians.ply"),
+             "spp4": str(4 * a.spp), "iters4": str(4 * a.iters)}
+    flags = ["--iters", str(a.iters), "--spp", str(a.spp)]
+    flags += [f.format(**subst) for f in ROWS[row]] + shlex.split(a.extra)
+    cmd = [a.ptir, "optimize", "--dataset", a.dataset, "--gaussians", os.path.join(a.dataset, "gaussians.ply"),
+           "--out", os.path.join(out_dir, "result"), "--seed", "0", "-q", "--force"] + flags
+    stamp = os.path.join(out_dir, "command.txt")
+    if os.path.exists(os.path.join(out_dir, "result", "eval", "metrics.json")) and \
+            os.path.exists(stamp) and open(stamp).read() == " ".join(cmd):
+        return json.load(open(os.path.join(out_dir, "minutes.json")))["minutes"]
+    os.makedirs(out_dir, exist_ok=True)
+    t = time.time()
+    run(cmd, os.path.join(out_dir, "optimize.log"))
+    minutes = (time.time() - t) / 60
+    json.dump({"minutes": minutes}, open(os.path.join(out_dir, "minutes.json"), "w"))
+    evaluate(a, os.path.join(out_dir, "result"), meta, os.path.join(out_dir, "eval.log"))
+    open(stamp, "w").write(" ".join(cmd))
+    return minutes
+
+
+def evaluate(a, result, meta, log):
+    relight = []
+    for name in meta.get("relight_envs", []):
+        relight += ["--relight", "%s=%s" % (name, os.path.join(a.dataset, meta["envmaps"][name]))]
+    run([a.ptir, "eval", "--dataset", a.dataset, "--result", result, "--spp", str(a.eval_spp), "-q", "--force",
+         "--sheet-views", "4"] + relight, log)
+
+
+def fmt(v, d):
+    return "n/a" if v is None else ("%%.%df" % d) % v
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--dataset", required=True)
+    p.add_argument("--build", default=os.path.join(ROOT, "build"))
+    p.add_argument("--out", default=os.path.join(ROOT, "out", "ablate"))
+    p.add_argument("--iters", type=int, default=300)
+    p.add_argument("--spp", type=int, default=8)
+    p.add_argument("--eval-spp", type=int, default=32)
+    p.add_argument("--rows", default="oracle,base,gt_env,gt_normals,gt_both,spp4,iters4,views4,no_tv")
+    p.add_argument("--extra", default="", help="more optimize flags for every row")
+    a = p.parse_args()
+    a.dataset = os.path.abspath(a.dataset)
+    a.ptir = os.path.join(os.path.abspath(a.build), "bin", "ptir")
+    meta = json.load(open(os.path.join(a.dataset, "dataset.json")))
+    rows = [r for r in a.rows.split(",") if r]
+    for r in rows:
+        if r != "oracle" and r not in ROWS:
+            p.error("unknown row '%s' (choose from oracle, %s)" % (r, ", ".join(ROWS)))
+    table = ["| row | albedo fg sRGB / linear | albedo TensoIR | relight | NVS | rough MSE | normal MAE | albedo scale | min |",
+             "|---|---:|---:|---:|---:|---:|---:|---|---:|"]
+    for r in rows:
+        out_dir = os.path.join(a.out, r)
+        if r == "oracle":
+            result = os.path.join(a.dataset, "oracle")
+            os.makedirs(out_dir, exist_ok=True)
+            evaluate(a, result, meta, os.path.join(out_dir, "eval.log"))
+            minutes = 0.0
+        else:
+            minutes = optimise(a, r, out_dir, meta)
+            result = os.path.join(out_dir, "result")
+        m = json.load(open(os.path.join(result, "eval", "metrics.json")))
+        rel = [v["psnr"] for v in m.get("relight", {}).values()]
+        table.append("| %s | %s / %s | %s | %s | %s | %s | %s | %s | %.1f |" % (
+            r, fmt(m.get("albedo_psnr"), 2), fmt(m.get("albedo_psnr_linear"), 2), fmt(m.get("albedo_psnr_tensoir"), 2),
+            fmt(sum(rel) / len(rel) if rel else None, 2), fmt(m.get("nvs_psnr"), 2), fmt(m.get("roughness_mse"), 4),
+            fmt(m.get("normal_mae_deg"), 2), " ".join("%.2f" % s for s in (m.get("albedo_scale") or [])), minutes))
+        print(table[-1] if len(table) > 3 else "\n".join(table), flush=True)
+    head = "dataset %s; optimise %d iterations x %d spp (+ row changes); eval %d spp\n\n" % (
+        a.dataset, a.iters, a.spp, a.eval_spp)
+    open(os.path.join(a.out, "ablation.md"), "w").write(head + "\n".join(table) + "\n")
+    print("\n" + head + "\n".join(table))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,133 @@
+"""Textured materials for the dataset maker (`make_dataset.py --textured`): noise
+patterns in base colour and roughness (and optionally metallic patches), stored
+per polygon as face attributes that each Principled BSDF reads through Attribute
+nodes.
+
+Why per polygon: the dataset's splats are one Gaussian per polygon, so a pattern
+that is constant on each polygon is exactly what a perfect inversion can recover
+-- the oracle stays exact (every Gaussian takes its polygon's values), while the
+images show a texture at the mesh's resolution (the sample at subdivision 2 has
+~8K polygons over the object, a few pixels each at 128^2).
+
+The pattern: smooth 3D noise (a sum of random-direction sinusoids at three
+frequencies, deterministic for a seed) at each polygon's centre in world space.
+    base colour = lerp(material colour, its complement-ish second colour, n1), in [0.03, 0.95]
+    roughness   = 0.1 + 0.8 n2                                  (linear, in [0.1, 0.9])
+    metallic    = 1 where n3 > 1 - metal_fraction, else 0       (sharp patches; 0 by default)
+"""
+
+import bpy
+import numpy as np
+
+ALBEDO = "ptir_albedo"
+ROUGHNESS = "ptir_roughness"
+METALLIC = "ptir_metallic"
+
+
+def noise3(points, seed, frequencies=(1.3, 2.9, 6.1), waves=6):
+    """Smooth noise in [0, 1] at (N, 3) points: random-direction sinusoids, amplitude 1/f."""
+    rng = np.random.default_rng(seed)
+    total = np.zeros(len(points))
+    norm = 0.0
+    for f in frequencies:
+        for _ in range(waves):
+            d = rng.normal(size=3)
+            d /= np.linalg.norm(d)
+            total += np.sin(f * np.pi * (points @ d) + rng.uniform(0, 2 * np.pi)) / f
+            norm += 1.0 / f
+    v = total / np.sqrt(norm * 0.5 * waves)  # roughly unit variance
+    return np.clip(0.5 + 0.4 * v, 0.0, 1.0)
+
+
+def _second_colour(c):
+    """A contrasting colour for the pattern: the channels rotated and lightened."""
+    c = np.asarray(c, np.float64)
+    return np.clip(0.25 + 0.7 * c[[2, 0, 1]], 0.05, 0.9)
+
+
+def apply_modifiers(obj):
+    bpy.context.view_layer.objects.active = obj
+    for mod in list(obj.modifiers):
+        bpy.ops.object.modifier_apply(modifier=mod.name)
+
+
+def polygon_centres(obj):
+    me = obj.data
+    c = np.empty(len(me.polygons) * 3)
+    me.polygons.foreach_get("center", c)
+    m = np.array(obj.matrix_world)
+    return c.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+
+
+def texture_objects(objs, material_values, seed=1, metal_fraction=0.0):
+    """Bakes the pattern into face attributes of every object (modifiers applied first)
+    and rewires every material to read them. material_values(mat) -> (colour, ...)."""
+    for i, obj in enumerate(objs):
+        apply_modifiers(obj)
+        me = obj.data
+        pts = polygon_centres(obj)
+        n1, n2, n3 = (noise3(pts, seed * 1000 + 17 * k + i) for k in range(3))
+        mat_idx = np.empty(len(me.polygons), np.int64)
+        me.polygons.foreach_get("material_index", mat_idx)
+        mats = [s.material for s in obj.material_slots] or [None]
+        base = np.array([material_values(m)[0] for m in mats], np.float64)[np.clip(mat_idx, 0, len(mats) - 1)]
+        second = np.array([_second_colour(material_values(m)[0]) for m in mats])[np.clip(mat_idx, 0, len(mats) - 1)]
+        albedo = np.clip(base + (second - base) * n1[:, None], 0.03, 0.95)
+        rough = 0.1 + 0.8 * n2
+        metal = (n3 > 1.0 - metal_fraction).astype(np.float64) if metal_fraction > 0 else np.zeros(len(n3))
+        for name in (ALBEDO, ROUGHNESS, METALLIC):
+            if name in me.attributes:
+                me.attributes.remove(me.attributes[name])
+        me.attributes.new(ALBEDO, "FLOAT_COLOR", "FACE").data.foreach_set(
+            "color", np.concatenate([albedo, np.ones((len(albedo), 1))], 1).ravel().astype(np.float32))
+        me.attributes.new(ROUGHNESS, "FLOAT", "FACE").data.foreach_set("value", rough.astype(np.float32))
+        me.attributes.new(METALLIC, "FLOAT", "FACE").data.foreach_set("value", metal.astype(np.float32))
+    done = set()
+    for obj in objs:
+        for s in obj.material_slots:
+            if s.material and s.material.name not in done:
+                _wire(s.material)
+                done.add(s.material.name)
+
+
+def _wire(mat):
+    """Principled Base Color / Roughness / Metallic (and the roughness AOV) from the face attributes."""
+    nt = mat.node_tree
+    p = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
+
+    def attribute(name):
+        node = nt.nodes.new("ShaderNodeAttribute")
+        node.attribute_type = "GEOMETRY"
+        node.attribute_name = name
+        return node
+
+    nt.links.new(attribute(ALBEDO).outputs["Color"], p.inputs["Base Color"])
+    r = attribute(ROUGHNESS).outputs["Fac"]
+    nt.links.new(r, p.inputs["Roughness"])
+    nt.links.new(attribute(METALLIC).outputs["Fac"], p.inputs["Metallic"])
+    for node in nt.nodes:
+        if node.bl_idname == "ShaderNodeOutputAOV":
+            nt.links.new(r, node.inputs["Value"])
+    for key in ("ptir_base_color", "ptir_roughness", "ptir_metallic"):
+        if key in mat:
+            del mat[key]
+    mat["ptir_face_textured"] = True
+
+
+def polygon_materials(obj):
+    """(albedo (n, 3), roughness (n,), metallic (n,)) per polygon in loop-start order
+    (blender_kit.world_polygons' order), or None when obj carries no pattern."""
+    me = obj.data
+    if ALBEDO not in me.attributes:
+        return None
+    n = len(me.polygons)
+    col = np.empty(n * 4, np.float32)
+    me.attributes[ALBEDO].data.foreach_get("color", col)
+    rough = np.empty(n, np.float32)
+    me.attributes[ROUGHNESS].data.foreach_get("value", rough)
+    metal = np.empty(n, np.float32)
+    me.attributes[METALLIC].data.foreach_get("value", metal)
+    start = np.empty(n, np.int64)
+    me.polygons.foreach_get("loop_start", start)
+    order = np.argsort(start)
+    return col.reshape(-1, 4)[order, :3].astype(np.float64), rough[order].astype(np.float64), metal[order].astype(np.float64)
