@@ -19,6 +19,9 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     env_shared    one Adam second moment for all environment texels (--env-adam shared)
     env_texel     per-texel Adam second moments (--env-adam texel)
     lr_env        lr_decay and env_shared together
+    coarse        a 16x8 coarse level learnt with the 128x64 texels (--env-coarse 16)
+    coarse_lr     coarse and lr_decay together
+    sg            24 spherical Gaussians instead of texels (--env sg)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
 Extra optimize flags for every row: --extra "...".
 
@@ -51,6 +54,9 @@ ROWS = {
     "env_shared": ["--env-adam", "shared"],
     "env_texel": ["--env-adam", "texel"],
     "lr_env": ["--lr-final", "0.1", "--env-adam", "shared"],
+    "coarse": ["--env-coarse", "16"],
+    "coarse_lr": ["--env-coarse", "16", "--lr-final", "0.1"],
+    "sg": ["--env", "sg"],
 }
 
 
@@ -67,8 +73,10 @@ def optimise(a, row, out_dir, meta):
              "spp4": str(4 * a.spp), "iters4": str(4 * a.iters)}
     flags = ["--iters", str(a.iters), "--spp", str(a.spp)]
     flags += [f.format(**subst) for f in ROWS[row]] + shlex.split(a.extra)
-    cmd = [a.ptir, "optimize", "--dataset", a.dataset, "--gaussians", os.path.join(a.dataset, "gaussians.ply"),
-           "--out", os.path.join(out_dir, "result"), "--seed", "0", "-q", "--force"] + flags
+    if "--gaussians" not in flags:
+        flags += ["--gaussians", os.path.join(a.dataset, "gaussians.ply")]
+    cmd = [a.ptir, "optimize", "--dataset", a.dataset, "--out", os.path.join(out_dir, "result"), "--seed", "0", "-q",
+           "--force"] + flags
     stamp = os.path.join(out_dir, "command.txt")
     if os.path.exists(os.path.join(out_dir, "result", "eval", "metrics.json")) and \
             os.path.exists(stamp) and open(stamp).read() == " ".join(cmd):

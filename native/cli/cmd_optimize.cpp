@@ -239,6 +239,9 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-adam", o->opt.env_adam,
                   "environment step normalisation: shared (one Adam second moment for all texels) or texel")
       ->capture_default_str();
+  cmd->add_option("--env-coarse", o->opt.env_coarse,
+                  "lat-long environment: width of a coarse level learnt with the texels (coarse-to-fine; 0: none)")
+      ->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");

@@ -160,11 +160,14 @@ TEST(Parameters, ChainRuleMatchesFiniteDifferencesOfTheActivations) {
   Scene scene;
   scene.gaussians = std::make_shared<GaussianField>(truth_field(20));
   scene.meshes.push_back(test::quad_z(-2.0f, 3.0f));
-  for (EnvMode mode : {EnvMode::LatLong, EnvMode::SG, EnvMode::Constant}) {
+  // The lat-long map twice: texels only, and with a 4x2 coarse level (env_pyramid.h).
+  for (auto [mode, coarse] : {std::pair{EnvMode::LatLong, 0}, std::pair{EnvMode::LatLong, 4}, std::pair{EnvMode::SG, 0},
+                              std::pair{EnvMode::Constant, 0}}) {
     ParameterSettings ps;
     ps.optimize_metallic = true;
     ps.optimize_meshes = true;
     ps.env = mode;
+    ps.env_coarse_width = coarse;
     ps.env_width = 8;
     ps.env_height = 4;
     install_environment(scene, ps);
@@ -405,9 +408,17 @@ TEST(Optimizer, ResumeIsBitIdenticalForTheOtherEnvironmentModels) {
   // (the SG axes once drifted by an ulp per update).
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
   const Fixture& fx = fixture();
-  for (EnvMode mode : {EnvMode::SG, EnvMode::Constant}) {
+  // Also the lat-long map with a coarse level, the learning-rate decay and the shared
+  // second moment (their state is the iteration count and the Adam groups).
+  for (EnvMode mode : {EnvMode::SG, EnvMode::Constant, EnvMode::LatLong}) {
     OptimizerSettings s = small_settings();
     s.params.env = mode;
+    if (mode == EnvMode::LatLong) {
+      s.params.env_coarse_width = 4;
+      s.lr_final = 0.5f;
+      s.lr_decay_start = 0.0f;
+      s.env_shared_moment = true;
+    }
     const fs::path d = fresh_dir(std::string("resume_") + env_mode_name(mode));
     const std::string ckpt = (d / "checkpoint.bin").string();
     Optimizer straight(input_scene(fx.n), fx.data, s);

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "ptir/core/error.h"
+#include "ptir/optim/env_pyramid.h"
 
 namespace ptir {
 
@@ -23,6 +24,7 @@ const char* param_kind_name(ParamKind k) {
     case ParamKind::MeshColour: return "mesh_base_colour";
     case ParamKind::MeshRoughness: return "mesh_roughness";
     case ParamKind::MeshMetallic: return "mesh_metallic";
+    case ParamKind::EnvironmentCoarse: return "environment_coarse";
   }
   return "?";
 }
@@ -94,6 +96,10 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
     std::vector<float> raw(scene.environment.parameter_count());
     scene.environment->get_raw(raw.data());
     p.groups.push_back({ParamKind::Environment, s.lr_env, std::move(raw)});
+    if (s.env_coarse_width > 0 && scene.environment.as<Environment>()) {
+      const int cw = s.env_coarse_width, ch = std::max(1, cw / 2);
+      p.groups.push_back({ParamKind::EnvironmentCoarse, s.lr_env, std::vector<float>(size_t(cw) * ch * 3, 0.0f)});
+    }
   }
   if (s.optimize_meshes && !scene.meshes.empty()) {
     const size_t m = scene.meshes.size();
@@ -111,6 +117,22 @@ void check_size(const ParameterGroup& g, size_t n) {
   if (g.raw.size() != n)
     throw Error(std::string("parameter group '") + param_kind_name(g.kind) + "' has " + std::to_string(g.raw.size()) +
                 " values, the scene needs " + std::to_string(n));
+}
+
+// The upsampler of a coarse environment group (its width from its size: cw x max(1, cw/2) x 3).
+LatlongUpsampler coarse_upsampler(const ParameterGroup& coarse, const Scene& scene) {
+  const Environment* env = scene.environment.as<Environment>();
+  if (!env) throw Error("a coarse environment level needs the lat-long environment model");
+  for (int cw = 1; size_t(cw) * std::max(1, cw / 2) * 3 <= coarse.raw.size(); ++cw)
+    if (size_t(cw) * std::max(1, cw / 2) * 3 == coarse.raw.size()) return LatlongUpsampler(cw, std::max(1, cw / 2), env->width(), env->height());
+  throw Error("parameter group 'environment_coarse' has " + std::to_string(coarse.raw.size()) + " values, not a w x w/2 RGB grid");
+}
+
+// The environment model's raw numbers: the fine group plus the upsampled coarse one.
+std::vector<float> environment_raw(const Parameters& p, const ParameterGroup& fine, const Scene& scene) {
+  std::vector<float> raw = fine.raw;
+  if (const ParameterGroup* coarse = p.find(ParamKind::EnvironmentCoarse)) coarse_upsampler(*coarse, scene).add_up(coarse->raw.data(), raw.data());
+  return raw;
 }
 
 }  // namespace
@@ -139,9 +161,10 @@ void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& sc
       case ParamKind::Environment: {
         if (!scene.environment.present()) throw Error("parameters hold an environment, the scene has none");
         check_size(g, scene.environment.parameter_count());
-        scene.environment->set_raw(g.raw.data());
+        scene.environment->set_raw(environment_raw(p, g, scene).data());
         break;
       }
+      case ParamKind::EnvironmentCoarse: break;  // with Environment
       case ParamKind::MeshColour:
         check_size(g, 3 * scene.meshes.size());
         for (size_t i = 0; i < scene.meshes.size(); ++i)
@@ -186,8 +209,17 @@ std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGr
         check_size(g, gr.environment.size());
         if (!scene.environment.present() || scene.environment.parameter_count() != g.raw.size())
           throw Error("the environment gradients do not match the scene's environment");
-        scene.environment->raw_gradient(g.raw.data(), gr.environment.data(), d.data());
+        scene.environment->raw_gradient(environment_raw(p, g, scene).data(), gr.environment.data(), d.data());
         break;
+      case ParamKind::EnvironmentCoarse: {
+        // The fine gradient (as above), carried down to the coarse level.
+        const ParameterGroup* fine = p.find(ParamKind::Environment);
+        if (!fine) throw Error("a coarse environment level without the environment group");
+        std::vector<float> d_fine(fine->raw.size());
+        scene.environment->raw_gradient(environment_raw(p, *fine, scene).data(), gr.environment.data(), d_fine.data());
+        coarse_upsampler(g, scene).adjoint(d_fine.data(), d.data());
+        break;
+      }
       case ParamKind::MeshColour:
         check_size(g, 3 * gr.mesh_base_colour.size());
         for (size_t i = 0; i < gr.mesh_base_colour.size(); ++i)

@@ -54,6 +54,9 @@ struct ParameterSettings {
   std::string env_init_path;
   bool optimize_env = true;              // false: the environment is held fixed
   int sg_lobes = 24;
+  // Coarse-to-fine lat-long environment (env_pyramid.h): the width of the coarse
+  // level (its height is half, at least 1); 0 = texels only.
+  int env_coarse_width = 0;
   bool optimize_meshes = false;          // mesh materials of a --scene, one set per mesh
   // Adam learning rates (PTIR code).
   float lr_albedo = 0.035f, lr_roughness = 0.025f, lr_metallic = 0.035f, lr_env = 0.035f, lr_mesh = 0.035f;
@@ -68,7 +71,8 @@ enum class ParamKind {
   Environment = 3,
   MeshColour = 5,
   MeshRoughness = 6,
-  MeshMetallic = 7
+  MeshMetallic = 7,
+  EnvironmentCoarse = 8  // the coarse level of a lat-long environment (env_pyramid.h)
 };
 const char* param_kind_name(ParamKind k);
 
