@@ -101,6 +101,28 @@ def test_render_matches_one_process(ptir, mpi_cli, dataset, tmp_path):
             np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)  # jittered rays: last-bit differences
 
 
+def test_eval_matches_one_process(ptir, mpi_cli, dataset, tmp_path):
+    result = tmp_path / "result"
+    optimize(mpi_cli, dataset, result, "--iters", 2)
+    runs = {}
+    for n in (1, 2):
+        res = tmp_path / f"result_{n}"
+        shutil.copytree(result, res)
+        args = [mpi_cli, "eval", "--dataset", dataset, "--result", res, "--split", "train", "--spp", 4, "--aov-spp", 2,
+                "--threads", 1, "--relight", f"sky={dataset / 'env.exr'}"]
+        r = mpirun(n, *args)
+        assert r.returncode == 0, r.stderr[-3000:]
+        assert len([l for l in r.stderr.splitlines() if l.startswith("eval test_")]) == 6  # rank 0 alone reports
+        runs[n] = res / "eval"
+    m1, m2 = (json.loads((runs[n] / "metrics.json").read_text()) for n in (1, 2))
+    assert m2["nvs_psnr"] == pytest.approx(m1["nvs_psnr"], abs=1e-4)
+    assert m2["nvs_ssim"] == pytest.approx(m1["nvs_ssim"], abs=1e-5)
+    for view in sorted(p.name for p in runs[1].iterdir() if p.is_dir()):
+        for name in ("rgba", "rgba_sky", "albedo", "roughness", "normal"):
+            a, b = (ptir.read_image(str(runs[n] / view / f"{name}.exr")) for n in (1, 2))
+            np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5, err_msg=f"{view}/{name}")
+
+
 def rank_pid(mpirun_pid, rank):
     """The pid of one rank: a child of mpirun whose environment names that rank."""
     for child in open(f"/proc/{mpirun_pid}/task/{mpirun_pid}/children").read().split():
