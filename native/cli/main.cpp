@@ -28,6 +28,11 @@ int run(int argc, char** argv, const ptir::Communicator& comm) {
     if (comm.rank() != 0) return e.get_exit_code() == 0 ? 0 : 2;  // every rank parsed the same: rank 0 says it
     return app.exit(e) == 0 ? 0 : 2;
   }
+  if (comm.size() > 1 && app.got_subcommand("relight")) {
+    // Not split across ranks (yet): N copies would race on the same outputs.
+    if (comm.rank() == 0) std::fprintf(stderr, "ptir: error: relight runs as one process: start it without mpirun\n");
+    return 2;
+  }
   try {
     if (app.got_subcommand("render")) return render();
     if (app.got_subcommand("optimize")) return optimize();

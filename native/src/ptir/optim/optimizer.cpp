@@ -284,7 +284,8 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   if (all_zero(d_render)) return;
   t0 = Clock::now();
   c0 = process_cpu_seconds();
-  render_path_backward_ranks(*comm_, *tracer_, w.cam, w.is, d_render, grads_, control, cache ? &sample_radiance : nullptr);
+  render_path_backward_ranks(*comm_, *tracer_, w.cam, w.is, d_render, grads_, control,
+                             cache ? &sample_radiance : nullptr);
   log.backward_s += seconds_since(t0);
   log.backward_cpu_s += process_cpu_seconds() - c0;
 }

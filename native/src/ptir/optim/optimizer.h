@@ -187,8 +187,8 @@ class Optimizer {
   std::vector<IterationLog> log_;
   int iteration_ = 0;
   size_t nonfinite_ = 0;
-  mutable std::vector<std::array<int, 4>> mask_box_;
-  const Communicator* comm_ = &single_process();  // data-parallel runs (set_communicator)  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
+  mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
+  const Communicator* comm_ = &single_process();      // data-parallel runs (set_communicator)
 };
 
 // The loop with checkpoints and outputs, for the CLI and the Python module.

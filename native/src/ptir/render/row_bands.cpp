@@ -11,7 +11,7 @@ namespace ptir {
 std::vector<RowBand> row_bands(int height, int rank, int size) {
   std::vector<RowBand> out;
   if (height <= 0 || size <= 0) return out;
-  const long long count = std::min<long long>(height, 4LL * size);
+  const long long count = size == 1 ? 1 : std::min<long long>(height, 4LL * size);  // one process: the whole image
   for (long long b = rank; b < count; b += size) {
     const int y0 = int(height * b / count), y1 = int(height * (b + 1) / count);
     if (y1 > y0) out.push_back({y0, y1 - y0});

@@ -12,8 +12,8 @@
 // bit (measured: 3 % of the pixels of a 64x64 8-spp render differ, by <= 4e-7).
 // (Computing the sample position in full-image rows in render_path's
 // camera_sample would make them bit-identical too.) B = min(height, 4 N) bands of
-// near-equal height, band b to rank b mod N (interleaved: an object in the middle
-// of the frame is shared by every rank).
+// near-equal height (one for a single process), band b to rank b mod N
+// (interleaved: an object in the middle of the frame is shared by every rank).
 #pragma once
 
 #include <functional>
