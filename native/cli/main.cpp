@@ -5,8 +5,15 @@
 // Under an MPI launcher (`mpirun -np N ptir ...`, native/mpi/world.h) every rank
 // runs this same program: rank 0 alone prints usage and progress and writes the
 // outputs; an error on any rank is printed with its rank and ends the whole job.
+// Ranks that share a machine share its cores: each uses at most cores / (ranks on
+// the machine) worker threads (--threads can only lower that).
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <optional>
 
 #include "commands.h"
 #include "ptir/core/error.h"
@@ -65,7 +72,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "ptir: error: %s\n", e.what());
     return 1;
   }
+  std::optional<tbb::global_control> share_cores;
+  if (comm->local_size() > 1)
+    share_cores.emplace(tbb::global_control::max_allowed_parallelism,
+                        size_t(std::max(1, tbb::info::default_concurrency() / comm->local_size())));
   const int rc = run(argc, argv, *comm);
+  share_cores.reset();
   ptir::finalize_world();
   return rc;
 }

@@ -1,6 +1,7 @@
 // The only file that calls MPI (world.h). Reduction order: core/communicator.h.
 #include "world.h"
 
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 
@@ -22,9 +23,23 @@ const Communicator* g_world = nullptr;
 
 const Communicator& world() { return g_world ? *g_world : single_process(); }
 
+// A Slurm step of several tasks that MPI does not join (srun without --mpi=pmix, or
+// a build without MPI) runs N independent copies: say so once, from task 0.
+static void warn_unjoined_slurm_step() {
+  const char* tasks = std::getenv("SLURM_STEP_NUM_TASKS");
+  const char* task = std::getenv("SLURM_PROCID");
+  if (tasks && std::atoi(tasks) > 1 && task && std::atoi(task) == 0)
+    std::fprintf(stderr,
+                 "ptir: warning: this Slurm step has %s tasks but they are not one MPI job (%s): each runs alone\n",
+                 tasks, world_library()[0] == 'n' ? "this ptir was built without MPI" : "use srun --mpi=pmix");
+}
+
 #ifndef PTIR_WITH_MPI
 
-const Communicator& init_world(int*, char***) { return world(); }
+const Communicator& init_world(int*, char***) {
+  warn_unjoined_slurm_step();
+  return world();
+}
 void finalize_world() {}
 const char* world_library() { return "none"; }
 
@@ -53,9 +68,14 @@ class MpiCommunicator final : public Communicator {
     // Errors come back as codes (thrown as ptir::Error, then the job is aborted)
     // rather than killing the process without a word.
     MPI_Comm_set_errhandler(MPI_COMM_WORLD, MPI_ERRORS_RETURN);
+    MPI_Comm node;
+    check(MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &node), "Comm_split_type");
+    MPI_Comm_size(node, &local_size_);
+    MPI_Comm_free(&node);
   }
   int rank() const override { return rank_; }
   int size() const override { return size_; }
+  int local_size() const override { return local_size_; }
 
   // Reduce-scatter then allgather, each element summed by one rank in rank order
   // (core/communicator.h); in chunks of at most kChunk elements (the sums are
@@ -125,7 +145,7 @@ class MpiCommunicator final : public Communicator {
           "Allgatherv");
   }
 
-  int rank_ = 0, size_ = 1;
+  int rank_ = 0, size_ = 1, local_size_ = 1;
 };
 
 // Started by an MPI launcher? (Open MPI's mpirun, PMIx launchers such as srun
@@ -141,7 +161,11 @@ std::unique_ptr<MpiCommunicator> g_mpi;
 }  // namespace
 
 const Communicator& init_world(int* argc, char*** argv) {
-  if (g_world || !launched_by_mpi()) return world();
+  if (g_world) return world();
+  if (!launched_by_mpi()) {
+    warn_unjoined_slurm_step();
+    return world();
+  }
   int provided = 0;
   check(MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided), "Init");
   g_mpi = std::make_unique<MpiCommunicator>();

@@ -26,6 +26,7 @@ class Communicator {
   virtual ~Communicator() = default;
   virtual int rank() const { return 0; }
   virtual int size() const { return 1; }
+  virtual int local_size() const { return 1; }  // ranks on this machine (this one included)
   // In place: data[0..n) becomes the sum over ranks, in the order documented above.
   virtual void allreduce_sum(float* data, size_t n) const {}
   virtual void allreduce_sum(double* data, size_t n) const {}  // statistics, counts

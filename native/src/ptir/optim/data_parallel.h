@@ -1,6 +1,12 @@
 // The optimiser's iteration split across the ranks of a data-parallel run
 // (`mpirun -np N ptir optimize`; core/communicator.h, render/row_bands.h).
 //
+// Decision: rows of every view, not whole views per rank. With the default one
+// view per iteration a split by views would leave N - 1 ranks idle; rows balance
+// any views-per-iteration. The price is the gather of each view's images (9 floats
+// a pixel) and the loss computed on every rank: 9 % at 2 ranks on this machine's
+// 2 cores (bench/bench_mpi.py).
+//
 // Every view of an iteration is split into row bands (render_row_bands): each rank
 // renders its bands of the primal image and of the primary-hit material maps,
 // and every rank gets the whole images, so the losses (D-SSIM's window crosses
