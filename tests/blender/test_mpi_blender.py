@@ -26,7 +26,8 @@ def test_engine_renders_through_mpirun(tmp_path):
     if not mpirun:
         pytest.skip("mpirun is not installed (Debian: openmpi-bin)")
     wrapper = tmp_path / "ptir-mpi"
-    wrapper.write_text("#!/bin/sh\nexport OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1\n"
+    wrapper.write_text("#!/bin/sh\nexport OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
+                       "OMPI_MCA_btl_vader_single_copy_mechanism=none\n"
                        "exec %s -np 2 --oversubscribe %s \"$@\"\n" % (mpirun, ac.CLI))
     wrapper.chmod(0o755)
     r = ac.run_blender("mpi_render_check.py", tmp_path, wrapper, blend=SAMPLE, timeout=300)

@@ -21,8 +21,10 @@ from test_optimize_cli import dataset, optimize, state  # noqa: F401  (the tiny 
 
 MPIRUN = shutil.which("mpirun")
 CHECK = BUILD / "bin" / "ptir_mpi_gradient_check"
+# Containers often forbid the cross-memory attach of Open MPI's shared-memory transport
+# ("vader: Read -1 ... errno = 1"): copy through the shared segment instead.
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1")
+           OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_btl_vader_single_copy_mechanism="none")
 SMALL = ["--spp", "2", "--threads", "1", "--env-size", "16x8"]
 
 
