@@ -4,8 +4,8 @@
 // Decision: rows of every view, not whole views per rank. With the default one
 // view per iteration a split by views would leave N - 1 ranks idle; rows balance
 // any views-per-iteration. The price is the gather of each view's images (9 floats
-// a pixel) and the loss computed on every rank: 9 % at 2 ranks on this machine's
-// 2 cores (bench/bench_mpi.py).
+// a pixel) and the loss computed on every rank: -3 to +9 % at 2 ranks on this
+// machine's 2 cores, within its noise (bench/bench_mpi.py, three runs).
 //
 // Every view of an iteration is split into row bands (render_row_bands): each rank
 // renders its bands of the primal image and of the primary-hit material maps,
