@@ -11,6 +11,7 @@ PACKAGES=(
   nlohmann-json3-dev libcli11-dev libgtest-dev
   blender xvfb libgl1-mesa-dri
   colmap  # tests only: model_converter as an independent reference for the COLMAP reader
+  libopenmpi-dev openmpi-bin  # optional: `mpirun -np N ptir ...` data-parallel runs (CMake PTIR_WITH_MPI=AUTO)
 )
 
 missing=()

@@ -8,7 +8,9 @@
 //
 // Writes OUT/eval/test_XXX/{rgba,albedo,roughness,metallic,normal}.exr and
 // rgba_NAME.exr, OUT/eval/metrics.json, OUT/eval/metrics.md and the contact
-// sheets OUT/eval/sheet_*.png; prints the metric table on stdout.
+// sheets OUT/eval/sheet_*.png; prints the metric table on stdout. Under MPI
+// (`mpirun -np N ptir eval ...`) every render is split across the ranks in row
+// bands; rank 0 writes and prints.
 #include <tbb/global_control.h>
 
 #include <cstdio>
@@ -23,6 +25,7 @@
 #include "filter_flags.h"
 #include "output_guard.h"
 #include "ptir/core/error.h"
+#include "world.h"
 #include "ptir/eval/evaluate.h"
 
 namespace ptir::cli {
@@ -43,7 +46,11 @@ struct EvalOptions {
   bool force = false;
 };
 
-int run_eval(const EvalOptions& o, const CLI::App& cmd) {
+int run_eval(const EvalOptions& options, const CLI::App& cmd) {
+  // Data-parallel runs (world.h): renders split across the ranks; rank 0 reports and writes.
+  const Communicator& comm = world();
+  EvalOptions o = options;
+  if (comm.rank() != 0) o.quiet = true;
   std::optional<tbb::global_control> limit;
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
@@ -60,7 +67,8 @@ int run_eval(const EvalOptions& o, const CLI::App& cmd) {
   Inputs in{{}, {o.dataset, o.result}, {o.scene}};
   for (const eval::RelightEnv& r : s.relight) in.files.push_back(r.path);
   guard_outputs(in, {{}, {out}}, o.force);
-  remove_stale_outputs({out}, o.quiet, /*with_subfolders=*/true);
+  if (comm.rank() == 0) remove_stale_outputs({out}, o.quiet, /*with_subfolders=*/true);
+  s.comm = &comm;
   s.spp = o.spp;
   s.bounces = o.bounces;
   s.aov_spp = o.aov_spp;
@@ -80,6 +88,7 @@ int run_eval(const EvalOptions& o, const CLI::App& cmd) {
   }
   if (!o.quiet) s.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   eval::EvalReport r = eval::evaluate(s);
+  if (comm.rank() != 0) return 0;
   std::printf("%s", eval::metrics_markdown(r.metrics).c_str());
   if (!o.quiet)
     std::fprintf(stderr, "wrote %s/metrics.json, metrics.md, %zu contact sheets and the renders (%.1f s)\n",

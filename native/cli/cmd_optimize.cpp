@@ -22,6 +22,12 @@
 // with --gaussians instead; its environment is replaced by the recovered one; its
 // interaction settings are used, its spp/bounces are not: inversion defaults
 // are 32 spp, 2 bounces).
+//
+// Under MPI (`mpirun -np N ptir optimize ...`, native/mpi/world.h) every rank
+// takes every view of each iteration in row bands (optim/data_parallel.h); rank 0
+// alone prints progress and writes the outputs, the log and the checkpoints, and
+// --resume continues from the checkpoint with any N. A stop from outside ends the
+// job at once with a line naming the last checkpoint (job_stop.h).
 #include <tbb/global_control.h>
 
 #include <atomic>
@@ -39,12 +45,14 @@
 #include "commands.h"
 #include "output_guard.h"
 #include "filter_flags.h"
+#include "job_stop.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
+#include "world.h"
 
 namespace ptir::cli {
 
@@ -137,16 +145,31 @@ std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, const CLI::A
   return optimizer;
 }
 
-int run_optimize(const OptimizeCommand& o, const CLI::App& cmd) {
+// The stop line of a data-parallel run (job_stop.h) after `done` iterations, the
+// checkpoint holding iteration `saved` (< 0: none yet).
+std::string stop_message(const std::string& ckpt, int done, int saved) {
+  std::string m = "ptir: the MPI job was stopped after iteration " + std::to_string(done) +
+                  " (a rank failed, or the job was cancelled or ran out of time); ";
+  if (saved < 0) return m + "no checkpoint was written yet";
+  return m + ckpt + " holds iteration " + std::to_string(saved) +
+         " or later: continue with --resume (any number of ranks)";
+}
+
+int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
+  // Data-parallel runs (world.h): rank 0 alone reports and writes.
+  const Communicator& comm = world();
+  OptimizeCommand o = options;
+  if (comm.rank() != 0) o.quiet = true;
   std::optional<tbb::global_control> limit;
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
   guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
-  remove_stale_outputs({o.out}, o.quiet);
+  if (comm.rank() == 0) remove_stale_outputs({o.out}, o.quiet);
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
+  opt.set_communicator(comm);
   const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (!o.quiet)
     std::fprintf(stderr,
@@ -154,16 +177,31 @@ int run_optimize(const OptimizeCommand& o, const CLI::App& cmd) {
                  opt.scene().gaussians->size(), data->size(), data->split.c_str(), data->width, data->height,
                  data->has_priors() ? " (with priors)" : "", o.opt.iters, o.opt.spp, o.opt.bounces, o.opt.env.c_str(),
                  (unsigned long long)o.opt.seed);
+  if (!o.quiet && comm.size() > 1)
+    std::fprintf(stderr, "optimize: %d MPI ranks, each view split in row bands across them\n", comm.size());
 
   g_interrupted.store(false);
   auto previous = std::signal(SIGINT, on_sigint);
   const int start_it = opt.iteration();
   const auto t0 = std::chrono::steady_clock::now();
   RunOptions ro;
-  ro.out_dir = o.out;
+  ro.out_dir = comm.rank() == 0 ? o.out : "";
   ro.checkpoint_every = o.checkpoint_every;
   ro.cancel = &g_interrupted;
+  int saved = o.resume ? start_it : -1;  // the iteration OUT/checkpoint.bin holds (data-parallel stop line)
+  if (comm.size() > 1) {
+    ro.cancel = nullptr;  // no rank may stop alone mid-iteration (job_stop.h)
+    std::signal(SIGINT, previous);
+    install_job_stop_handlers(comm.rank() == 0);
+    set_job_stop_message(stop_message(ckpt, start_it, saved));
+  }
   ro.on_iteration = [&](const IterationLog& l) {
+    if (comm.size() > 1) {
+      // run_optimizer has saved the checkpoint of the previous iteration by now.
+      const int prev = opt.iteration() - 1;
+      if (o.checkpoint_every > 0 && prev > start_it && prev % o.checkpoint_every == 0) saved = prev;
+      set_job_stop_message(stop_message(ckpt, opt.iteration(), saved));
+    }
     if (o.quiet) return true;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const int done = opt.iteration() - start_it;

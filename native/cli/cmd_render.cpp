@@ -13,6 +13,11 @@
 // -o is .exr or .png; an output (or --stats-json) that is an input file is refused
 // unless --force (cli/output_guard.h); sizes past --max-memory are refused before
 // anything is allocated (cli/image_budget.h).
+//
+// Under MPI (`mpirun -np N ptir render ...`, native/mpi/world.h) the image is dealt
+// to the ranks in row bands (render/row_bands.h) and gathered into the one file
+// rank 0 writes: AOVs are bit-identical to a one-process render, path-traced
+// colour equal to float rounding (row_bands.h says why).
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -38,6 +43,7 @@
 #include "ptir/io/atomic_file.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/render_path.h"
+#include "ptir/render/row_bands.h"
 #include "ptir/scene/camera.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/mesh.h"
@@ -46,6 +52,7 @@
 #include "ptir/transport/orient_normals.h"
 #include "ptir/transport/path_tracer.h"
 #include "progress.h"
+#include "world.h"
 
 namespace ptir::cli {
 
@@ -272,6 +279,15 @@ void report_render(const RenderOptions& o, const Scene& scene, const Camera& cam
   io::write_text_atomic(o.stats_json, js.dump() + "\n");
 }
 
+// Data-parallel runs: the counters of every rank's bands (the times stay rank 0's).
+void sum_over_ranks(const Communicator& comm, RenderReport& r) {
+  if (comm.size() == 1) return;
+  double c[] = {double(r.path.paths), double(r.path.vertices), double(r.path.shadow_rays), double(r.trace.hits)};
+  comm.allreduce_sum(c, 4);
+  r.path = {uint64_t(c[0]), uint64_t(c[1]), uint64_t(c[2])};
+  r.trace.hits = uint64_t(c[3]);
+}
+
 int run_render(const RenderOptions& o, const CLI::App& cmd) {
   const auto t0 = Clock::now();
   std::optional<tbb::global_control> limit;
@@ -304,23 +320,28 @@ int run_render(const RenderOptions& o, const CLI::App& cmd) {
   if (!scene_mode) orient_flag_normals(o, camera, tracer, *scene.gaussians);
   report.build_s = seconds_since(t1);
 
-  ProgressBar bar("render " + report.aov_text, o.quiet);
+  // Data-parallel runs: this rank's row bands, gathered; rank 0 reports and writes.
+  const Communicator& comm = world();
+  const size_t bands = rank_row_bands(camera.height, comm).size();
+  ProgressBar bar("render " + report.aov_text, o.quiet || comm.rank() != 0);
   RenderControl control;
-  control.progress = [&](float f) { bar.update(f); };
+  size_t band_now = 0;
+  control.progress = [&](float f) { bar.update((float(band_now) + f) / float(std::max<size_t>(bands, 1))); };
   const auto t2 = Clock::now();
-  Image image;
-  if (!aov) {
-    image = render_path(tracer, camera, settings, control, &report.path);
-  } else {
-    AovSettings as;
-    as.spp = settings.spp;
-    as.seed = settings.seed;
-    as.filter = settings.filter;
-    as.interaction = settings.interaction;
-    image = render_aov(tracer.accel(), camera, *aov, as, control, &report.trace);
-  }
+  AovSettings as;
+  as.spp = settings.spp;
+  as.seed = settings.seed;
+  as.filter = settings.filter;
+  as.interaction = settings.interaction;
+  Image image = render_row_bands(comm, camera, [&](const Camera& band, size_t b) {
+    band_now = b;
+    if (!aov) return render_path(tracer, band, settings, control, &report.path);
+    return render_aov(tracer.accel(), band, *aov, as, control, &report.trace);
+  });
   report.render_s = seconds_since(t2);
   bar.finish();
+  sum_over_ranks(comm, report);
+  if (comm.rank() != 0) return 0;
   write_render(o, aov, image);
   report.total_s = seconds_since(t0);
   report_render(o, scene, camera, settings, aov, report);

@@ -19,6 +19,7 @@
 #include "ptir/io/atomic_file.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/render/aov.h"
+#include "ptir/render/row_bands.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
 #include "ptir/scene/scene_json.h"
@@ -278,7 +279,12 @@ void score_aovs(EvalRun& run, size_t i, const Image& mask, const Image& show, co
   }
 }
 
-// Pass 1 for view i: the novel view and the AOVs, written and scored.
+// A render of the whole view, split across the ranks of a data-parallel run.
+Image render_split(const EvalRun& run, const Camera& cam, const std::function<Image(const Camera&)>& render) {
+  return render_row_bands(*run.s.comm, cam, [&](const Camera& band, size_t) { return render(band); });
+}
+
+// Pass 1 for view i: the novel view and the AOVs, written and scored (by rank 0).
 void evaluate_view(EvalRun& run, size_t i) {
   const EvalSettings& s = run.s;
   const PathTracer& tracer = *run.tracer;
@@ -286,12 +292,14 @@ void evaluate_view(EvalRun& run, size_t i) {
   const fs::path vdir = run.out / view_folder(i);
   make_folder(vdir);
   const auto t0 = Clock::now();
-  Image rgba = render_transparent(tracer, cam, run.is, s.control);
-  Image albedo = render_aov(tracer.accel(), cam, Aov::Albedo, run.as, s.control);
-  Image rough = render_aov(tracer.accel(), cam, Aov::Roughness, run.as, s.control);
-  Image metal = render_aov(tracer.accel(), cam, Aov::Metallic, run.as, s.control);
-  Image normal = render_aov(tracer.accel(), cam, Aov::Normal, run.as, s.control);
+  auto aov = [&](Aov a) {
+    return render_split(run, cam, [&](const Camera& c) { return render_aov(tracer.accel(), c, a, run.as, s.control); });
+  };
+  Image rgba =
+      render_split(run, cam, [&](const Camera& c) { return render_transparent(tracer, c, run.is, s.control); });
+  Image albedo = aov(Aov::Albedo), rough = aov(Aov::Roughness), metal = aov(Aov::Metallic), normal = aov(Aov::Normal);
   run.render_s += seconds_since(t0);
+  if (s.comm->rank() != 0) return;
   write_image((vdir / "rgba.exr").string(), rgba);
   write_image((vdir / "albedo.exr").string(), albedo);
   write_image((vdir / "roughness.exr").string(), rough);
@@ -369,8 +377,10 @@ void relight_views(EvalRun& run, const RelightEnv& r, const Environment& env) {
   for (size_t i = 0; i < run.n_views; ++i) {
     const Camera& cam = run.data->views[i].camera;
     const auto t0 = Clock::now();
-    Image rgba = render_transparent(*run.tracer, cam, run.is, run.s.control);
+    Image rgba = render_split(
+        run, cam, [&](const Camera& c) { return render_transparent(*run.tracer, c, run.is, run.s.control); });
     run.render_s += seconds_since(t0);
+    if (run.s.comm->rank() != 0) continue;
     write_image((run.out / view_folder(i) / ("rgba_" + r.name + ".exr")).string(), rgba);
     std::string gt_path = relight_gt_path(run.data->views[i].files.image, r.name);
     if (gt_path.empty()) continue;
@@ -495,11 +505,14 @@ EvalReport evaluate_unguarded(const EvalSettings& s) {
   }
   build_tracer(run);
   for (size_t i = 0; i < run.n_views; ++i) evaluate_view(run, i);
-  score_albedo(run);
+  const Communicator& comm = *s.comm;
+  if (comm.rank() == 0) score_albedo(run);  // reads back what rank 0 wrote
+  comm.broadcast(run.scale.data(), sizeof run.scale, 0);
   if (!relights.empty()) {
     scale_albedo(run.field(), run.scale);
     for (const auto& [r, env] : relights) relight_views(run, r, env);
   }
+  if (comm.rank() != 0) return {};
   std::vector<std::string> sheet_files = write_contact_sheets(run);
   score_recovered_environment(run, sheet_files);
 

@@ -24,6 +24,11 @@
 // Writes OUT/eval/metrics.json, OUT/eval/metrics.md (a markdown table) and
 // contact sheets OUT/eval/sheet_<quantity>.png (rows = views, columns = ground
 // truth | ours | error heat map; see metrics.md for the error scales).
+//
+// Data-parallel runs (`mpirun -np N ptir eval`; EvalSettings::comm): every render
+// is dealt to the ranks in row bands and gathered (render/row_bands.h); rank 0
+// alone writes and scores, and returns the report (the other ranks return an
+// empty one).
 #pragma once
 
 #include <array>
@@ -34,6 +39,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ptir/core/communicator.h"
 #include "ptir/core/render_control.h"
 #include "ptir/material/shading_model.h"
 #include "ptir/math/pixel_filter.h"
@@ -64,6 +70,7 @@ struct EvalSettings {
   int sheet_views = 8;            // contact sheets show the first N views (0: no sheets)
   std::function<void(const std::string&)> log;  // progress lines (optional)
   RenderControl control;          // cancel / progress of each render
+  const Communicator* comm = &single_process();  // data-parallel runs (must outlive evaluate)
 };
 
 struct EvalReport {

@@ -11,6 +11,7 @@
 
 #include "ptir/core/error.h"
 #include "ptir/math/rng.h"
+#include "ptir/optim/data_parallel.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/aov_backward.h"
 #include "ptir/render/render_path.h"
@@ -274,8 +275,8 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   auto t0 = Clock::now();
   double c0 = process_cpu_seconds();
   const bool cache = with_gradients && w.px * size_t(w.is.spp) * sizeof(Vec3) <= settings_.sample_cache_bytes;
-  std::vector<Vec3> sample_radiance;
-  Image render = render_path(*tracer_, w.cam, w.is, control, nullptr, cache ? &sample_radiance : nullptr);
+  std::vector<std::vector<Vec3>> sample_radiance;  // per row band (data_parallel.h: split across ranks)
+  Image render = render_path_ranks(*comm_, *tracer_, w.cam, w.is, control, cache ? &sample_radiance : nullptr);
   log.primal_s += seconds_since(t0);
   log.primal_cpu_s += process_cpu_seconds() - c0;
   Image pred(pk.w, pk.h, {"R", "G", "B"}), mask(pk.w, pk.h, {"A"});
@@ -311,7 +312,8 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   if (all_zero(d_render)) return;
   t0 = Clock::now();
   c0 = process_cpu_seconds();
-  render_path_backward(*tracer_, w.cam, w.is, d_render, grads_, control, cache ? &sample_radiance : nullptr);
+  render_path_backward_ranks(*comm_, *tracer_, w.cam, w.is, d_render, grads_, control,
+                             cache ? &sample_radiance : nullptr);
   log.backward_s += seconds_since(t0);
   log.backward_cpu_s += process_cpu_seconds() - c0;
 }
@@ -333,7 +335,7 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
   as.spp = 1;
   as.seed = w.is.seed;
   Image alb, rough, coverage;
-  render_material_maps(tracer_->accel(), w.cam, as, control, &alb, &rough, &coverage);
+  render_material_maps_ranks(*comm_, tracer_->accel(), w.cam, as, control, &alb, &rough, &coverage);
   Image aov_mask(pk.w, pk.h, {"A"});
   size_t n_aov = 0;
   for (size_t p = 0; p < w.px; ++p) {
@@ -366,7 +368,7 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
       log.prior += inv_k * wp * prior_l2(rough, prior_r, &aov_mask, with_gradients ? &d : nullptr);
       if (with_gradients) accumulate(d_rough, d, float(inv_k * wp));
     }
-    if (with_gradients) render_aov_backward(tracer_->accel(), w.cam, as, &d_alb, &d_rough, grads_);
+    if (with_gradients) render_aov_backward_ranks(*comm_, tracer_->accel(), w.cam, as, &d_alb, &d_rough, grads_);
   }
   log.regulariser_s += seconds_since(t0);
 }
@@ -389,6 +391,7 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
     regulariser_terms(w, inv_k, with_gradients, control, log);
     if (cancel && cancel->load()) throw Cancelled();
   }
+  if (with_gradients) allreduce_gradients(*comm_, grads_);  // data-parallel: the ranks' bands summed in rank order
   log.loss = log.image + log.tv + log.prior;
   log.seconds = seconds_since(t_start);
   return log;

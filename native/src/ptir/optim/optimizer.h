@@ -53,6 +53,7 @@
 #include <vector>
 
 #include "ptir/accel/scene_accel.h"
+#include "ptir/core/communicator.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/adam.h"
 #include "ptir/optim/checkpoint.h"
@@ -117,6 +118,10 @@ class Optimizer {
   const OptimizerSettings& settings() const { return settings_; }
   // The target iteration count may change (a resumed run can go further).
   void set_iterations(int n) { settings_.iterations = n; }
+  // Data-parallel runs (optim/data_parallel.h): every rank's optimiser shares each
+  // iteration's views through `comm` (which must outlive it); default: one process.
+  void set_communicator(const Communicator& comm) { comm_ = &comm; }
+  const Communicator& communicator() const { return *comm_; }
 
   // One iteration. With `cancel` set the renders stop early and Cancelled is
   // thrown; the state is then that of the last completed iteration.
@@ -194,6 +199,7 @@ class Optimizer {
   int iteration_ = 0;
   size_t nonfinite_ = 0;
   mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
+  const Communicator* comm_ = &single_process();      // data-parallel runs (set_communicator)
 };
 
 // The loop with checkpoints and outputs, for the CLI and the Python module.
