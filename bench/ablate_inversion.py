@@ -20,6 +20,7 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     env_texel     per-texel Adam second moments (--env-adam texel)
     lr_env        lr_decay and env_shared together
     coarse        a 16x8 coarse level learnt with the 128x64 texels (--env-coarse 16)
+    coarse8/32    the coarse level 8x4 / 32x16
     coarse_lr     coarse and lr_decay together
     sg            24 spherical Gaussians instead of texels (--env sg)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
@@ -55,6 +56,8 @@ ROWS = {
     "env_texel": ["--env-adam", "texel"],
     "lr_env": ["--lr-final", "0.1", "--env-adam", "shared"],
     "coarse": ["--env-coarse", "16"],
+    "coarse8": ["--env-coarse", "8"],
+    "coarse32": ["--env-coarse", "32"],
     "coarse_lr": ["--env-coarse", "16", "--lr-final", "0.1"],
     "sg": ["--env", "sg"],
 }

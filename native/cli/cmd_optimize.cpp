@@ -278,7 +278,7 @@ Runner add_optimize_command(CLI::App& app) {
                   "environment step normalisation: shared (one Adam second moment for all texels) or texel")
       ->capture_default_str();
   cmd->add_option("--env-coarse", o->opt.env_coarse,
-                  "lat-long environment: width of a coarse level learnt with the texels (coarse-to-fine; 0: none)")
+                  "lat-long environment: width of a coarse level learnt with the texels (coarse-to-fine; 0: none; -1: 1/8 of the map's width)")
       ->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");

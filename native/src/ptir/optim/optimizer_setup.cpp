@@ -33,7 +33,7 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (o.env_adam != "shared" && o.env_adam != "texel")
     throw Error(names("env_adam") + " must be 'shared' or 'texel', got '" + o.env_adam + "'");
   s.env_shared_moment = o.env_adam == "shared";
-  if (o.env_coarse < 0) throw Error(names("env_coarse") + " must be >= 0 (0: no coarse level)");
+  if (o.env_coarse < -1) throw Error(names("env_coarse") + " must be >= 0 (0: no coarse level; -1: automatic)");
   s.params.env_coarse_width = o.env_coarse;
   s.accel.k = o.k;
   if (o.loss_space == "srgb") s.srgb_loss = true;

@@ -96,8 +96,10 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
     std::vector<float> raw(scene.environment.parameter_count());
     scene.environment->get_raw(raw.data());
     p.groups.push_back({ParamKind::Environment, s.lr_env, std::move(raw)});
-    if (s.env_coarse_width > 0 && scene.environment.as<Environment>()) {
-      const int cw = s.env_coarse_width, ch = std::max(1, cw / 2);
+    const Environment* latlong = scene.environment.as<Environment>();
+    const int cw = !latlong ? 0 : s.env_coarse_width >= 0 ? s.env_coarse_width : latlong->width() >= 32 ? latlong->width() / 8 : 0;
+    if (cw > 0) {
+      const int ch = std::max(1, cw / 2);
       p.groups.push_back({ParamKind::EnvironmentCoarse, s.lr_env, std::vector<float>(size_t(cw) * ch * 3, 0.0f)});
     }
   }

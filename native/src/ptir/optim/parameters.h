@@ -55,8 +55,11 @@ struct ParameterSettings {
   bool optimize_env = true;              // false: the environment is held fixed
   int sg_lobes = 24;
   // Coarse-to-fine lat-long environment (env_pyramid.h): the width of the coarse
-  // level (its height is half, at least 1); 0 = texels only.
-  int env_coarse_width = 0;
+  // level (its height is half, at least 1); 0 = texels only; -1 (default) = 1/8 of
+  // the map's width for maps at least 32 texels wide (16x8 for 128x64), else none.
+  // Measured (README, method notes): +1.2 to +1.9 dB albedo, environment PSNR
+  // 18.5 -> 22.4 dB, at the same cost.
+  int env_coarse_width = -1;
   bool optimize_meshes = false;          // mesh materials of a --scene, one set per mesh
   // Adam learning rates (PTIR code).
   float lr_albedo = 0.035f, lr_roughness = 0.025f, lr_metallic = 0.035f, lr_env = 0.035f, lr_mesh = 0.035f;
