@@ -29,6 +29,10 @@ class RENDER_PT_ptir_sampling(bpy.types.Panel):
         col.prop(s, "tau_g")
         col.prop(s, "seed")
         col.prop(s, "threads")
+        col = layout.column(heading="Viewport")
+        col.prop(s, "viewport_samples", text="Samples")
+        col.prop(s, "viewport_pixel_size", text="Pixel Size")
+        layout.prop(s, "aov_passes")
 
 
 class _SidebarPanel:
