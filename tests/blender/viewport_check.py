@@ -10,6 +10,9 @@ Steps (bpy.app.timers; each waits until the viewport has accumulated its samples
   camera   the view orbited a little (a camera move)                     -> camera.png
   kill     the engine process killed (SIGKILL) while a pass is running; Blender keeps running, the
            viewport says the engine died, the next redraw starts a new one -> restarted.png
+  f12      F12 (bpy.ops.render.render) at 64 x 64, 8 spp through the same process: nothing is
+           re-exported (no "load"); the image is saved as f12.exr beside the scene exported for the
+           CLI (cli_scene/scene.json), which the pytest side renders with `ptir render` and compares
 Each step records the seconds from the edit to the first pixels of the new state, the requests and
 bytes the add-on sent for it (engine_process.sent_bytes), and whether the scene was reloaded.
 Prints "VIEWPORT_CHECK: {json}" and quits; exits 1 on a failure.
@@ -24,6 +27,7 @@ import time
 import traceback
 
 import bpy
+import numpy as np
 import mathutils
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -102,6 +106,47 @@ def edit(step):
         S["result"]["pending_when_killed"] = vr.pending is not None
 
 
+def f12():
+    """F12 through the persistent process; returns what the pytest side compares with the CLI."""
+    from ptir_blender.blender import scene_bridge
+    from ptir_blender.operators import render_engine
+    scene = bpy.context.scene
+    scene.render.resolution_percentage = 25
+    s = scene.ptir_render
+    s.spp, s.seed, s.aov_passes = 8, 5, True
+    session = engine_sync.session()
+    loads, pid = session.loads, session.engine.proc.pid
+    before = sent()
+    # The compositor sees the AOV passes: Render Layers > Depth into a Viewer node.
+    scene.use_nodes = True
+    tree = scene.node_tree
+    rl = next((n for n in tree.nodes if n.type == "R_LAYERS"), None) or tree.nodes.new("CompositorNodeRLayers")
+    viewer = tree.nodes.new("CompositorNodeViewer")
+    bpy.ops.render.render()
+    outputs = [o.name for o in rl.outputs if o.enabled]
+    tree.links.new(rl.outputs["Depth"], viewer.inputs[0])
+    bpy.ops.render.render()
+    vimg = bpy.data.images["Viewer Node"]
+    depth = np.empty(vimg.size[0] * vimg.size[1] * 4, np.float32)
+    vimg.pixels.foreach_get(depth)
+    out = os.path.join(WORK, "f12.exr")
+    settings = scene.render.image_settings
+    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGBA"
+    bpy.data.images["Render Result"].save_render(out)
+    result = bpy.data.images["Render Result"]
+    folder = os.path.join(WORK, "cli_scene")
+    scene_json, _ = scene_bridge.export_engine_scene(bpy.context, folder,
+                                                     integrator=render_engine.integrator_settings(s))
+    layer = scene.view_layers[0]
+    return {"exr": out, "scene": scene_json, "camera": scene.camera.name, "spp": s.spp, "seed": s.seed,
+            "bounces": s.bounces, "reloaded": session.loads != loads, "same_process": session.engine.proc.pid == pid,
+            "sent_bytes": {k: v - before.get(k, 0) for k, v in sent().items() if v - before.get(k, 0) > 0},
+            "render_result_size": list(result.size), "layer": layer.name, "passes": outputs,
+            "depth_hit_fraction": float((depth[0::4] > 0).mean()),
+            "depth_median": float(np.median(depth[0::4][depth[0::4] > 0])) if (depth[0::4] > 0).any() else 0.0,
+            "depth_max": float(depth[0::4].max())}
+
+
 def tick():
     try:
         return _tick()
@@ -117,6 +162,8 @@ def _tick():
         scene.render.engine = "PTIR"
         scene.view_settings.view_transform = "Standard"
         scene.view_settings.look = "None"
+        scene.render.dither_intensity = 0.0     # 8-bit screenshots without dither noise
+        scene.camera.data.show_passepartout = False  # no darkening outside the camera frame
         s = scene.ptir_render
         s.viewport_samples, s.viewport_pixel_size, s.bounces = SAMPLES, PIXEL, 1
         space = view3d.spaces.active
@@ -136,6 +183,7 @@ def _tick():
         if step == "kill":
             # The kill step is done when the viewport has reported the death (its message).
             if vr is not None and "died" in vr.message:
+                scene.ptir_render.viewport_samples = SAMPLES
                 S["result"]["death_message"] = vr.message
                 S["result"]["blender_alive_after_kill"] = True
                 screenshot("killed")
@@ -158,6 +206,8 @@ def _tick():
         print("VIEWPORT_STEP: %s %s" % (step, json.dumps(rec)), flush=True)
         S["i"] += 1
         if S["i"] >= len(STEPS):
+            if KILL:
+                S["result"]["f12"] = f12()
             print("VIEWPORT_CHECK: " + json.dumps(S["result"]), flush=True)
             print("ADDON_CHECK: OK", flush=True)
             engine_sync.shutdown()
@@ -180,7 +230,6 @@ def _tick():
             S["t_edit"] = time.monotonic()
             edit("kill")
             S["phase"] = "wait"
-            scene.ptir_render.viewport_samples = SAMPLES
         return 0.05
     return 0.05
 
