@@ -254,6 +254,9 @@ def cancel_mode(tmp):
                 seen["children"] = kids
                 break
             time.sleep(0.05)
+        # The engine process starts before the scene is synced and the render request sent: let the
+        # render get under way, then break.
+        time.sleep(1.5)
         os.kill(os.getpid(), signal.SIGINT)
 
     threading.Thread(target=interrupt, daemon=True).start()

@@ -136,22 +136,28 @@ class EngineProcess:
                 raise EngineDied(self.death_message())
         return r
 
-    def wait(self, rid, timeout=None, should_cancel=None):
+    def wait(self, rid, timeout=None, should_cancel=None, kill_after=5.0):
         """Blocks until the reply to rid comes (EngineDied if the process ends first, JobError on
-        timeout). should_cancel: polled every 50 ms; when it returns True the request is cancelled."""
+        timeout). should_cancel: polled every 50 ms; when it returns True the request is cancelled,
+        and when the engine has not stopped it `kill_after` seconds later, the process is killed
+        (the reply is then {"ok": false, "cancelled": true, "killed": true})."""
         deadline = None if timeout is None else time.monotonic() + timeout
-        cancelled = False
+        cancelled = None
         while True:
             with self._lock:
                 self._arrived.wait_for(lambda: rid in self._replies or self.proc.poll() is not None, timeout=0.05)
                 r = self._replies.pop(rid, None)
             if r is not None:
                 return r
+            if cancelled is not None and time.monotonic() - cancelled > kill_after and self.alive():
+                self.proc.kill()
+                self.proc.wait()
+                return {"id": rid, "ok": False, "cancelled": True, "killed": True}
             if not self.alive():
                 return self.reply(rid)
-            if should_cancel is not None and not cancelled and should_cancel():
+            if should_cancel is not None and cancelled is None and should_cancel():
                 self.cancel(rid)
-                cancelled = True
+                cancelled = time.monotonic()
             if deadline is not None and time.monotonic() > deadline:
                 raise JobError("the PTIR engine did not answer within %.0f s" % timeout)
 

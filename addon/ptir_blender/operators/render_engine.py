@@ -255,7 +255,7 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
 # that edit what the engine reads (materials, world, lights).
 _EXTRA_PANELS = ("EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface", "EEVEE_MATERIAL_PT_settings",
                  "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light", "DATA_PT_EEVEE_light_distance",
-                 "RENDER_PT_film")
+                 "RENDER_PT_film")  # (RENDER_PT_film is Blender 4.x's; 3.x gets ui/panels.RENDER_PT_ptir_film)
 # DATA_PT_light duplicates DATA_PT_EEVEE_light; Freestyle lines are not rendered by the engine.
 _EXCLUDED_PANELS = ("VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes", "DATA_PT_light")
 _compat_added = []

@@ -52,6 +52,8 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
         Vec3 sum(0.0f);
         float covered = 0.0f;
         for (int s = 0; s < settings.spp; ++s) {
+          // Cancellation within a pixel too: at high sample counts one tile can take minutes.
+          if ((s & 15) == 15 && control.cancel && control.cancel->load(std::memory_order_relaxed)) return;
           uint64_t pixel;
           const uint32_t index = first_sample + uint32_t(s);
           Ray ray = camera_sample(camera, filter, settings.seed, x, y, int(index), &pixel);
