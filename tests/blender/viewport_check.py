@@ -197,7 +197,8 @@ def _tick():
         vr.tag()
         return 0.3
     if S["phase"] == "settle":
-        rec = {"first_pixels_s": vr.first_pixels_s, "done_s": time.monotonic() - S["t_edit"],
+        # From the edit (before Blender's depsgraph update, the sync and the deltas) to the first pass.
+        rec = {"first_pixels_s": vr.first_pixels_at - S["t_edit"], "done_s": time.monotonic() - S["t_edit"],
                "sent_bytes": {k: v - S["sent_before"].get(k, 0) for k, v in sent().items()
                               if v - S["sent_before"].get(k, 0) > 0},
                "loads": engine_sync.session().loads, "screenshot": screenshot(step),

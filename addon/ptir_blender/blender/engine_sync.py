@@ -87,6 +87,7 @@ class EngineSession:
         self.loads = 0            # "load" requests sent (full exports)
         self.warnings = []
         self._seq = 0
+        self._material_only = set()  # objects whose last change was a PTIR material edit (note_material_edit)
 
     # ------------------------------------------------------------ process
 
@@ -115,6 +116,11 @@ class EngineSession:
             self.folder = None
             self.state = None
 
+    def note_material_edit(self, name):
+        """The material editor changed only material attributes of object `name`: the next sync skips
+        its geometry check (hashing a 1M-splat object's geometry costs ~0.4 s)."""
+        self._material_only.add(name)
+
     def file(self, name):
         self._seq += 1
         return os.path.join(self.folder, "%06d_%s" % (self._seq, name))
@@ -137,7 +143,10 @@ class EngineSession:
         old = self.state or {}
         geo, mats = {}, {}
         for o in splats:
-            if changed is None or o.name in changed or o.name not in old.get("geo", {}):
+            known = o.name in old.get("geo", {})
+            if known and changed is not None and o.name in self._material_only:
+                geo[o.name] = old["geo"][o.name]
+            elif changed is None or o.name in changed or not known:
                 geo[o.name] = splat_geometry_hash(o)
             else:
                 geo[o.name] = old["geo"][o.name]
@@ -168,6 +177,7 @@ class EngineSession:
             geo, mats = self._fingerprints(depsgraph, splats, meshes, refs, changed)
             st = self.state
             if st is None or st["key"] != key or st["geo"] != geo:
+                self._material_only.clear()
                 return self._load(depsgraph, integrator, key, geo, mats, splats)
             sent = []
             parts = self._parts(depsgraph, integrator, lights)
@@ -189,15 +199,17 @@ class EngineSession:
                 if changed is not None and o.name not in changed:
                     continue
                 values = splat_materials(o)
-                h = _hash_arrays(values)
+                noted = o.name in self._material_only
+                h = None if noted else _hash_arrays(values)  # a noted edit is sent without comparing
                 offset, count, old = st["splats"][o.name]
-                if h != old:
+                if noted or h != old:
                     path = self.file("splat_materials.f32")
                     values.tofile(path)
                     self.engine.send({"cmd": "splat_materials", "offset": offset, "count": count, "file": path},
                                      bulk_bytes=values.nbytes)
                     st["splats"][o.name] = (offset, count, h)
                     sent.append("splat_materials")
+            self._material_only.clear()
             return {"load": False, "sent": sent}
 
     def _load(self, depsgraph, integrator, key, geo, mats, splats):

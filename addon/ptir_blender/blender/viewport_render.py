@@ -78,6 +78,7 @@ class ViewportRender:
         self.texture_size = None
         self.started = time.monotonic()
         self.first_pixels_s = None  # seconds from the restart to the first pass shown
+        self.first_pixels_at = None  # time.monotonic() of that moment
         self.message = ""
         self.session = None
         _active.add(self)
@@ -165,7 +166,8 @@ class ViewportRender:
             self.samples += 1
             self._upload(self.accum, self.samples)
         if self.first_pixels_s is None:
-            self.first_pixels_s = time.monotonic() - self.started
+            self.first_pixels_at = time.monotonic()
+            self.first_pixels_s = self.first_pixels_at - self.started
         self.passes += 1
 
     def _upload(self, px, n):
