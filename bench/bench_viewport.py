@@ -52,7 +52,8 @@ def main():
         line = next(l for l in text.splitlines() if l.startswith("VIEWPORT_CHECK: "))
         steps = json.loads(line[len("VIEWPORT_CHECK: "):])["steps"]
         for name, what in (("base", "first view (load)"), ("albedo", "splat albedo edit"),
-                           ("lights", "light + world power"), ("camera", "camera move")):
+                           ("lights", "light + world power"), ("camera", "camera move"),
+                           ("move", "splat object moved")):
             s = steps[name]
             sent = ", ".join("%s %s B" % (k, format(v, ",")) for k, v in sorted(s["sent_bytes"].items()))
             rows.append((label, what, s["first_pixels_s"], s["done_s"], sent, s["loads"]))

@@ -1,5 +1,6 @@
 #include "serve_session.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -132,10 +133,11 @@ json ServeSession::handle(const json& request, const std::atomic<bool>* cancel) 
     else if (cmd == "update") out = update(request);
     else if (cmd == "mesh_material") out = mesh_material(request);
     else if (cmd == "splat_materials") out = splat_materials(request, &bytes_in);
+    else if (cmd == "transform_splats") out = transform_splats(request);
     else if (cmd == "render") out = render(request, cancel);
     else if (cmd == "status") out = status();
-    else throw Error("unknown request \"" + cmd + "\" (load, update, mesh_material, splat_materials, render, status, "
-                     "cancel, quit)");
+    else throw Error("unknown request \"" + cmd + "\" (load, update, mesh_material, splat_materials, transform_splats, "
+                     "render, status, cancel, quit)");
     reply.update(out);
   } catch (const Cancelled&) {
     reply["ok"] = false;
@@ -231,6 +233,40 @@ json ServeSession::splat_materials(const json& request, uint64_t* bytes_in) {
     f.metallic[g] = v[n * 4 + i];
   }
   return {{"builds", builds_}};
+}
+
+// Gaussians [offset, offset + count) moved by a row-major 4x4 similarity (the
+// rule of a scene file's "transform": transform_gaussians), then the acceleration
+// structure rebuilt. The add-on sends an object's new world matrix times the
+// inverse of the old one.
+json ServeSession::transform_splats(const json& request) {
+  tracer();
+  GaussianField& f = *scene_->gaussians;
+  const size_t offset = size_t(integer_of(request, "offset", 0, 0, int64_t(f.size())));
+  const size_t count = size_t(integer_of(request, "count", 0, 0, int64_t(f.size() - offset)));
+  const json& m = require(request, "matrix");
+  if (!m.is_array() || m.size() != 16) throw Error("request: \"matrix\" must hold 16 numbers (row-major)");
+  float mat[16];
+  for (size_t i = 0; i < 16; ++i) {
+    if (!m.at(i).is_number()) throw Error("request: \"matrix\" must hold 16 numbers (row-major)");
+    mat[i] = m.at(i).get<float>();
+  }
+  GaussianField part;  // the range's geometry (what transform_gaussians changes)
+  const auto first = std::ptrdiff_t(offset), last = std::ptrdiff_t(offset + count);
+  part.position.assign(f.position.begin() + first, f.position.begin() + last);
+  part.scale.assign(f.scale.begin() + first, f.scale.begin() + last);
+  part.rotation.assign(f.rotation.begin() + first, f.rotation.begin() + last);
+  part.normal.assign(f.normal.begin() + first, f.normal.begin() + last);
+  transform_gaussians(part, mat, "request: transform_splats");
+  std::copy(part.position.begin(), part.position.end(), f.position.begin() + first);
+  std::copy(part.scale.begin(), part.scale.end(), f.scale.begin() + first);
+  std::copy(part.rotation.begin(), part.rotation.end(), f.rotation.begin() + first);
+  std::copy(part.normal.begin(), part.normal.end(), f.normal.begin() + first);
+  f.source = io::PlyFile();
+  const auto t0 = Clock::now();
+  tracer_ = std::make_unique<PathTracer>(*scene_);
+  ++builds_;
+  return {{"builds", builds_}, {"build_s", seconds_since(t0)}};
 }
 
 // Path-traced colour, exactly as `ptir render` computes it for the same camera

@@ -33,6 +33,7 @@ class ServeSession {
   nlohmann::json update(const nlohmann::json& request);
   nlohmann::json mesh_material(const nlohmann::json& request);
   nlohmann::json splat_materials(const nlohmann::json& request, uint64_t* bytes_in);
+  nlohmann::json transform_splats(const nlohmann::json& request);
   nlohmann::json render(const nlohmann::json& request, const std::atomic<bool>* cancel);
   nlohmann::json status() const;
   const PathTracer& tracer() const;

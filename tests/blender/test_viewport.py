@@ -69,10 +69,16 @@ def test_live_viewport_edits_kill_and_f12(tmp_path):
     assert steps["lights"]["sent_bytes"]["update"] < 2000
     assert set(steps["camera"]["sent_bytes"]) == {"render"}
 
-    # The kill: Blender kept running, said so, and a new engine renders the same picture.
+    # Moving the splat object: a transform delta (the engine rebuilds its BVH), no re-export.
+    move = shot(steps["move"]["screenshot"])
+    assert set(steps["move"]["sent_bytes"]) == {"render", "transform_splats"} and steps["move"]["loads"] == 1
+    assert (np.abs(move - camera).max(axis=-1) > 0.1).sum() > 500, "the splats did not move on screen"
+
+    # The kill: Blender kept running, said so, and a new engine (a fresh export of the moved object)
+    # renders the same picture.
     assert info["pending_when_killed"] and "died (SIGKILL)" in info["death_message"]
     assert steps["restarted"]["engine_pid"] != steps["camera"]["engine_pid"]
-    assert np.abs(restarted - camera).max() <= 2.0 / 255.0
+    assert np.abs(restarted - move).max() <= 2.0 / 255.0
 
     # F12 through the same process: no re-export, the CLI's image exactly, AOV passes in the compositor.
     f12 = info["f12"]
@@ -89,5 +95,5 @@ def test_live_viewport_edits_kill_and_f12(tmp_path):
     assert r.returncode == 0, r.stderr
     cmp = ac.run_blender("exr_compare.py", f12["exr"], out)
     assert cmp.returncode == 0 and "EXR_DIFF: 0" in cmp.stdout, ac.output_of(cmp)
-    for k in ("base", "albedo", "lights", "camera"):
+    for k in ("base", "albedo", "lights", "camera", "move"):
         print("%s: first pixels %.3f s, %s" % (k, steps[k]["first_pixels_s"], steps[k]["sent_bytes"]))

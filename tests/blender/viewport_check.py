@@ -1,13 +1,14 @@
 """The live PTIR viewport in a real Blender window (Xvfb), run by test_viewport.py and bench/bench_viewport.py.
 
     xvfb-run -a -s "-screen 0 1280x800x24" blender --factory-startup sample_blends/cornell_splats.blend \
-        -P tests/blender/viewport_check.py -- WORKDIR [--samples N] [--pixel-size P] [--no-kill]
+        -P tests/blender/viewport_check.py -- WORKDIR [--samples N] [--pixel-size P] [--no-kill] [--overlays]
 
 Steps (bpy.app.timers; each waits until the viewport has accumulated its samples):
   base     Viewport Shading > Rendered with the PTIR engine, camera view -> screenshot base.png
   albedo   the splats' albedo set to red (bpy.ops.ptir.edit_material)   -> albedo.png
   lights   both lights' power and the world strength doubled             -> lights.png
   camera   the view orbited a little (a camera move)                     -> camera.png
+  move     the splat object moved 0.15 m along x (an object transform)  -> move.png
   kill     the engine process killed (SIGKILL) while a pass is running; Blender keeps running, the
            viewport says the engine died, the next redraw starts a new one -> restarted.png
   f12      F12 (bpy.ops.render.render) at 64 x 64, 8 spp through the same process: nothing is
@@ -41,8 +42,9 @@ WORK = ARGS[0]
 SAMPLES = int(ARGS[ARGS.index("--samples") + 1]) if "--samples" in ARGS else 4
 PIXEL = int(ARGS[ARGS.index("--pixel-size") + 1]) if "--pixel-size" in ARGS else 4
 KILL = "--no-kill" not in ARGS
+OVERLAYS = "--overlays" in ARGS  # keep the overlays (the status text) in the screenshots
 TIMEOUT = 120.0
-STEPS = ["base", "albedo", "lights", "camera"] + (["kill", "restarted"] if KILL else [])
+STEPS = ["base", "albedo", "lights", "camera", "move"] + (["kill", "restarted"] if KILL else [])
 S = {"i": 0, "t_edit": None, "result": {"steps": {}}, "phase": "start", "sent_before": {}}
 
 
@@ -98,6 +100,8 @@ def edit(step):
         q = rv3d.view_rotation.copy()
         q.rotate(mathutils.Euler((0.0, 0.0, math.radians(8.0))))
         rv3d.view_rotation = q
+    elif step == "move":
+        bpy.data.objects["Suzanne Splats"].location.x += 0.15
     elif step == "kill":
         vr = viewport()
         engine = engine_sync.session().engine
@@ -169,7 +173,7 @@ def _tick():
         space = view3d.spaces.active
         space.show_region_ui = False
         space.show_region_toolbar = False
-        space.overlay.show_overlays = False
+        space.overlay.show_overlays = OVERLAYS
         space.region_3d.view_perspective = "CAMERA"
         space.shading.type = "RENDERED"
         S["phase"], S["t_edit"] = "wait", time.monotonic()

@@ -113,3 +113,26 @@ def test_cancel_stops_a_long_render(served, tmp_path):
     r = engine.wait(rid, timeout=30)
     assert r.get("cancelled") and time.monotonic() - t0 < 5.0
     assert engine.alive() and render(engine, tmp_path / "after.raw")[..., :3].mean() > 0.01
+
+
+def test_transform_splats_equals_the_scene_file_transform(served, tmp_path):
+    """A move sent as a delta gives the image of a scene file whose gaussians entry has that transform
+    (the same transform_gaussians, then a BVH rebuild)."""
+    engine, _, scene = served
+    m = np.eye(4)
+    m[:3, :3] *= 1.5
+    m[:3, 3] = (0.3, -0.2, 0.5)
+    r = engine.call({"cmd": "transform_splats", "offset": 0, "count": 81, "matrix": m.reshape(-1).tolist()})
+    assert r["builds"] == 2
+    moved = render(engine, tmp_path / "moved.raw")
+    other = dict(scene, gaussians=[dict(scene["gaussians"][0], transform=m.tolist())])
+    path = tmp_path / "moved.json"
+    path.write_text(json.dumps(other))
+    engine.call({"cmd": "load", "scene": str(path)})
+    reference = render(engine, tmp_path / "reference.raw")
+    assert np.abs(moved - reference).max() == 0.0
+    skew = np.eye(4)
+    skew[0, 1] = 0.5
+    r = engine.wait(engine.send({"cmd": "transform_splats", "offset": 0, "count": 81,
+                                 "matrix": skew.reshape(-1).tolist()}))
+    assert not r["ok"] and "transform_splats" in r["error"]

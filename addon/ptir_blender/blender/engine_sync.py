@@ -4,10 +4,13 @@ One EngineSession per Blender session (`session()`): the `ptir serve` child
 process (io/engine_process.py) and what it holds, as fingerprints:
 
 - membership: the visible objects (splats, meshes, lights) -> a change reloads
-- geometry: per splat object a hash of its world transform and positions,
-  scales, rotations, opacities and normals; per mesh object a hash of its
-  evaluated world-space triangles -> a change re-exports the scene and sends
-  "load" (the only request that rebuilds the acceleration structure)
+- geometry: per splat object a hash of its positions, scales, rotations,
+  opacities and normals; per mesh object a hash of its evaluated world-space
+  triangles -> a change re-exports the scene and sends "load"
+- per splat object its world matrix -> a move (a similarity) sends
+  "transform_splats" (new matrix times the inverse of the old; the engine
+  rebuilds its acceleration structure, no file is read); F12 (exact=True)
+  reloads moved splats so its image is the CLI's to the last bit
 - per splat object a hash of its material attributes -> "splat_materials" with
   that object's range of Gaussians (a float32 file in /dev/shm)
 - lights, world, integrator settings -> "update" with those scene-file parts
@@ -30,6 +33,7 @@ import numpy as np
 
 from ..errors import PtirError
 from ..io import engine_process
+from ..io import splat_transform
 from . import scene_bridge, scene_export, splat_object
 
 
@@ -45,11 +49,12 @@ def _matrix(obj):
 
 
 def splat_geometry_hash(obj):
+    """Hash of the object-space splat geometry (the world matrix is tracked apart: a move is a delta)."""
     mesh = obj.data
     n = len(mesh.vertices)
     co = np.empty(n * 3, np.float32)
     mesh.vertices.foreach_get("co", co)
-    parts = [_matrix(obj), co]
+    parts = [co]
     for name, width in (("scale", 3), ("rotation", 4), ("opacity", 1), ("ptir_normal", 3)):
         a = splat_object._get_attribute(mesh, name, width, required=False, what=obj.name)
         parts.append(np.zeros(0) if a is None else a)
@@ -167,19 +172,37 @@ class EngineSession:
         return {"lights": light_entries,
                 "integrator": {**scene_export.film_filter(depsgraph.scene), **(integrator or {})}}
 
-    def sync(self, depsgraph, integrator, changed=None, world_changed=True):
+    def sync(self, depsgraph, integrator, changed=None, world_changed=True, exact=False, data_changed=None):
         """Brings the engine's scene up to date; returns {"load": bool, "sent": [commands]}.
 
-        changed: names of objects whose data or transform changed (None: check everything).
-        world_changed: recompute the world (a latlong image may be written on export)."""
+        changed: names of objects whose data or transform changed (None: check everything);
+        data_changed: those whose data changed (None: all of `changed`); only these get their material
+        attributes compared.
+        world_changed: recompute the world (a latlong image may be written on export).
+        exact: the engine must hold exactly what a fresh export gives (F12: the CLI's image); splats
+        moved by "transform_splats" deltas (float rounding of the relative matrix) are then reloaded."""
         with self.lock:
             key, splats, meshes, lights, refs = self._membership(depsgraph)
             geo, mats = self._fingerprints(depsgraph, splats, meshes, refs, changed)
             st = self.state
-            if st is None or st["key"] != key or st["geo"] != geo:
+            if st is None or st["key"] != key or st["geo"] != geo or (exact and st["moved"]):
                 self._material_only.clear()
                 return self._load(depsgraph, integrator, key, geo, mats, splats)
             sent = []
+            for o in splats:
+                new = _matrix(o)
+                offset, count, _ = st["splats"][o.name]
+                old = st["xf"][o.name]
+                if np.array_equal(new, old):
+                    continue
+                rel = new @ np.linalg.inv(old)
+                if not splat_transform.is_similarity(rel):  # the engine's rule: similarities only
+                    return self._load(depsgraph, integrator, key, geo, mats, splats)
+                self.engine.send({"cmd": "transform_splats", "offset": offset, "count": count,
+                                  "matrix": [float(x) for x in rel.reshape(-1)]})
+                st["xf"][o.name] = new
+                st["moved"] = True
+                sent.append("transform_splats")
             parts = self._parts(depsgraph, integrator, lights)
             delta = {k: v for k, v in parts.items() if st["parts"].get(k) != v}
             if world_changed:
@@ -195,8 +218,9 @@ class EngineSession:
                     self.engine.send({"cmd": "mesh_material", "mesh": name, "material": m})
                     st["mats"][name] = m
                     sent.append("mesh_material")
+            data = changed if data_changed is None else data_changed
             for o in splats:
-                if changed is not None and o.name not in changed:
+                if data is not None and o.name not in data:
                     continue
                 values = splat_materials(o)
                 noted = o.name in self._material_only
@@ -236,7 +260,9 @@ class EngineSession:
             doc = json.load(f)
         parts = {"lights": doc.get("lights", []), "integrator": doc.get("integrator", {}),
                  "environment": doc.get("environment")}
-        self.state = {"key": key, "geo": geo, "mats": mats, "splats": ranges, "parts": parts, "folder": folder}
+        xf = {o.name: _matrix(o) for o in splats}
+        self.state = {"key": key, "geo": geo, "mats": mats, "splats": ranges, "parts": parts, "folder": folder,
+                      "xf": xf, "moved": False}
         self.loads += 1
         self.warnings = warnings
         # The previous export is no longer read by the engine.

@@ -146,7 +146,7 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
         try:
             with session.lock:
                 session.ensure(cli_path(), threads=settings.threads)
-                sync = session.sync(depsgraph, integrator_settings(settings))
+                sync = session.sync(depsgraph, integrator_settings(settings), exact=True)
                 warnings = []
                 camera = scene_export.camera_entry(scene.camera, scene, warnings) if scene.camera else None
                 if camera is None:
@@ -203,17 +203,20 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
         session = engine_sync.session()
         if not session.alive():
             return  # view_draw starts it (and says why when it cannot)
-        changed, world = set(), False
+        changed, data, world = set(), set(), False
         for u in depsgraph.updates:
             idv = u.id
             if isinstance(idv, bpy.types.Object):
-                changed.add(idv.original.name if idv.original else idv.name)
+                name = idv.original.name if idv.original else idv.name
+                changed.add(name)
+                if u.is_updated_geometry or u.is_updated_shading:
+                    data.add(name)
             elif isinstance(idv, (bpy.types.World,)):
                 world = True
         try:
             with session.lock:
                 res = session.sync(depsgraph, integrator_settings(depsgraph.scene.ptir_render),
-                                   changed=changed, world_changed=world)
+                                   changed=changed, world_changed=world, data_changed=data)
         except PtirError as e:
             self._view().message = str(e)
             return
