@@ -144,14 +144,15 @@ class EngineSession:
                            if o.type in ("MESH", "CURVE", "SURFACE", "META", "FONT", "LIGHT") or "ptir_gaussians" in o))
         return key, splats, meshes, lights, refs
 
-    def _fingerprints(self, depsgraph, splats, meshes, refs, changed):
+    def _fingerprints(self, depsgraph, splats, meshes, refs, changed, data_changed=None):
         old = self.state or {}
         geo, mats = {}, {}
+        data = changed if data_changed is None else data_changed
         for o in splats:
             known = o.name in old.get("geo", {})
             if known and changed is not None and o.name in self._material_only:
                 geo[o.name] = old["geo"][o.name]
-            elif changed is None or o.name in changed or not known:
+            elif changed is None or o.name in data or not known:  # (a move alone: matrices, in sync)
                 geo[o.name] = splat_geometry_hash(o)
             else:
                 geo[o.name] = old["geo"][o.name]
@@ -183,7 +184,7 @@ class EngineSession:
         moved by "transform_splats" deltas (float rounding of the relative matrix) are then reloaded."""
         with self.lock:
             key, splats, meshes, lights, refs = self._membership(depsgraph)
-            geo, mats = self._fingerprints(depsgraph, splats, meshes, refs, changed)
+            geo, mats = self._fingerprints(depsgraph, splats, meshes, refs, changed, data_changed)
             st = self.state
             if st is None or st["key"] != key or st["geo"] != geo or (exact and st["moved"]):
                 self._material_only.clear()
