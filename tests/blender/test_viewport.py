@@ -1,5 +1,5 @@
 """The live PTIR viewport in a real Blender window under Xvfb (steps in viewport_check.py): Rendered
-shading with PTIR, a splat group's albedo and the lights' power changed (screenshots, colour ratios
+shading with PTIR (first with the engine missing: said, then rendered once it is back), a splat group's albedo and the lights' power changed (screenshots, colour ratios
 measured), the engine process killed mid-render (Blender survives, the next redraw renders again), and
 F12 through the same process equal to `ptir render` (max difference 0) without a re-export."""
 
@@ -46,6 +46,7 @@ def test_live_viewport_edits_kill_and_f12(tmp_path):
     base, albedo, lights = (shot(steps[k]["screenshot"]) for k in ("base", "albedo", "lights"))
     camera, restarted = shot(steps["camera"]["screenshot"]), shot(steps["restarted"]["screenshot"])
     assert np.std(base) > 0.02, "the Rendered viewport is blank"
+    assert "PTIR engine unavailable" in info["missing_message"] and "no_such_dir" in info["missing_message"]
 
     # Albedo: the splats turn red (their pixels lose green, keep red).
     splat = (albedo[..., 0] - albedo[..., 1]) - (base[..., 0] - base[..., 1]) > 0.1

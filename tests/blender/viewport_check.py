@@ -4,6 +4,8 @@
         -P tests/blender/viewport_check.py -- WORKDIR [--samples N] [--pixel-size P] [--no-kill] [--overlays]
 
 Steps (bpy.app.timers; each waits until the viewport has accumulated its samples):
+  missing  first with the add-on's engine path pointing nowhere: the viewport says the engine is
+           unavailable (and Blender carries on); the path restored, the next redraw renders
   base     Viewport Shading > Rendered with the PTIR engine, camera view -> screenshot base.png
   albedo   the splats' albedo set to red (bpy.ops.ptir.edit_material)   -> albedo.png
   lights   both lights' power and the world strength doubled             -> lights.png
@@ -43,7 +45,7 @@ SAMPLES = int(ARGS[ARGS.index("--samples") + 1]) if "--samples" in ARGS else 4
 PIXEL = int(ARGS[ARGS.index("--pixel-size") + 1]) if "--pixel-size" in ARGS else 4
 KILL = "--no-kill" not in ARGS
 OVERLAYS = "--overlays" in ARGS  # keep the overlays (the status text) in the screenshots
-TIMEOUT = 120.0
+TIMEOUT = 60.0
 STEPS = ["base", "albedo", "lights", "camera", "move"] + (["kill", "restarted"] if KILL else [])
 S = {"i": 0, "t_edit": None, "result": {"steps": {}}, "phase": "start", "sent_before": {}}
 
@@ -175,10 +177,28 @@ def _tick():
         space.show_region_toolbar = False
         space.overlay.show_overlays = OVERLAYS
         space.region_3d.view_perspective = "CAMERA"
+        prefs = bpy.context.preferences.addons["ptir_blender"].preferences
+        S["cli_pref"] = prefs.cli_path
+        prefs.cli_path = os.path.join(WORK, "no_such_dir", "ptir")
+        S["env_cli"] = os.environ.pop("PTIR_CLI", None)  # (find_cli would fall back to it)
         space.shading.type = "RENDERED"
-        S["phase"], S["t_edit"] = "wait", time.monotonic()
+        S["phase"], S["t_edit"] = "missing", time.monotonic()
         S["step"] = STEPS[0]
         return 0.1
+    if S["phase"] == "missing":
+        vr = viewport()
+        if time.monotonic() - S["t_edit"] > TIMEOUT:
+            fail("the viewport did not report the missing engine")
+        if vr is None or "unavailable" not in vr.message:
+            return 0.05
+        S["result"]["missing_message"] = vr.message
+        screenshot("missing")
+        bpy.context.preferences.addons["ptir_blender"].preferences.cli_path = S["cli_pref"]
+        if S["env_cli"]:
+            os.environ["PTIR_CLI"] = S["env_cli"]
+        vr.tag()
+        S["phase"], S["t_edit"] = "wait", time.monotonic()
+        return 0.05
     vr = viewport()
     step = S["step"]
     if time.monotonic() - S["t_edit"] > TIMEOUT:

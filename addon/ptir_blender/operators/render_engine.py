@@ -243,7 +243,9 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
                 vr.message = ""
                 vr.scene_changed()
             except PtirError as e:
-                self.update_stats("", "PTIR: " + viewport_render.engine_missing_message(e))
+                # Said in the header; the next redraw (any change, or moving the view) tries again.
+                vr.message = viewport_render.engine_missing_message(e)
+                self.update_stats("", "PTIR: " + vr.message)
                 return
         try:
             text = vr.draw(context, depsgraph, session, settings.viewport_samples, settings.viewport_pixel_size)
