@@ -1,6 +1,7 @@
 // `ptir serve`: the persistent engine process (serve_session.h; protocol in
 // docs/engine_protocol.md). Requests arrive one JSON object per line on stdin,
-// replies leave one JSON object per line on stdout (in request order);
+// replies leave one JSON object per line on stdout (in request order; a long
+// render also sends interim {"id": ID, "progress": f} lines before its reply);
 // diagnostics go to stderr. A reader thread takes the lines as they come, so a
 // {"cmd": "cancel", "target": ID} stops request ID while it runs (or before it
 // starts); {"cmd": "quit"} or the end of stdin ends the process with status 0.
@@ -119,7 +120,7 @@ int run_serve(const ServeOptions& o) {
         line_bytes = request->value("_bytes", uint64_t(0));
         request->erase("_bytes");
       }
-      reply = session.handle(*request, queue.cancel_flag());
+      reply = session.handle(*request, queue.cancel_flag(), send);
       reply["request_bytes"] = line_bytes;
     }
     if (!o.quiet)

@@ -119,7 +119,8 @@ const PathTracer& ServeSession::tracer() const {
   return *tracer_;
 }
 
-json ServeSession::handle(const json& request, const std::atomic<bool>* cancel) {
+json ServeSession::handle(const json& request, const std::atomic<bool>* cancel,
+                          const std::function<void(const json&)>& notify) {
   json reply = {{"ok", true}};
   if (request.contains("id")) reply["id"] = request.at("id");
   const auto t0 = Clock::now();
@@ -134,7 +135,7 @@ json ServeSession::handle(const json& request, const std::atomic<bool>* cancel) 
     else if (cmd == "mesh_material") out = mesh_material(request);
     else if (cmd == "splat_materials") out = splat_materials(request, &bytes_in);
     else if (cmd == "transform_splats") out = transform_splats(request);
-    else if (cmd == "render") out = render(request, cancel);
+    else if (cmd == "render") out = render(request, cancel, notify);
     else if (cmd == "status") out = status();
     else throw Error("unknown request \"" + cmd + "\" (load, update, mesh_material, splat_materials, transform_splats, "
                      "render, status, cancel, quit)");
@@ -272,7 +273,8 @@ json ServeSession::transform_splats(const json& request) {
 // Path-traced colour, exactly as `ptir render` computes it for the same camera
 // and settings; "first_sample" starts a progressive pass further along the
 // pixels' sample sequence. Optional AOVs (1 spp, pixel centres, as the CLI's default).
-json ServeSession::render(const json& request, const std::atomic<bool>* cancel) {
+json ServeSession::render(const json& request, const std::atomic<bool>* cancel,
+                          const std::function<void(const json&)>& notify) {
   const PathTracer& pt = tracer();
   const std::string base = std::filesystem::path(scene_path_).parent_path().string();
   Camera camera = request_camera(request, *scene_, base);
@@ -288,6 +290,14 @@ json ServeSession::render(const json& request, const std::atomic<bool>* cancel) 
   const std::string output = string_of(request, "output");
   RenderControl control;
   control.cancel = cancel;
+  // Progress lines at most 4 times a second (render_path calls this under its lock).
+  auto last = Clock::now();
+  if (notify && request.contains("id"))
+    control.progress = [&](float f) {
+      if (f < 1.0f && std::chrono::duration<double>(Clock::now() - last).count() < 0.25) return;
+      last = Clock::now();
+      notify({{"id", request.at("id")}, {"progress", f}});
+    };
   PathStats stats;
   Image image = render_path(pt, camera, settings, control, &stats, nullptr, transparent, first);
   if (ends_with_exr(output)) write_image(output, image, Encoding::Colour);

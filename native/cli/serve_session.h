@@ -12,6 +12,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -26,7 +27,9 @@ class ServeSession {
  public:
   // Answers one request (never throws: errors become {"ok": false, "error": ...}).
   // cancel: raised by the request reader while this request runs (a "cancel" line).
-  nlohmann::json handle(const nlohmann::json& request, const std::atomic<bool>* cancel);
+  // notify: sends an interim line (render progress: {"id": ..., "progress": f}).
+  nlohmann::json handle(const nlohmann::json& request, const std::atomic<bool>* cancel,
+                        const std::function<void(const nlohmann::json&)>& notify = {});
 
  private:
   nlohmann::json load(const nlohmann::json& request);
@@ -34,7 +37,8 @@ class ServeSession {
   nlohmann::json mesh_material(const nlohmann::json& request);
   nlohmann::json splat_materials(const nlohmann::json& request, uint64_t* bytes_in);
   nlohmann::json transform_splats(const nlohmann::json& request);
-  nlohmann::json render(const nlohmann::json& request, const std::atomic<bool>* cancel);
+  nlohmann::json render(const nlohmann::json& request, const std::atomic<bool>* cancel,
+                        const std::function<void(const nlohmann::json&)>& notify);
   nlohmann::json status() const;
   const PathTracer& tracer() const;
 

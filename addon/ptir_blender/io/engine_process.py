@@ -11,7 +11,8 @@ Blender sees `alive()` turn false and starts a new one.
     rid = engine.send({"cmd": "render", "view": {...}, "spp": 1, "output": "/dev/shm/.../p.raw"})
     engine.reply(rid)                               # None until it has come (non-blocking)
 
-Requests are answered in order. Bulk data never travels in the JSON line: the
+Requests are answered in order; a long render also sends interim progress lines
+(`progress`, and `wait(..., on_progress=...)`). Bulk data never travels in the JSON line: the
 request names a file (in /dev/shm when it exists) that the engine reads or writes.
 Every request's bytes (the line plus bulk files written for it) are counted per
 command in `sent_bytes`, so tests and benchmarks can show that an edit sends a delta.
@@ -51,6 +52,7 @@ class EngineProcess:
         self._replies = {}
         self._next_id = 1
         self._stderr_tail = []
+        self.progress = {}    # request id -> fraction done (long renders report it)
         self.sent_bytes = {}  # command -> bytes sent (request lines + bulk files)
         self.requests = {}    # command -> number sent
         self._log = open(log_path, "a") if log_path else None
@@ -78,6 +80,8 @@ class EngineProcess:
             with self._lock:
                 if reply.get("ready"):
                     self._ready = True
+                elif "progress" in reply and "ok" not in reply:
+                    self.progress[reply.get("id")] = float(reply["progress"])  # interim line of a render
                 elif "id" in reply:
                     self._replies[reply["id"]] = reply
                 self._arrived.notify_all()
@@ -136,11 +140,12 @@ class EngineProcess:
                 raise EngineDied(self.death_message())
         return r
 
-    def wait(self, rid, timeout=None, should_cancel=None, kill_after=5.0):
+    def wait(self, rid, timeout=None, should_cancel=None, kill_after=5.0, on_progress=None):
         """Blocks until the reply to rid comes (EngineDied if the process ends first, JobError on
         timeout). should_cancel: polled every 50 ms; when it returns True the request is cancelled,
         and when the engine has not stopped it `kill_after` seconds later, the process is killed
-        (the reply is then {"ok": false, "cancelled": true, "killed": true})."""
+        (the reply is then {"ok": false, "cancelled": true, "killed": true}). on_progress(fraction):
+        called on each poll while the request reports progress."""
         deadline = None if timeout is None else time.monotonic() + timeout
         cancelled = None
         while True:
@@ -148,7 +153,10 @@ class EngineProcess:
                 self._arrived.wait_for(lambda: rid in self._replies or self.proc.poll() is not None, timeout=0.05)
                 r = self._replies.pop(rid, None)
             if r is not None:
+                self.progress.pop(rid, None)
                 return r
+            if on_progress is not None and rid in self.progress:
+                on_progress(self.progress[rid])
             if cancelled is not None and time.monotonic() - cancelled > kill_after and self.alive():
                 self.proc.kill()
                 self.proc.wait()

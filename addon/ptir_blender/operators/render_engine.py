@@ -29,6 +29,7 @@ alpha is the coverage and pixels that no surface covers are (0, 0, 0, 0).
 import os
 import shutil
 import tempfile
+import time
 
 import bpy
 import numpy as np
@@ -158,7 +159,19 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
             self.update_stats("", label)
             if bpy.app.background:
                 print("ptir render: %s" % label, flush=True)
-            reply = session.engine.wait(rid, should_cancel=self.test_break)
+            started = time.monotonic()
+            shown = {"text": None}
+
+            def progress(f):
+                elapsed = time.monotonic() - started
+                eta = elapsed * (1.0 - f) / f if f > 0 else 0.0
+                text = "%s | %.0f%%, %.1f s elapsed, ETA %.1f s" % (label, 100.0 * f, elapsed, eta)
+                if text != shown["text"]:  # (blender -b prints every stats update)
+                    shown["text"] = text
+                    self.update_progress(f)
+                    self.update_stats("", text)
+
+            reply = session.engine.wait(rid, should_cancel=self.test_break, on_progress=progress)
         except PtirError as e:
             self._fail(str(e))
             return
