@@ -136,3 +136,16 @@ def test_transform_splats_equals_the_scene_file_transform(served, tmp_path):
     r = engine.wait(engine.send({"cmd": "transform_splats", "offset": 0, "count": 81,
                                  "matrix": skew.reshape(-1).tolist()}))
     assert not r["ok"] and "transform_splats" in r["error"]
+
+
+def test_stale_request_folders_are_removed(tmp_path):
+    """Folders of sessions whose Blender is gone (owner.pid not running) go when a new one starts."""
+    from ptir_blender.io import engine_process
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale, live = tmp_path / "ptir_engine_a", tmp_path / "ptir_engine_b"
+    for folder, pid in ((stale, dead.pid), (live, engine_process.os.getpid())):
+        folder.mkdir()
+        (folder / "owner.pid").write_text(str(pid))
+    engine_process.remove_stale_dirs(str(tmp_path), "ptir_engine_")
+    assert not stale.exists() and live.exists()

@@ -20,6 +20,7 @@ command in `sent_bytes`, so tests and benchmarks can show that an edit sends a d
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import tempfile
@@ -29,10 +30,43 @@ import time
 from ..errors import JobError
 
 
+def _pid_alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True  # exists, owned by someone else
+    return True
+
+
+def remove_stale_dirs(base, prefix):
+    """Removes folders `prefix*` in base left by Blender sessions that ended without cleaning up
+    (a crash, a kill): their owner.pid names a process that no longer exists."""
+    try:
+        names = [n for n in os.listdir(base) if n.startswith(prefix)]
+    except OSError:
+        return
+    for name in names:
+        folder = os.path.join(base, name)
+        try:
+            with open(os.path.join(folder, "owner.pid")) as f:
+                pid = int(f.read().strip())
+        except (OSError, ValueError):
+            continue
+        if not _pid_alive(pid):
+            shutil.rmtree(folder, ignore_errors=True)
+
+
 def bulk_dir(prefix="ptir_engine_"):
-    """A fresh folder for request files: in shared memory (/dev/shm) when the system has it."""
-    base = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
-    return tempfile.mkdtemp(prefix=prefix, dir=base)
+    """A fresh folder for request files: in shared memory (/dev/shm) when the system has it. It holds
+    owner.pid (this process), so a later session can remove it if this one ends without cleaning up."""
+    base = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else tempfile.gettempdir()
+    remove_stale_dirs(base, prefix)
+    folder = tempfile.mkdtemp(prefix=prefix, dir=base)
+    with open(os.path.join(folder, "owner.pid"), "w") as f:
+        f.write(str(os.getpid()))
+    return folder
 
 
 class EngineDied(JobError):
