@@ -56,6 +56,7 @@ ROWS = {
     "env_texel": ["--env-adam", "texel"],
     "lr_env": ["--lr-final", "0.1", "--env-adam", "shared"],
     "coarse": ["--env-coarse", "16"],
+    "no_coarse": ["--env-coarse", "0"],
     "coarse8": ["--env-coarse", "8"],
     "coarse32": ["--env-coarse", "32"],
     "coarse_lr": ["--env-coarse", "16", "--lr-final", "0.1"],

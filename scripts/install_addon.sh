@@ -52,3 +52,18 @@ if [ -e "$DEST" ]; then mv "$DEST" "$OLD"; fi
 mv "$STAGE" "$DEST"
 
 echo "install_addon: installed $DEST ($(basename "${modules[0]}")$([ -x "$DEST/bin/ptir" ] && echo ", bin/ptir"))"
+
+# Enable it in the user's preferences (saved), so sample files open with the PTIR engine
+# instead of silently falling back to Eevee. PTIR_NO_ENABLE=1 leaves the preferences alone.
+if [ -z "${PTIR_NO_ENABLE:-}" ]; then
+  if "$BLENDER" -b -noaudio --python-expr "
+import addon_utils, bpy, sys
+mod = addon_utils.enable('ptir_blender', default_set=True, persistent=True)
+if mod is None: sys.exit(1)
+bpy.ops.wm.save_userpref()
+print('PTIR_ENABLED')" 2>/dev/null | grep -q PTIR_ENABLED; then
+    echo "install_addon: enabled PTIR in Blender's preferences"
+  else
+    echo "install_addon: warning: could not enable the add-on; enable it in Edit > Preferences > Add-ons > PTIR" >&2
+  fi
+fi

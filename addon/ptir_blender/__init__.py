@@ -84,6 +84,8 @@ def register():
 def unregister():
     import bpy
     render_engine.unregister_compat_panels()
+    from .blender import engine_sync
+    engine_sync.shutdown()
     bpy.types.TOPBAR_MT_file_export.remove(io_ops.menu_export)
     bpy.types.TOPBAR_MT_file_import.remove(io_ops.menu_import)
     optimize_ops.stop_all_jobs()

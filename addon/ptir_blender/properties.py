@@ -58,6 +58,15 @@ class PTIRRenderSettings(bpy.types.PropertyGroup):
                          default=0.5, min=0.0, max=1.0)
     seed: IntProperty(name="Seed", description="Random seed (same seed, same image)", default=0, min=0)
     threads: IntProperty(name="Threads", description="Worker threads (0: all)", default=0, min=0)
+    viewport_samples: IntProperty(
+        name="Viewport Samples", description="Samples per pixel the Rendered viewport accumulates (1 per pass)",
+        default=16, min=1, soft_max=1024)
+    viewport_pixel_size: IntProperty(
+        name="Viewport Pixel Size", description="The Rendered viewport renders at 1/N of the view's resolution "
+        "(its first pass at a quarter of that)", default=2, min=1, max=16)
+    aov_passes: BoolProperty(
+        name="AOV Passes", description="F12 adds the render passes Depth, Normal, Albedo, Roughness, Metallic "
+        "and Opacity (for the compositor)", default=True)
 
 
 class PTIROptimizeSettings(bpy.types.PropertyGroup):

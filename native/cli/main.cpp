@@ -29,6 +29,7 @@ int run(int argc, char** argv, const ptir::Communicator& comm) {
   ptir::cli::Runner optimize = ptir::cli::add_optimize_command(app);
   ptir::cli::Runner eval = ptir::cli::add_eval_command(app);
   ptir::cli::Runner relight = ptir::cli::add_relight_command(app);
+  ptir::cli::Runner serve = ptir::cli::add_serve_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -45,6 +46,7 @@ int run(int argc, char** argv, const ptir::Communicator& comm) {
     if (app.got_subcommand("optimize")) return optimize();
     if (app.got_subcommand("eval")) return eval();
     if (app.got_subcommand("relight")) return relight();
+    if (app.got_subcommand("serve")) return serve();
   } catch (const ptir::Cancelled&) {
     std::fprintf(stderr, "ptir: cancelled\n");
     return 130;

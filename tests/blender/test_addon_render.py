@@ -46,7 +46,7 @@ def test_engine_renders_sample_blend_like_the_cli(tmp_path):
     assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
     stats = _stats(r, "RENDER_STATS")
     print("sample render: %s" % stats)
-    assert stats["engine_vs_cli_max_abs"] <= 1e-6
+    assert stats["engine_vs_cli_max_abs"] == 0.0
 
 
 def test_render_break_stops_the_engine_process(tmp_path):

@@ -290,6 +290,9 @@ def set_world_environment(scene, image_path, pack):
     image.name = "PTIR recovered environment"
     if pack:
         image.pack()
+        # The optimiser's temp folder goes away: name the file beside the .blend instead, where
+        # File > External Data > Unpack writes it.
+        image.filepath_raw = "//ptir_environment.exr"
     tex.image = image
     tex.projection = "EQUIRECTANGULAR"
     for l in list(tex.inputs["Vector"].links):

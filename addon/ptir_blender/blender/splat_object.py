@@ -335,7 +335,7 @@ def _euler_from_quaternion(b, q):
 def display_group():
     """The shared Geometry Nodes group that displays splats (built once per file)."""
     group = bpy.data.node_groups.get(DISPLAY_GROUP)
-    if group is not None and group.get("ptir_version") == 1:
+    if group is not None and group.get("ptir_version") == 2:
         return group
     if group is None:
         group = bpy.data.node_groups.new(DISPLAY_GROUP, "GeometryNodeTree")
@@ -346,7 +346,7 @@ def display_group():
         else:
             group.inputs.clear()
             group.outputs.clear()
-    group["ptir_version"] = 1
+    group["ptir_version"] = 2  # 2: the splat points are kept beside the instances (object bounds)
     _group_socket(group, "Geometry", "INPUT", "NodeSocketGeometry")
     _group_socket(group, "Fraction", "INPUT", "NodeSocketFloat", 1.0, 0.0, 1.0)
     _group_socket(group, "Size", "INPUT", "NodeSocketFloat", DEFAULT_DISPLAY_SIZE, 0.0, 100.0)
@@ -403,7 +403,12 @@ def display_group():
     else:
         b.feed(inst.inputs["Rotation"], _euler_from_quaternion(b, b.named("rotation", "FLOAT_COLOR")))
     b.feed(inst.inputs["Scale"], b.vmath("SCALE", b.named("scale", "FLOAT_VECTOR"), scale=size))
-    b.feed(gout.inputs[0], inst.outputs[0])
+    # The points themselves stay in the output (loose vertices draw nothing in Object Mode): without
+    # them the object's bounds, and so its Dimensions, would be zero (instances do not count).
+    join = b.node("GeometryNodeJoinGeometry")
+    b.feed(join.inputs[0], inst.outputs[0])
+    b.feed(join.inputs[0], geometry)
+    b.feed(gout.inputs[0], join.outputs[0])
     return group
 
 

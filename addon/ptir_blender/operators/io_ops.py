@@ -18,13 +18,45 @@ import time
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, CollectionProperty, FloatProperty, IntProperty, StringProperty
-from bpy_extras.io_utils import ExportHelper, ImportHelper
+from bpy_extras.io_utils import ExportHelper, ImportHelper, axis_conversion, orientation_helper
+from mathutils import Matrix, Vector
 
 from ..blender import splat_object
 from ..errors import PtirError
 from ..io import splat_ply
 
 
+def frame_views(context, objects):
+    """Points every 3D view at the splats (robust bounds: 1st-99th percentile of the world positions, so
+    stray floaters do not zoom out) and sets its clip range to fit. Splat objects' own bounding boxes
+    are empty (their display is instanced), so view_selected cannot do this."""
+    pts = []
+    for obj in objects:
+        n = len(obj.data.vertices)
+        co = np.empty(n * 3, np.float32)
+        obj.data.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)[:: max(1, n // 200000)]
+        m = np.array(obj.matrix_world, np.float64)
+        pts.append(co @ m[:3, :3].T + m[:3, 3])
+    pts = np.concatenate(pts)
+    lo, hi = np.percentile(pts, 1, axis=0), np.percentile(pts, 99, axis=0)
+    centre, radius = (lo + hi) / 2.0, max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-3)
+    screen = context.window.screen if context.window else None
+    for area in (screen.areas if screen else []):
+        if area.type != "VIEW_3D":
+            continue
+        space = area.spaces.active
+        r3d = space.region_3d
+        if r3d.view_perspective == "CAMERA":
+            r3d.view_perspective = "PERSP"
+        r3d.view_location = Vector(centre)
+        r3d.view_distance = radius * 3.0
+        space.clip_start = max(1e-4, radius * 1e-3)
+        space.clip_end = max(space.clip_end, radius * 50.0)
+    return centre, radius
+
+
+@orientation_helper(axis_forward="Y", axis_up="Z")
 class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
     """Import 3D Gaussian splats from a .ply file (3DGS, SuperSplat compressed), with PTIR materials"""
     bl_idname = "import_scene.gaussian_splat_ply"
@@ -41,6 +73,16 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
                                description="Show at most this many splats (a random subset; 0 = all)")
     display_size: FloatProperty(name="Splat Size", default=splat_object.DEFAULT_DISPLAY_SIZE, min=0.0,
                                 description="Ellipsoid radii in standard deviations")
+    global_scale: FloatProperty(name="Scale", default=1.0, min=1e-6, soft_min=1e-3, soft_max=1e3,
+                                description="Scale of the object (a capture in other units: 0.01 for centimetres)")
+    frame: BoolProperty(name="Frame in View", default=True,
+                        description="Point the 3D views at the splats and set their clip range to fit")
+
+    def _matrix(self):
+        """Object matrix: the file's axes (Forward / Up; trainers' captures are often Y-up or -Y-up) to
+        Blender's, times the scale. Applied as the object's transform, not baked into the splats."""
+        conv = axis_conversion(from_forward=self.axis_forward, from_up=self.axis_up).to_4x4()
+        return Matrix.Scale(self.global_scale, 4) @ conv
 
     def execute(self, context):
         paths = [os.path.join(self.directory, f.name) for f in self.files if f.name] if self.files else []
@@ -71,6 +113,7 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
                 self.report({"ERROR"}, str(e))
                 return {"CANCELLED"}
             obj["ptir_source"] = os.path.abspath(p)
+            obj.matrix_world = self._matrix()
             obj.ptir_splat.display_limit = int(self.display_limit)  # (updates the display modifier too)
             obj.ptir_splat.display_size = float(self.display_size)
             created.append(obj)
@@ -81,12 +124,19 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
         for o in created:
             o.select_set(True)
         context.view_layer.objects.active = created[-1]
+        if self.frame and not bpy.app.background:
+            frame_views(context, created)
         self.report({"INFO"}, "Imported %d splats" % sum(len(o.data.vertices) for o in created))
         return {"FINISHED"}
 
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
+        col = layout.column(heading="Transform")
+        col.prop(self, "axis_forward")
+        col.prop(self, "axis_up")
+        col.prop(self, "global_scale")
+        col.prop(self, "frame")
         layout.prop(self, "display")
         col = layout.column()
         col.enabled = self.display

@@ -14,7 +14,7 @@ import bpy
 import numpy as np
 from bpy.props import EnumProperty, FloatProperty, FloatVectorProperty, StringProperty
 
-from ..blender import splat_object
+from ..blender import engine_sync, splat_object
 from ..errors import PtirError
 
 
@@ -110,6 +110,8 @@ class PTIR_OT_edit_material(bpy.types.Operator):
         finally:
             if was_edit:
                 bpy.ops.object.mode_set(mode="EDIT")
+        if not was_edit:  # (leaving edit mode may also have written moved vertices)
+            engine_sync.session().note_material_edit(obj.name)
         self.report({"INFO"}, "%s of %d splats: %s" % (self.channel.capitalize(), count, self.operation.lower()))
         return {"FINISHED"}
 

@@ -1,23 +1,29 @@
-"""The PTIR render engine (Render Properties > Render Engine > PTIR; F12 / bpy.ops.render.render()).
+"""The PTIR render engine (Render Properties > Render Engine > PTIR; F12 and Viewport Shading > Rendered).
 
-Design: the engine path-traces through the command-line tool in a child
-process, not through the Python module in-process. A final render exports the
-scene (blender/scene_bridge.py: meshes, lights, world, camera via
-scene_export, plus the splat objects as world-space PLYs) to a temporary
-folder, runs `ptir render scene.json -o render.exr --camera <scene camera>
---spp/--bounces/--interaction/...`, follows its progress bar on stderr
-(update_progress; the status line shows the percentage and ETA), stops it when
-the user presses Esc (test_break), and loads the EXR into the render result.
-Why a child process: a native crash (out of memory, a bug in a new build) ends
-that process and is reported as an error, instead of taking Blender and the
-artist's unsaved work down; the scene export costs little next to the path
-tracing; and the engine does not depend on the native module matching
-Blender's Python (the CLI works with any Blender version). The image is the
-CLI's, pixel for pixel (tests/blender/test_addon_render.py checks this).
+Design: the engine runs in a child process, never in Blender's: the persistent
+`ptir serve` process of the session (blender/engine_sync.py; protocol in
+docs/engine_protocol.md) holds the loaded scene. Why a child process: a native
+crash (out of memory, a bug in a new build) ends that process and is reported,
+instead of taking Blender and the artist's unsaved work down; and the engine
+does not depend on the native module matching Blender's Python.
+
+F12 (render): the session's engine is brought up to date with deltas
+(engine_sync.sync: nothing is re-exported when nothing changed; lights, world
+and material edits are sent as such; geometry changes re-export and reload),
+then renders the scene camera, exported exactly as the scene file would hold it,
+at the PTIR settings: the image is the CLI's (`ptir render scene.json`) pixel for
+pixel (tests/blender/test_addon_render.py). Esc cancels the request. With
+Render Passes on, the AOVs (depth, normal, albedo, roughness, metallic, opacity)
+are added as render passes for the compositor. In blender -b the engine process
+is ended after the render (no viewport will reuse it).
+
+Viewport (view_update / view_draw): blender/viewport_render.py draws progressive
+passes from the same process; view_update sends the depsgraph's changes as
+deltas. When the engine is missing or died, the viewport says so and starts a
+new one on the next redraw.
 
 Film: with Film > Transparent off the alpha is 1 (as Cycles); with it on, the
 alpha is the coverage and pixels that no surface covers are (0, 0, 0, 0).
-Viewport "Rendered" shading uses Eevee (bl_use_eevee_viewport).
 """
 
 import os
@@ -28,9 +34,9 @@ import time
 import bpy
 import numpy as np
 
-from ..blender import scene_bridge, scene_export
+from ..blender import engine_sync, scene_bridge, scene_export, viewport_render
 from ..errors import PtirError
-from ..io import cli, scene_file
+from ..io import cli, engine_process, scene_file
 
 
 def _preferences():
@@ -76,12 +82,33 @@ def read_exr_pixels(path, width, height):
     return px.reshape(-1, 4)
 
 
+# AOV render passes: (Blender pass name, engine AOV, channels, channel ids, socket type, engine channels used).
+AOV_PASSES = (("Depth", "depth", 1, "Z", "VALUE", (0,)),
+              ("Normal", "normal", 3, "XYZ", "VECTOR", (0, 1, 2)),
+              ("Albedo", "albedo", 3, "RGB", "COLOR", (0, 1, 2)),
+              ("Roughness", "roughness", 1, "X", "VALUE", (0,)),
+              ("Metallic", "metallic", 1, "X", "VALUE", (0,)),
+              ("Opacity", "opacity", 1, "X", "VALUE", (0,)))
+
+
+def read_raw_pass(path, width, height, channels_used):
+    """Rows bottom-up (Blender's order) of the chosen channels of a raw engine image."""
+    px = np.fromfile(path, np.float32)
+    c = px.size // (width * height)
+    px = px.reshape(height, width, c)[::-1][..., list(channels_used)]
+    return np.ascontiguousarray(px.reshape(-1, len(channels_used)))
+
+
 class PTIRRenderEngine(bpy.types.RenderEngine):
     bl_idname = "PTIR"
     bl_label = "PTIR"
     bl_use_preview = False
-    bl_use_eevee_viewport = True
     bl_use_postprocess = True
+
+    def __init__(self):
+        self._viewport = None
+
+    # ------------------------------------------------------------------ F12
 
     def render(self, depsgraph):
         scene = depsgraph.scene
@@ -97,6 +124,14 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
                 print("ptir render: job files kept in %s" % job_dir)
             else:
                 shutil.rmtree(job_dir, ignore_errors=True)
+            if bpy.app.background:
+                engine_sync.shutdown()
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if scene is not None and scene.ptir_render.aov_passes:
+            for name, _, n, chans, kind, _ in AOV_PASSES:
+                self.register_pass(scene, renderlayer, name, n, chans, kind)
 
     def _fail(self, message):
         self.report({"ERROR"}, "PTIR: " + message)
@@ -105,45 +140,48 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
             print("ptir render: error: " + message, flush=True)
 
     def _render(self, depsgraph, scene, settings, width, height, job_dir):
-        self.update_stats("", "PTIR: exporting the scene")
-        warnings = []
-        try:
-            exe = cli_path()
-            camera = scene_bridge.scene_camera_name(scene)
-            scene_json, info = scene_bridge.export_engine_scene(
-                out_dir=job_dir, depsgraph=depsgraph, integrator=integrator_settings(settings), warnings=warnings)
-        except PtirError as e:
-            self._fail(str(e))
-            return
-        if self.test_break():
-            return
+        self.update_stats("", "PTIR: updating the engine's scene")
+        session = engine_sync.session()
         output = os.path.join(job_dir, "render.exr")
-        args = render_args(exe, scene_json, output, camera, settings)
+        aovs = {a: os.path.join(job_dir, a + ".raw") for _, a, *_ in AOV_PASSES} if settings.aov_passes else {}
         try:
-            job = cli.ChildJob(args, parse=cli.parse_render_progress, echo=False,
-                               log_path=os.path.join(job_dir, "render.log"))
+            with session.lock:
+                session.ensure(cli_path(), threads=settings.threads)
+                sync = session.sync(depsgraph, integrator_settings(settings), exact=True)
+                warnings = []
+                camera = scene_export.camera_entry(scene.camera, scene, warnings) if scene.camera else None
+                if camera is None:
+                    scene_bridge.scene_camera_name(scene)  # raises the message
+                request = {"cmd": "render", "camera": camera, "output": output, "aovs": aovs}
+                rid = session.engine.send(request)
+            label = "PTIR: %d spp, %d bounces%s" % (settings.spp, settings.bounces,
+                                                   "" if sync["load"] else " (scene unchanged: no re-export)")
+            self.update_stats("", label)
+            if bpy.app.background:
+                print("ptir render: %s" % label, flush=True)
+            started = time.monotonic()
+            shown = {"text": None}
+
+            def progress(f):
+                elapsed = time.monotonic() - started
+                eta = elapsed * (1.0 - f) / f if f > 0 else 0.0
+                text = "%s | %.0f%%, %.1f s elapsed, ETA %.1f s" % (label, 100.0 * f, elapsed, eta)
+                if text != shown["text"]:  # (blender -b prints every stats update)
+                    shown["text"] = text
+                    self.update_progress(f)
+                    self.update_stats("", text)
+
+            reply = session.engine.wait(rid, should_cancel=self.test_break, on_progress=progress)
         except PtirError as e:
             self._fail(str(e))
             return
-        splats = sum(c for _, _, c in info["splats"])
-        label = "PTIR: %d spp, %d bounces, %d splats" % (settings.spp, settings.bounces, splats)
-        last_print, last_text = 0.0, None
-        while job.poll() is None:
-            if self.test_break():
-                job.cancel(grace=2.0)
-                self.update_stats("", "PTIR: cancelled")
-                return
-            text = "%s | %s" % (label, job.progress.text or "loading the scene")
-            if text != last_text:  # (blender -b prints every stats update)
-                last_text = text
-                self.update_progress(job.progress.fraction)
-                self.update_stats("", text)
-            if bpy.app.background and time.monotonic() - last_print > 2.0 and job.progress.text:
-                last_print = time.monotonic()
-                print("ptir render: %s" % job.progress.text, flush=True)
-            time.sleep(0.05)
-        if job.proc.returncode != 0 or not os.path.exists(output):
-            self._fail("render failed: %s" % job.error_message())
+        if reply.get("cancelled"):
+            self.update_stats("", "PTIR: cancelled")
+            if bpy.app.background:
+                engine_sync.shutdown()
+            return
+        if not reply.get("ok"):
+            self._fail("render failed: %s" % reply.get("error"))
             return
         try:
             px = read_exr_pixels(output, width, height)
@@ -155,13 +193,79 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
         else:
             px[:, 3] = 1.0
         result = self.begin_result(0, 0, width, height)
-        result.layers[0].passes["Combined"].rect = px
+        layer = result.layers[0]
+        layer.passes["Combined"].rect = px
+        for name, aov, _, _, _, used in AOV_PASSES:
+            if aov in aovs and layer.passes.find(name) >= 0:
+                layer.passes[name].rect = read_raw_pass(aovs[aov], width, height, used)
         self.end_result(result)
         self.update_progress(1.0)
         if bpy.app.background:
             print("ptir render: done (%dx%d)" % (width, height), flush=True)
-        for w in warnings:
+        for w in session.warnings:
             self.report({"WARNING"}, "PTIR export: " + w)
+
+    # ------------------------------------------------------------------ viewport
+
+    def _view(self):
+        if self._viewport is None:
+            self._viewport = viewport_render.ViewportRender(self)
+        return self._viewport
+
+    def view_update(self, context, depsgraph):
+        session = engine_sync.session()
+        if not session.alive():
+            return  # view_draw starts it (and says why when it cannot)
+        changed, data, world = set(), set(), False
+        for u in depsgraph.updates:
+            idv = u.id
+            if isinstance(idv, bpy.types.Object):
+                name = idv.original.name if idv.original else idv.name
+                changed.add(name)
+                if u.is_updated_geometry or u.is_updated_shading:
+                    data.add(name)
+            elif isinstance(idv, (bpy.types.World,)):
+                world = True
+        try:
+            with session.lock:
+                res = session.sync(depsgraph, integrator_settings(depsgraph.scene.ptir_render),
+                                   changed=changed, world_changed=world, data_changed=data)
+        except PtirError as e:
+            self._view().message = str(e)
+            return
+        if res["sent"]:
+            self._view().scene_changed()
+
+    def view_draw(self, context, depsgraph):
+        vr = self._view()
+        session = engine_sync.session()
+        settings = depsgraph.scene.ptir_render
+        if not session.alive():
+            if session.engine is not None:
+                # It died: say so on this redraw; the next one starts a new process.
+                vr.message = session.engine.death_message() + " (restarting on the next redraw)"
+                session.stop()
+                vr.restart()
+                self.update_stats("", "PTIR: " + vr.message)
+                viewport_render.schedule_redraw(vr, 0.5)
+                return
+            try:
+                with session.lock:
+                    session.ensure(cli_path(), threads=settings.threads)
+                    session.sync(depsgraph, integrator_settings(settings))
+                vr.message = ""
+                vr.scene_changed()
+            except PtirError as e:
+                # Said in the header; the next redraw (any change, or moving the view) tries again.
+                vr.message = viewport_render.engine_missing_message(e)
+                self.update_stats("", "PTIR: " + vr.message)
+                return
+        try:
+            text = vr.draw(context, depsgraph, session, settings.viewport_samples, settings.viewport_pixel_size)
+        except engine_process.EngineDied:
+            viewport_render.schedule_redraw(vr, 0.05)
+            return
+        self.update_stats("", text)
 
 
 # Built-in panels that also show for PTIR: the generic ones (COMPAT_ENGINES with
@@ -169,7 +273,7 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
 # that edit what the engine reads (materials, world, lights).
 _EXTRA_PANELS = ("EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface", "EEVEE_MATERIAL_PT_settings",
                  "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light", "DATA_PT_EEVEE_light_distance",
-                 "RENDER_PT_film")
+                 "RENDER_PT_film")  # (RENDER_PT_film is Blender 4.x's; 3.x gets ui/panels.RENDER_PT_ptir_film)
 # DATA_PT_light duplicates DATA_PT_EEVEE_light; Freestyle lines are not rendered by the engine.
 _EXCLUDED_PANELS = ("VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes", "DATA_PT_light")
 _compat_added = []

@@ -29,6 +29,34 @@ class RENDER_PT_ptir_sampling(bpy.types.Panel):
         col.prop(s, "tau_g")
         col.prop(s, "seed")
         col.prop(s, "threads")
+        col = layout.column(heading="Viewport")
+        col.prop(s, "viewport_samples", text="Samples")
+        col.prop(s, "viewport_pixel_size", text="Pixel Size")
+        layout.prop(s, "aov_passes")
+
+
+class RENDER_PT_ptir_film(bpy.types.Panel):
+    """Film under PTIR (Blender 3.x has no engine-neutral Film panel; Eevee's shows settings PTIR ignores)."""
+    bl_label = "Film"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+    COMPAT_ENGINES = {"PTIR"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(context.scene.render, "film_transparent", text="Transparent")
+        cy = getattr(context.scene, "cycles", None)
+        if cy is not None and hasattr(cy, "pixel_filter_type"):
+            layout.prop(cy, "pixel_filter_type", text="Pixel Filter")
+            layout.prop(cy, "filter_width", text="Width")
 
 
 class _SidebarPanel:
@@ -60,7 +88,7 @@ class VIEW3D_PT_ptir_splats(_SidebarPanel, bpy.types.Panel):
         box.label(text="%s splats, SH degree %d" % (format(len(mesh.vertices), ","), sh))
         s = obj.ptir_splat
         col = layout.column()
-        col.use_property_split = True
+        col.use_property_split = False  # the sidebar is narrow: a split cuts the labels
         col.use_property_decorate = False
         col.prop(s, "display")
         col.prop(s, "display_size")
@@ -79,7 +107,7 @@ class VIEW3D_PT_ptir_materials(_SidebarPanel, bpy.types.Panel):
         obj = context.active_object
         s = context.scene.ptir_edit
         col = layout.column()
-        col.use_property_split = True
+        col.use_property_split = False
         col.use_property_decorate = False
         col.prop(s, "channel")
         col.prop(s, "operation")
@@ -120,8 +148,12 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             layout.operator("ptir.optimize", text="Optimise", icon="PLAY")
             if s.status:
                 layout.label(text=s.status, icon="INFO")
+        meshes = [o for o in context.visible_objects if o.type == "MESH" and not splat_object.is_splat_object(o)]
+        if meshes:
+            layout.label(text="%d visible mesh%s take part (shadows, bounces)" % (len(meshes), "es" if len(meshes) > 1 else ""),
+                         icon="INFO")
         col = layout.column()
-        col.use_property_split = True
+        col.use_property_split = False
         col.use_property_decorate = False
         col.enabled = not s.running
         col.prop(s, "source")
@@ -156,4 +188,4 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
         col.prop(s, "output_dir")
 
 
-classes = (RENDER_PT_ptir_sampling, VIEW3D_PT_ptir_splats, VIEW3D_PT_ptir_materials, VIEW3D_PT_ptir_optimize)
+classes = (RENDER_PT_ptir_sampling, RENDER_PT_ptir_film, VIEW3D_PT_ptir_splats, VIEW3D_PT_ptir_materials, VIEW3D_PT_ptir_optimize)

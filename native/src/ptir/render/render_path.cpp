@@ -33,7 +33,7 @@ Ray camera_sample(const Camera& camera, const PixelFilterSampler& filter, uint64
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control, PathStats* stats, std::vector<Vec3>* sample_radiance,
-                  bool transparent_film) {
+                  bool transparent_film, uint32_t first_sample) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
   if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
   const PixelFilterSampler filter(settings.filter);
@@ -52,10 +52,13 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
         Vec3 sum(0.0f);
         float covered = 0.0f;
         for (int s = 0; s < settings.spp; ++s) {
+          // Cancellation within a pixel too: at high sample counts one tile can take minutes.
+          if ((s & 15) == 15 && control.cancel && control.cancel->load(std::memory_order_relaxed)) return;
           uint64_t pixel;
-          Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
+          const uint32_t index = first_sample + uint32_t(s);
+          Ray ray = camera_sample(camera, filter, settings.seed, x, y, int(index), &pixel);
           float c = 0.0f;
-          Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
+          Vec3 L = tracer.sample_radiance(ray, pixel, index, settings, &c, &local);
           if (sample_radiance) (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s] = L;
           if (!transparent_film || c > 0.0f) sum += L;
           covered += c;

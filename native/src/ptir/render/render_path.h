@@ -17,9 +17,13 @@ namespace ptir {
 // render_path_backward, which then skips recomputing them.
 // transparent_film (Cycles' Film > Transparent): samples whose camera ray finds no
 // surface add nothing to RGB, so RGB is premultiplied by the coverage A.
+// first_sample: the pixels' sample indices are first_sample .. first_sample + spp - 1
+// (a progressive render adds passes of the same sequence: the mean of passes
+// [0, a) and [a, b) weighted by their counts is the b-sample render, up to float rounding).
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control = {}, PathStats* stats = nullptr,
-                  std::vector<Vec3>* sample_radiance = nullptr, bool transparent_film = false);
+                  std::vector<Vec3>* sample_radiance = nullptr, bool transparent_film = false,
+                  uint32_t first_sample = 0);
 
 // Path replay backpropagation of a whole image: d_image (same size as the image,
 // >= 3 channels: the adjoint dLoss/dI of each pixel's RGB) is pushed through every

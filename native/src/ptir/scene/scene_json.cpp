@@ -473,6 +473,19 @@ Scene scene_from_json_string(const std::string& text, const std::string& base_di
   return parse_scene(root, ctx);
 }
 
+MeshMaterial mesh_material_from_json_string(const std::string& text, const std::string& name) {
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw Error(name, std::string("invalid JSON: ") + e.what());
+  }
+  Ctx ctx{name, ""};
+  Node n{root, "", ctx};
+  n.expect_object();
+  return parse_material(n, name);
+}
+
 Scene load_scene_json(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open scene file");

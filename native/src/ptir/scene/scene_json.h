@@ -26,6 +26,11 @@ Scene load_scene_json(const std::string& path);
 // current folder); `name` stands for the file in messages.
 Scene scene_from_json_string(const std::string& text, const std::string& base_dir, const std::string& name = "scene");
 
+// A mesh material from the JSON text of a scene file's "material" object (the
+// same rules and messages as in a meshes entry); `name` stands for the text in
+// messages and is the material's default name. For edits of a loaded scene.
+MeshMaterial mesh_material_from_json_string(const std::string& text, const std::string& name);
+
 // Applies a row-major 4x4 affine transform to a Gaussian field in place:
 // positions, rotations, scales and normals. The linear part must be a rotation
 // (mirrors allowed) times a uniform scale; anything else (non-uniform scale,

@@ -1,0 +1,216 @@
+"""The live PTIR viewport (Viewport Shading > Rendered): progressive passes from the persistent engine.
+
+A ViewportRender belongs to one RenderEngine instance (one 3D view). Each view
+state (view matrix, projection, region size, scene generation) starts a
+sequence of passes sent to the engine one at a time:
+
+  pass 0:   1 spp at 1/(4 * pixel size) resolution (first pixels fast)
+  pass k>0: 1 spp at 1/(pixel size) resolution, sample index k - 1, accumulated
+            (the running mean of passes 1..k is the k-spp render of that view)
+
+until Viewport Samples is reached. A change (camera move, edit) cancels the pass
+in flight and starts over. Replies are read on the engine's reader thread; a
+timer (bpy.app.timers, main thread) tags the view for redraw when one arrives,
+so nothing polls while the engine works. Pixels come back as raw float32 RGBA
+files in /dev/shm and go to the GPU as one texture (no per-pixel Python).
+"""
+
+import math
+import os
+import time
+import weakref
+
+import bpy
+import gpu
+import numpy as np
+from gpu_extras.presets import draw_texture_2d
+
+from ..errors import PtirError
+from ..io import engine_process
+
+FIRST_PASS_DIVIDER = 4
+
+_active = weakref.WeakSet()
+
+
+def _poll_timer():
+    """Main-thread timer: redraws views whose engine answered; stops when none waits."""
+    waiting = False
+    for vr in list(_active):
+        try:
+            if vr.reply_ready():
+                vr.tag()
+            waiting = waiting or vr.busy()
+        except ReferenceError:
+            continue
+    return 0.03 if waiting else None
+
+
+def _ensure_timer():
+    if not bpy.app.timers.is_registered(_poll_timer):
+        bpy.app.timers.register(_poll_timer, first_interval=0.03)
+
+
+def view_camera(region, rv3d, divider):
+    """The engine's "view" camera of a 3D view at 1/divider resolution (None for orthographic views)."""
+    if not rv3d.is_perspective:
+        return None
+    w = max(1, int(math.ceil(region.width / divider)))
+    h = max(1, int(math.ceil(region.height / divider)))
+    p = rv3d.window_matrix
+    c2w = rv3d.view_matrix.inverted()
+    # NDC x = P00 * x/(-z) - P02 (likewise y); pixel u = (x_ndc + 1) w / 2, v = (1 - y_ndc) h / 2.
+    return {"c2w": [float(c2w[r][c]) for r in range(4) for c in range(4)],
+            "fx": 0.5 * w * p[0][0], "fy": 0.5 * h * p[1][1],
+            "cx": 0.5 * w * (1.0 - p[0][2]), "cy": 0.5 * h * (1.0 + p[1][2]), "width": w, "height": h}
+
+
+class ViewportRender:
+    def __init__(self, engine):
+        self._engine_ref = weakref.ref(engine)
+        self.key = None
+        self.generation = 0     # bumped by every scene change sent
+        self.passes = 0         # passes received for the current key
+        self.samples = 0        # accumulated samples (full resolution passes)
+        self.pending = None     # (request id, pass index, key, output file)
+        self.accum = None       # float32 (h, w, 4) sum of the full-resolution passes
+        self.texture = None
+        self.texture_size = None
+        self.started = time.monotonic()
+        self.first_pixels_s = None  # seconds from the restart to the first pass shown
+        self.first_pixels_at = None  # time.monotonic() of that moment
+        self.message = ""
+        self.session = None
+        _active.add(self)
+
+    # ---------------------------------------------------------------- state
+
+    def tag(self):
+        engine = self._engine_ref()
+        if engine is not None:
+            engine.tag_redraw()
+
+    def busy(self):
+        return self.pending is not None
+
+    def reply_ready(self):
+        if self.pending is None or self.session is None or self.session.engine is None:
+            return False
+        if not self.session.engine.alive():
+            return True
+        return self.session.engine.reply(self.pending[0], pop=False) is not None
+
+    def restart(self):
+        """Forget the accumulated passes; cancels the pass in flight."""
+        if self.pending is not None and self.session is not None and self.session.alive():
+            self.session.engine.cancel(self.pending[0])
+        self.pending = None
+        self.passes = 0
+        self.samples = 0
+        self.accum = None
+        self.started = time.monotonic()
+        self.first_pixels_s = None
+
+    def scene_changed(self):
+        self.generation += 1
+        self.key = None
+
+    # ---------------------------------------------------------------- draw
+
+    def draw(self, context, depsgraph, session, target_samples, pixel_size):
+        """One view_draw: takes an arrived pass, sends the next, draws the texture. Returns the status text."""
+        self.session = session
+        region, rv3d = context.region, context.region_data
+        full = view_camera(region, rv3d, pixel_size)
+        if full is None:
+            return "PTIR: orthographic views are not supported in the viewport (use a perspective view)"
+        key = (tuple(full["c2w"]), full["fx"], full["fy"], full["cx"], full["cy"], full["width"], full["height"],
+               self.generation)
+        if key != self.key:
+            self.restart()
+            self.key = key
+        self._collect()
+        if self.pending is None and self.samples < target_samples:
+            first = self.passes == 0
+            cam = view_camera(region, rv3d, pixel_size * FIRST_PASS_DIVIDER) if first else full
+            out = session.file("view.raw")
+            rid = session.engine.send({"cmd": "render", "view": cam, "spp": 1,
+                                       "first_sample": 0 if first else self.samples, "output": out})
+            self.pending = (rid, self.passes, key, out, cam["width"], cam["height"])
+            _ensure_timer()
+        self._draw_texture(region)
+        return self._status(target_samples)
+
+    def _collect(self):
+        if self.pending is None:
+            return
+        rid, index, key, out, w, h = self.pending
+        reply = self.session.engine.reply(rid)  # raises EngineDied when the process ended
+        if reply is None:
+            return
+        self.pending = None
+        try:
+            if key != self.key or not reply.get("ok"):
+                if not reply.get("ok") and not reply.get("cancelled"):
+                    self.message = reply.get("error", "render failed")
+                return
+            px = np.fromfile(out, np.float32).reshape(h, w, 4)
+        finally:
+            if os.path.exists(out):
+                os.remove(out)
+        self.message = ""
+        if index == 0:
+            self._upload(px, 1)
+        else:
+            self.accum = px.copy() if self.accum is None else self.accum + px
+            self.samples += 1
+            self._upload(self.accum, self.samples)
+        if self.first_pixels_s is None:
+            self.first_pixels_at = time.monotonic()
+            self.first_pixels_s = self.first_pixels_at - self.started
+        self.passes += 1
+
+    def _upload(self, px, n):
+        h, w = px.shape[:2]
+        rgba = px[::-1] * (1.0 / n)  # top row first -> OpenGL's bottom row first
+        rgba[..., 3] = 1.0
+        buf = gpu.types.Buffer("FLOAT", rgba.size, np.ascontiguousarray(rgba, np.float32).reshape(-1))
+        self.texture = gpu.types.GPUTexture((w, h), format="RGBA16F", data=buf)
+        self.texture_size = (w, h)
+
+    def _draw_texture(self, region):
+        if self.texture is None:
+            return
+        engine = self._engine_ref()
+        gpu.state.blend_set("ALPHA_PREMULT")
+        engine.bind_display_space_shader(bpy.context.scene)
+        draw_texture_2d(self.texture, (0, 0), region.width, region.height)
+        engine.unbind_display_space_shader()
+        gpu.state.blend_set("NONE")
+
+    def _status(self, target):
+        if self.message:
+            return "PTIR: " + self.message
+        t = time.monotonic() - self.started
+        if self.samples >= target:
+            return "PTIR: %d/%d samples, %.1f s (done)" % (self.samples, target, t)
+        if self.samples == 0:
+            return "PTIR: preview, %.1f s" % t
+        return "PTIR: %d/%d samples, %.1f s" % (self.samples, target, t)
+
+
+def schedule_redraw(vr, seconds):
+    """Redraws vr's view after `seconds` (main-thread timer)."""
+    ref = weakref.ref(vr)
+
+    def fire():
+        v = ref()
+        if v is not None:
+            v.tag()
+        return None
+
+    bpy.app.timers.register(fire, first_interval=seconds)
+
+
+def engine_missing_message(error):
+    return "PTIR engine unavailable: %s" % error

@@ -1,0 +1,339 @@
+#include "serve_session.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <vector>
+
+#include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
+#include "ptir/io/image.h"
+#include "ptir/render/aov.h"
+#include "ptir/render/render_path.h"
+#include "ptir/scene/camera.h"
+#include "ptir/scene/scene_json.h"
+#include "ptir/transport/orient_normals.h"
+
+namespace ptir::cli {
+
+namespace {
+
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+const json& require(const json& request, const char* key) {
+  if (!request.contains(key)) throw Error(std::string("request needs \"") + key + "\"");
+  return request.at(key);
+}
+
+std::string string_of(const json& request, const char* key) {
+  const json& v = require(request, key);
+  if (!v.is_string()) throw Error(std::string("request: \"") + key + "\" must be a string");
+  return v.get<std::string>();
+}
+
+int64_t integer_of(const json& request, const char* key, int64_t fallback, int64_t lo, int64_t hi) {
+  if (!request.contains(key)) return fallback;
+  const json& v = request.at(key);
+  if (!v.is_number_integer() || v.get<int64_t>() < lo || v.get<int64_t>() > hi)
+    throw Error(std::string("request: \"") + key + "\" must be an integer in [" + std::to_string(lo) + ", " +
+                std::to_string(hi) + "]");
+  return v.get<int64_t>();
+}
+
+float number_of(const json& request, const char* key) {
+  const json& v = require(request, key);
+  if (!v.is_number()) throw Error(std::string("request: \"") + key + "\" must be a number");
+  return v.get<float>();
+}
+
+// A scene document of the given parts, read by the scene-file reader (one
+// parser for files and edits: the same checks and messages).
+Scene parse_parts(const json& parts, const std::string& base_dir) {
+  return scene_from_json_string(parts.dump(), base_dir, "request");
+}
+
+size_t triangle_count(const Scene& s) {
+  size_t n = 0;
+  for (const TriangleMesh& m : s.meshes) n += m.triangles.size();
+  return n;
+}
+
+// "view": a pinhole from the viewport's matrices (any principal point: the 3D
+// view's camera frame can be off-centre), sized as the request asks.
+Camera view_camera(const json& v) {
+  const json& m = require(v, "c2w");
+  if (!m.is_array() || m.size() != 16) throw Error("request: view.c2w must hold 16 numbers (row-major)");
+  float c2w[16];
+  for (int i = 0; i < 16; ++i) {
+    if (!m.at(size_t(i)).is_number()) throw Error("request: view.c2w must hold 16 numbers (row-major)");
+    c2w[i] = m.at(size_t(i)).get<float>();
+  }
+  const int w = int(integer_of(v, "width", 0, 1, 16384)), h = int(integer_of(v, "height", 0, 1, 16384));
+  if (w == 0 || h == 0) throw Error("request: view needs width and height");
+  return make_pinhole_camera(c2w, number_of(v, "fx"), number_of(v, "fy"), number_of(v, "cx"), number_of(v, "cy"), w, h,
+                             "view");
+}
+
+// The render's camera: a scene-file camera object ("camera", parsed as the CLI
+// parses the file), a camera of the loaded scene by name ("camera_name"), or the
+// viewport's ("view").
+Camera request_camera(const json& request, const Scene& scene, const std::string& base_dir) {
+  if (request.contains("view")) return view_camera(request.at("view"));
+  if (request.contains("camera")) {
+    Scene part = parse_parts(json{{"cameras", json::array({request.at("camera")})}}, base_dir);
+    return part.cameras.at(0);
+  }
+  return scene.camera(request.contains("camera_name") ? string_of(request, "camera_name") : "");
+}
+
+// Raw float32 RGBA, top row first, no header (the viewport reads it with numpy).
+void write_raw(const std::string& path, const Image& image) {
+  io::write_bytes_atomic(path, image.pixels.data(), image.pixels.size() * sizeof(float));
+}
+
+bool ends_with_exr(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".exr";
+}
+
+std::vector<float> read_floats(const std::string& path, size_t count) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open");
+  std::vector<float> v(count);
+  in.read(reinterpret_cast<char*>(v.data()), std::streamsize(count * sizeof(float)));
+  if (size_t(in.gcount()) != count * sizeof(float))
+    throw Error(path, "holds " + std::to_string(in.gcount()) + " bytes, expected " + std::to_string(count * sizeof(float)));
+  return v;
+}
+
+}  // namespace
+
+const PathTracer& ServeSession::tracer() const {
+  if (!tracer_) throw Error("no scene loaded (send \"load\" first)");
+  return *tracer_;
+}
+
+json ServeSession::handle(const json& request, const std::atomic<bool>* cancel,
+                          const std::function<void(const json&)>& notify) {
+  json reply = {{"ok", true}};
+  if (request.contains("id")) reply["id"] = request.at("id");
+  const auto t0 = Clock::now();
+  uint64_t bytes_in = 0;
+  try {
+    if (!request.is_object() || !request.contains("cmd") || !request.at("cmd").is_string())
+      throw Error("a request is a JSON object with a \"cmd\" string");
+    const std::string cmd = request.at("cmd").get<std::string>();
+    json out;
+    if (cmd == "load") out = load(request);
+    else if (cmd == "update") out = update(request);
+    else if (cmd == "mesh_material") out = mesh_material(request);
+    else if (cmd == "splat_materials") out = splat_materials(request, &bytes_in);
+    else if (cmd == "transform_splats") out = transform_splats(request);
+    else if (cmd == "render") out = render(request, cancel, notify);
+    else if (cmd == "status") out = status();
+    else throw Error("unknown request \"" + cmd + "\" (load, update, mesh_material, splat_materials, transform_splats, "
+                     "render, status, cancel, quit)");
+    reply.update(out);
+  } catch (const Cancelled&) {
+    reply["ok"] = false;
+    reply["cancelled"] = true;
+  } catch (const std::exception& e) {
+    reply["ok"] = false;
+    reply["error"] = e.what();
+  }
+  reply["seconds"] = seconds_since(t0);
+  reply["bulk_bytes_in"] = bytes_in;
+  return reply;
+}
+
+// Reads the scene file as `ptir render scene.json` does (normals oriented to the
+// scene's cameras) and builds the acceleration structure. The old scene stays
+// loaded when the new one fails.
+json ServeSession::load(const json& request) {
+  const std::string path = string_of(request, "scene");
+  const auto t0 = Clock::now();
+  auto scene = std::make_unique<Scene>(load_scene_json(path));
+  orient_scene_normals(*scene);
+  const double load_s = seconds_since(t0);
+  const auto t1 = Clock::now();
+  auto tracer = std::make_unique<PathTracer>(*scene);
+  tracer_.reset();
+  scene_ = std::move(scene);
+  tracer_ = std::move(tracer);
+  scene_path_ = path;
+  ++builds_;
+  json reply = status();
+  reply["load_s"] = load_s;
+  reply["build_s"] = seconds_since(t1);
+  return reply;
+}
+
+// Lights, world and integrator settings: the parts present replace the loaded
+// ones ("environment": null removes the world). Geometry is untouched.
+json ServeSession::update(const json& request) {
+  tracer();
+  const json& parts = require(request, "scene");
+  if (!parts.is_object()) throw Error("request: \"scene\" must be an object (scene-file keys)");
+  for (auto it = parts.begin(); it != parts.end(); ++it)
+    if (it.key() != "lights" && it.key() != "environment" && it.key() != "integrator" && it.key() != "brdf")
+      throw Error("request: update takes lights, environment, integrator and brdf; \"" + it.key() +
+                  "\" changes geometry (send \"load\")");
+  json doc = parts;
+  if (doc.contains("environment") && doc["environment"].is_null()) doc.erase("environment");
+  const std::string base = std::filesystem::path(scene_path_).parent_path().string();
+  Scene part = parse_parts(doc, request.contains("base_dir") ? string_of(request, "base_dir") : base);
+  json changed = json::array();
+  if (parts.contains("lights")) {
+    scene_->emitters = std::move(part.emitters);
+    scene_->emitter_visible_camera = std::move(part.emitter_visible_camera);
+    changed.push_back("lights");
+  }
+  if (parts.contains("environment")) {
+    scene_->environment = std::move(part.environment);
+    changed.push_back("environment");
+  }
+  if (parts.contains("integrator") || parts.contains("brdf")) {
+    scene_->integrator = part.integrator;
+    changed.push_back("integrator");
+  }
+  return {{"changed", changed}, {"builds", builds_}};
+}
+
+// One mesh's material, by the mesh's name in the scene file.
+json ServeSession::mesh_material(const json& request) {
+  tracer();
+  const std::string name = string_of(request, "mesh");
+  for (TriangleMesh& m : scene_->meshes)
+    if (m.name == name) {
+      m.material = mesh_material_from_json_string(require(request, "material").dump(), "request: mesh '" + name + "'");
+      return {{"builds", builds_}};
+    }
+  throw Error("request: the loaded scene has no mesh named '" + name + "'");
+}
+
+// Per-splat material values of Gaussians [offset, offset + count): the file holds
+// float32 albedo (count x 3), then roughness (count), then metallic (count).
+json ServeSession::splat_materials(const json& request, uint64_t* bytes_in) {
+  tracer();
+  GaussianField& f = *scene_->gaussians;
+  const int64_t offset = integer_of(request, "offset", 0, 0, int64_t(f.size()));
+  const int64_t count = integer_of(request, "count", int64_t(f.size()) - offset, 0, int64_t(f.size()) - offset);
+  const size_t n = size_t(count);
+  std::vector<float> v = read_floats(string_of(request, "file"), n * 5);
+  *bytes_in = v.size() * sizeof(float);
+  for (size_t i = 0; i < n; ++i) {
+    const size_t g = size_t(offset) + i;
+    f.albedo[g] = Vec3(v[i * 3], v[i * 3 + 1], v[i * 3 + 2]);
+    f.roughness[g] = v[n * 3 + i];
+    f.metallic[g] = v[n * 4 + i];
+  }
+  return {{"builds", builds_}};
+}
+
+// Gaussians [offset, offset + count) moved by a row-major 4x4 similarity (the
+// rule of a scene file's "transform": transform_gaussians), then the acceleration
+// structure rebuilt. The add-on sends an object's new world matrix times the
+// inverse of the old one.
+json ServeSession::transform_splats(const json& request) {
+  tracer();
+  GaussianField& f = *scene_->gaussians;
+  const size_t offset = size_t(integer_of(request, "offset", 0, 0, int64_t(f.size())));
+  const size_t count = size_t(integer_of(request, "count", 0, 0, int64_t(f.size() - offset)));
+  const json& m = require(request, "matrix");
+  if (!m.is_array() || m.size() != 16) throw Error("request: \"matrix\" must hold 16 numbers (row-major)");
+  float mat[16];
+  for (size_t i = 0; i < 16; ++i) {
+    if (!m.at(i).is_number()) throw Error("request: \"matrix\" must hold 16 numbers (row-major)");
+    mat[i] = m.at(i).get<float>();
+  }
+  GaussianField part;  // the range's geometry (what transform_gaussians changes)
+  const auto first = std::ptrdiff_t(offset), last = std::ptrdiff_t(offset + count);
+  part.position.assign(f.position.begin() + first, f.position.begin() + last);
+  part.scale.assign(f.scale.begin() + first, f.scale.begin() + last);
+  part.rotation.assign(f.rotation.begin() + first, f.rotation.begin() + last);
+  part.normal.assign(f.normal.begin() + first, f.normal.begin() + last);
+  transform_gaussians(part, mat, "request: transform_splats");
+  std::copy(part.position.begin(), part.position.end(), f.position.begin() + first);
+  std::copy(part.scale.begin(), part.scale.end(), f.scale.begin() + first);
+  std::copy(part.rotation.begin(), part.rotation.end(), f.rotation.begin() + first);
+  std::copy(part.normal.begin(), part.normal.end(), f.normal.begin() + first);
+  f.source = io::PlyFile();
+  const auto t0 = Clock::now();
+  tracer_ = std::make_unique<PathTracer>(*scene_);
+  ++builds_;
+  return {{"builds", builds_}, {"build_s", seconds_since(t0)}};
+}
+
+// Path-traced colour, exactly as `ptir render` computes it for the same camera
+// and settings; "first_sample" starts a progressive pass further along the
+// pixels' sample sequence. Optional AOVs (1 spp, pixel centres, as the CLI's default).
+json ServeSession::render(const json& request, const std::atomic<bool>* cancel,
+                          const std::function<void(const json&)>& notify) {
+  const PathTracer& pt = tracer();
+  const std::string base = std::filesystem::path(scene_path_).parent_path().string();
+  Camera camera = request_camera(request, *scene_, base);
+  if (request.contains("width") || request.contains("height")) {
+    const int w = int(integer_of(request, "width", camera.width, 1, 16384));
+    const int h = int(integer_of(request, "height", camera.height, 1, 16384));
+    camera = camera.resized(w, h);
+  }
+  IntegratorSettings settings = scene_->integrator;
+  settings.spp = int(integer_of(request, "spp", settings.spp, 1, 1 << 20));
+  const uint32_t first = uint32_t(integer_of(request, "first_sample", 0, 0, (1 << 24) - (1 << 20)));
+  const bool transparent = request.value("transparent", false);
+  const std::string output = string_of(request, "output");
+  RenderControl control;
+  control.cancel = cancel;
+  // Progress lines at most 4 times a second (render_path calls this under its lock).
+  auto last = Clock::now();
+  if (notify && request.contains("id"))
+    control.progress = [&](float f) {
+      if (f < 1.0f && std::chrono::duration<double>(Clock::now() - last).count() < 0.25) return;
+      last = Clock::now();
+      notify({{"id", request.at("id")}, {"progress", f}});
+    };
+  PathStats stats;
+  Image image = render_path(pt, camera, settings, control, &stats, nullptr, transparent, first);
+  if (ends_with_exr(output)) write_image(output, image, Encoding::Colour);
+  else write_raw(output, image);
+  json reply = {{"width", camera.width}, {"height", camera.height}, {"spp", settings.spp}, {"first_sample", first},
+                {"paths", stats.paths}, {"bytes_out", image.pixels.size() * sizeof(float)}};
+  if (request.contains("aovs")) {
+    const json& aovs = request.at("aovs");
+    if (!aovs.is_object()) throw Error("request: \"aovs\" must map AOV names to output files");
+    AovSettings as;
+    as.seed = settings.seed;
+    as.filter = settings.filter;
+    as.interaction = settings.interaction;
+    for (auto it = aovs.begin(); it != aovs.end(); ++it) {
+      const Aov aov = parse_aov(it.key());
+      Image a = render_aov(pt.accel(), camera, aov, as, control);
+      if (!it.value().is_string()) throw Error("request: aovs." + it.key() + " must be a file name");
+      const std::string path = it.value().get<std::string>();
+      if (ends_with_exr(path)) write_image(path, a, aov_encoding(aov));
+      else write_raw(path, a);
+      reply["aov_channels"][it.key()] = a.channels;
+    }
+  }
+  return reply;
+}
+
+json ServeSession::status() const {
+  json s = {{"loaded", bool(tracer_)}, {"builds", builds_}};
+  if (scene_) {
+    s["scene"] = scene_path_;
+    s["gaussians"] = scene_->gaussians->size();
+    s["triangles"] = triangle_count(*scene_);
+    s["meshes"] = scene_->meshes.size();
+    s["lights"] = scene_->emitters.size();
+  }
+  return s;
+}
+
+}  // namespace ptir::cli

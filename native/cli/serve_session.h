@@ -1,0 +1,51 @@
+// `ptir serve`: a persistent engine holding one loaded scene (Gaussians, meshes,
+// lights, world, acceleration structure) and answering requests, one JSON object
+// per line (the protocol: docs/engine_protocol.md). The Blender add-on keeps one
+// such child process per session for its viewport and F12 renders.
+//
+// What a request costs: "update" (lights, world, integrator), "mesh_material" and
+// "splat_materials" change the loaded scene in place (the acceleration structure
+// holds geometry only, so it is kept); "load" reads a scene file and rebuilds
+// everything (geometry changed). Bulk data (splat attributes, images) travels in
+// files the request names, never inside the JSON line.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "ptir/scene/scene.h"
+#include "ptir/transport/path_tracer.h"
+
+namespace ptir::cli {
+
+class ServeSession {
+ public:
+  // Answers one request (never throws: errors become {"ok": false, "error": ...}).
+  // cancel: raised by the request reader while this request runs (a "cancel" line).
+  // notify: sends an interim line (render progress: {"id": ..., "progress": f}).
+  nlohmann::json handle(const nlohmann::json& request, const std::atomic<bool>* cancel,
+                        const std::function<void(const nlohmann::json&)>& notify = {});
+
+ private:
+  nlohmann::json load(const nlohmann::json& request);
+  nlohmann::json update(const nlohmann::json& request);
+  nlohmann::json mesh_material(const nlohmann::json& request);
+  nlohmann::json splat_materials(const nlohmann::json& request, uint64_t* bytes_in);
+  nlohmann::json transform_splats(const nlohmann::json& request);
+  nlohmann::json render(const nlohmann::json& request, const std::atomic<bool>* cancel,
+                        const std::function<void(const nlohmann::json&)>& notify);
+  nlohmann::json status() const;
+  const PathTracer& tracer() const;
+
+  std::unique_ptr<Scene> scene_;
+  std::unique_ptr<PathTracer> tracer_;
+  std::string scene_path_;
+  uint64_t builds_ = 0;  // acceleration structures built (one per load)
+};
+
+}  // namespace ptir::cli
