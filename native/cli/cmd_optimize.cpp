@@ -232,6 +232,8 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--lambda-tv", o->opt.lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
+  cmd->add_flag("--learn-exposure", o->opt.learn_exposure,
+                "learn one exposure scale per training image (photos without EXIF exposure); OUT/exposure.json");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);
   add_capture_flags(cmd, &o->capture);

@@ -11,6 +11,7 @@ settings; the recovered per-Gaussian albedo is scored against the truth
 
 import json
 import math
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -20,27 +21,12 @@ import pytest
 
 from blender_kit import look_at
 from ptir_testing import REPO, write_splat_ply
+from test_optimize_cli import fibonacci, quat_z_to
 
 sys.path.insert(0, str(REPO / "scripts"))
 from dataset import capture  # noqa: E402
 
 RES, N_VIEWS, FOV_X = 40, 16, 0.7
-
-
-def fibonacci(n):
-    i = np.arange(n) + 0.5
-    z = 1 - 2 * i / n
-    r = np.sqrt(1 - z * z)
-    phi = i * math.pi * (3 - math.sqrt(5))
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
-
-
-def quat_z_to(n):
-    q = np.zeros((len(n), 4))
-    for k, v in enumerate(n):
-        c, d = np.cross([0, 0, 1.0], v), v[2]
-        q[k] = (0, 1, 0, 0) if d < -0.999999 else np.array([1 + d, *c]) / np.linalg.norm([1 + d, *c])
-    return q
 
 
 @pytest.fixture(scope="module")
@@ -139,3 +125,28 @@ def test_every_layout_recovers_the_same_albedo(ptir, cli, capture_dirs, tmp_path
     start = aligned_psnr(np.full_like(truth, 0.3), truth)
     assert min(psnr.values()) > start + 3.0, (psnr, start)  # it did recover something
     assert max(psnr.values()) - min(psnr.values()) < 0.3, psnr
+
+
+def test_learned_exposure_finds_darker_photos(ptir, cli, capture_dirs, tmp_path):
+    """--learn-exposure: four training photos 0.6x as bright (linear) come out with
+    exposure ~0.6 relative to the others (the mean log exposure is held at 0)."""
+    root = tmp_path / "nerf"
+    shutil.copytree(capture_dirs["layouts"]["nerf"], root)
+    dark = ["view_01", "view_02", "view_03", "view_04"]
+    for n in dark:
+        f = root / "images" / (n + ".png")
+        img = ptir.read_image(str(f))
+        img[..., :3] *= 0.6
+        ptir.write_image(str(f), img)
+    out = tmp_path / "res"
+    r = subprocess.run([str(cli), "optimize", "--dataset", str(root), "--gaussians", str(capture_dirs["ply"]), "--out",
+                        str(out), "--iters", "90", "--spp", "4", "--bounces", "1", "--env", "latlong", "--env-size",
+                        "16x8", "--threads", "2", "--seed", "3", "-q", "--learn-exposure"], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    e = json.loads((out / "exposure.json").read_text())
+    assert sorted(e) == sorted("view_%02d" % i for i in range(N_VIEWS) if i % 8)  # training views only
+    assert abs(sum(math.log(v) for v in e.values())) < 1e-3
+    ratio = np.mean([e[n] for n in dark]) / np.mean([v for n, v in e.items() if n not in dark])
+    print("learned exposure: darkened / others %.3f (truth 0.6); %s" % (ratio, {k: round(v, 3) for k, v in e.items()}))
+    assert 0.5 < ratio < 0.72, e

@@ -92,6 +92,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"env_init", ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()},
       {"env_optimised", ps.optimize_env ? "1" : "0"},
       {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
+      {"exposure", ps.learn_exposure ? "learned" : "fixed"},
       {"lr", num(ps.lr_albedo) + " " + num(ps.lr_roughness) + " " + num(ps.lr_metallic) + " " + num(ps.lr_env) + " " +
                  num(ps.lr_mesh)},
       {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},

@@ -55,6 +55,8 @@ struct ParameterSettings {
   bool optimize_env = true;              // false: the environment is held fixed
   int sg_lobes = 24;
   bool optimize_meshes = false;          // mesh materials of a --scene, one set per mesh
+  bool learn_exposure = false;           // one log-exposure per training view (optim/exposure.h)
+  float lr_exposure = 0.03f;
   // Adam learning rates (PTIR code).
   float lr_albedo = 0.035f, lr_roughness = 0.025f, lr_metallic = 0.035f, lr_env = 0.035f, lr_mesh = 0.035f;
 };
@@ -68,7 +70,8 @@ enum class ParamKind {
   Environment = 3,
   MeshColour = 5,
   MeshRoughness = 6,
-  MeshMetallic = 7
+  MeshMetallic = 7,
+  Exposure = 8  // per-view log exposure (optim/exposure.h), added by the optimiser
 };
 const char* param_kind_name(ParamKind k);
 
