@@ -127,6 +127,7 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
         col.prop(s, "source")
         if s.source == "DATASET":
             col.prop(s, "dataset_dir")
+            col.operator("ptir.import_capture_cameras", icon="OUTLINER_OB_CAMERA")
         col.prop(s, "split")
         col.prop_search(s, "splat_object", context.scene, "objects", text="Splats")
         col.prop(s, "env")
