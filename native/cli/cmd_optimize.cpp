@@ -41,6 +41,7 @@
 #include "filter_flags.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
+#include "ptir/optim/iteration_estimate.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"
@@ -154,6 +155,14 @@ int run_optimize(const OptimizeCommand& o, const CLI::App& cmd) {
                  opt.scene().gaussians->size(), data->size(), data->split.c_str(), data->width, data->height,
                  data->has_priors() ? " (with priors)" : "", o.opt.iters, o.opt.spp, o.opt.bounces, o.opt.env.c_str(),
                  (unsigned long long)o.opt.seed);
+  if (!o.quiet && opt.iteration() < opt.settings().iterations) {  // measured on a probe window (iteration_estimate.h)
+    const IterationEstimate est = estimate_iteration(opt);
+    std::fprintf(stderr, "optimize: estimated %.2f s/iter, %s for %d iterations (probe %d pixels at %d spp: %.2f + %.2f us per "
+                 "path sample, primal + replay)\n", est.seconds,
+                 duration_text(est.seconds * (opt.settings().iterations - opt.iteration())).c_str(),
+                 opt.settings().iterations - opt.iteration(), est.probe_pixels, est.probe_spp,
+                 1e6 * est.primal_per_sample, 1e6 * est.replay_per_sample);
+  }
 
   g_interrupted.store(false);
   auto previous = std::signal(SIGINT, on_sigint);
