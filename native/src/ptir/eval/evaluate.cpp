@@ -17,6 +17,7 @@
 #include "ptir/io/atomic_file.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/render/aov.h"
+#include "ptir/render/render_path.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
 #include "ptir/scene/scene_json.h"
@@ -276,7 +277,12 @@ void evaluate_view(EvalRun& run, size_t i) {
   const fs::path vdir = run.out / view_folder(i);
   make_folder(vdir);
   const auto t0 = Clock::now();
-  Image rgba = render_transparent(tracer, cam, run.is, s.control);
+  std::shared_ptr<const TrainingImage> gt = run.data->target(i);
+  // A capture without masks is unbounded: its photos show the environment behind the Gaussians, and
+  // the render does too (rgba.exr then holds straight colour with the coverage as A); with a mask
+  // or alpha, the object on a transparent film composited over white (METHOD §7).
+  const bool unbounded = !gt->has_alpha;
+  Image rgba = unbounded ? render_path(tracer, cam, run.is, s.control) : render_transparent(tracer, cam, run.is, s.control);
   Image albedo = render_aov(tracer.accel(), cam, Aov::Albedo, run.as, s.control);
   Image rough = render_aov(tracer.accel(), cam, Aov::Roughness, run.as, s.control);
   Image metal = render_aov(tracer.accel(), cam, Aov::Metallic, run.as, s.control);
@@ -289,11 +295,13 @@ void evaluate_view(EvalRun& run, size_t i) {
   write_image((vdir / "normal.exr").string(), normal);
 
   json v = {{"view", view_folder(i)}, {"camera", cam.name}};
-  std::shared_ptr<const TrainingImage> gt = run.data->target(i);
   const Image mask = foreground_mask(gt->alpha);
   const Image show = union_mask(mask, rgba);
-  const Image ours_rgb = unpremultiply(rgba);
-  const Image ours_disp = composite_srgb(ours_rgb, &rgba);
+  Image ours_rgb = unbounded ? Image(rgba.width, rgba.height, {"R", "G", "B"}) : unpremultiply(rgba);
+  if (unbounded)
+    for (size_t p = 0, n = size_t(rgba.width) * rgba.height; p < n; ++p)
+      for (int c = 0; c < 3; ++c) ours_rgb.pixels[3 * p + c] = rgba.pixels[4 * p + c];
+  const Image ours_disp = composite_srgb(ours_rgb, unbounded ? nullptr : &rgba);
   const Image gt_disp = composite_srgb(gt->rgb, &gt->alpha);
   double p = capped(psnr(ours_disp, gt_disp)), q = ssim(ours_disp, gt_disp);
   run.nvs_psnr.push_back(p);
