@@ -443,7 +443,8 @@ std::string report_markdown(const EvalRun& run, const json& m) {
   md << (run.have_albedo
              ? fmt(json(scale[0]), "%.4f") + " " + fmt(json(scale[1]), "%.4f") + " " + fmt(json(scale[2]), "%.4f")
              : std::string("n/a (no albedo ground truth)"))
-     << ".\n\nProtocol (METHOD §7): NVS/relight compare sRGB display values composited over white, whole image; "
+     << ".\n\nProtocol (METHOD §7): NVS/relight compare sRGB display values composited over white, whole image "
+        "(photos without masks: against the render with the environment behind); "
         "albedo PSNR over foreground pixels (gt alpha > 0.5) after the scale, in sRGB (linear: "
      << fmt(m["albedo_psnr_linear"], "%.2f")
      << " dB); roughness MSE over the whole image with the background zeroed; normal MAE over foreground pixels. "
