@@ -81,6 +81,9 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
         description="Also recover the materials ticked below (Principled BSDF base colour, roughness, metallic)")
     optimize_metallic: BoolProperty(name="Metallic", default=False,
                                     description="Also recover metallic (otherwise it stays 0)")
+    learn_exposure: BoolProperty(name="Learn Exposure", default=False,
+                                 description="Learn one exposure scale per photo (photos without EXIF exposure "
+                                             "that differ in brightness)")
     env: EnumProperty(
         name="Environment", description="Model of the recovered environment light",
         items=[("latlong", "Lat-long", "A lat-long texture"),

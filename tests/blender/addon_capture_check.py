@@ -72,10 +72,12 @@ def optimise(spec, work, splats, name):
     s.splat_object = splats
     s.iterations, s.spp, s.bounces = 15, 2, 1
     s.env, s.env_width, s.env_height = "latlong", 16, 8
+    s.learn_exposure = True
     s.output_dir = os.path.join(work, name)
     before = splat_object.read_data_from_object(splats).albedo.copy()
     r = bpy.ops.ptir.optimize()
     h.check(r == {"FINISHED"}, "optimise (%s): %s" % (name, s.status))
+    h.check(os.path.isfile(os.path.join(s.output_dir, "exposure.json")), "Learn Exposure reaches the engine")
     after = splat_object.read_data_from_object(splats).albedo
     h.check(np.abs(after - before).max() > 0.01, "albedo written back (%s)" % name)
     return after.copy()

@@ -194,6 +194,8 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
         args += ["--scene", scene_json]
     if want_meshes:
         args.append("--optimize-meshes")
+    if settings.learn_exposure:
+        args.append("--learn-exposure")
     if settings.optimize_metallic:
         args.append("--optimize-metallic")
     if settings.threads > 0:

@@ -137,6 +137,7 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             row.prop(s, "env_height", text="")
         col.prop(s, "write_environment")
         col.prop(s, "optimize_metallic")
+        col.prop(s, "learn_exposure")
         col.prop(s, "optimize_meshes")
         if s.optimize_meshes:
             mats = sorted({slot.material for o in context.scene.objects if o.type == "MESH" and not o.hide_render
