@@ -42,14 +42,12 @@ def checker_sky(w=1024, h=512):
     return (0.08 + 0.85 * sq * (0.35 + 0.65 * ramp)).astype(np.float32)
 
 
-def render_frames(ptir, folder, frames, w, h, env):
+def render_frames(ptir, folder, frames, w, h):
     """Pinhole renders of frames (dicts with transform_matrix, fl_x, fl_y, cx, cy) at w x h."""
     (folder / "cams.json").write_text(json.dumps({"camera_angle_x": 1.0, "w": w, "h": h, "frames": frames}))
     # One tiny Gaussian far behind everything: the scene needs a field; the sky is what is seen.
-    g = ptir.load_gaussians(str(folder / "g.ply"))
     scene = ptir.scene_from_dict({"gaussians": [{"file": "g.ply"}], "environment": {"type": "latlong", "file": "sky.exr"},
                                   "cameras": [{"transforms": "cams.json"}]}, base_dir=str(folder))
-    del g
     return [scene.render(i, spp=4, bounces=0)[..., :3] for i in range(len(frames))]
 
 
@@ -84,7 +82,7 @@ def main():
         c2w[:3, :3] /= np.linalg.norm(c2w[:3, :3], axis=0)
         big.append({"file_path": Path(fr["file_path"]).stem, "transform_matrix": c2w.tolist(), "fl_x": SS * fx,
                     "fl_y": SS * fy, "cx": SS * (cx + m), "cy": SS * (cy + m)})
-    renders = render_frames(ptir, work, big, SS * (w + 2 * m), SS * (h + 2 * m), None)
+    renders = render_frames(ptir, work, big, SS * (w + 2 * m), SS * (h + 2 * m))
     cap = work / "capture"
     (cap / "images").mkdir(parents=True)
     lens = ("OPENCV", [SS * fx, SS * fy, SS * (cx + m), SS * (cy + m), *dist])
@@ -103,7 +101,7 @@ def main():
     subprocess.run([str(Path(a.build) / "bin" / "ptir"), "cameras", "--dataset", str(cap), "-o",
                     str(work / "undistorted.json")], check=True)
     und = json.loads((work / "undistorted.json").read_text())
-    ref = render_frames(ptir, work, und["frames"], und["w"], und["h"], None)
+    ref = render_frames(ptir, work, und["frames"], und["w"], und["h"])
     rows, lines = [], []
     for fr, photo, r in zip(und["frames"], photos, ref):
         got = np.clip(ptir.read_image(fr["file_path"], linear=False)[..., :3], 0, 1)

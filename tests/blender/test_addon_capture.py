@@ -9,7 +9,6 @@ moved (the cameras follow it through `ptir cameras`).
 
 import json
 import math
-import sys
 
 import numpy as np
 import pytest

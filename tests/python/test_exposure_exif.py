@@ -8,7 +8,6 @@ way a camera's JPEGs carry them.
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
