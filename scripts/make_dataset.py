@@ -8,6 +8,7 @@ Run inside Blender 3.4 (headless):
         --out DIR [--blend FILE] [--res 100] [--train 16] [--test 8] [--spp 64] [--bounces 4]
         [--subdiv 2] [--train-env studio] [--relight-envs sunset,sky] [--env-size 128x64]
         [--threads N] [--save-blend FILE] [--textured] [--metal-fraction F] [--texture-seed N]
+        [--capture-layouts]
 
 The object: with --blend, the mesh objects of the file's collection "PTIR_Object"
 (else every renderable mesh); without, the bundled sample built in code
@@ -28,6 +29,11 @@ Writes (docs/dataset_format.md has the conventions):
     DIR/oracle/gaussians.ply, oracle/env.exr          a perfect "result" (true materials, face normals,
                                                       training environment) for checking the evaluation
     DIR/dataset.json                                  what was made, with which settings
+    DIR/capture/{nerf,colmap_bin,colmap_txt,nerfstudio}/  with --capture-layouts: every training-environment
+                                                      view (train and test) as a photographed capture in each
+                                                      layout PTIR reads, the COLMAP and nerfstudio ones through
+                                                      a distorted OPENCV lens, with masks
+                                                      (scripts/dataset/capture.py)
 """
 
 import argparse
@@ -43,7 +49,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
-from dataset import envmaps, exr, png, scene as dscene, splat, textures  # noqa: E402
+from dataset import capture, envmaps, exr, png, scene as dscene, splat, textures  # noqa: E402
 
 
 def parse_args():
@@ -65,6 +71,9 @@ def parse_args():
     p.add_argument("--textured", action="store_true", help="noise-textured base colour and roughness per polygon")
     p.add_argument("--metal-fraction", type=float, default=0.0, help="with --textured: fraction of metallic polygons")
     p.add_argument("--texture-seed", type=int, default=1, help="with --textured: the pattern's seed")
+    p.add_argument("--capture-layouts", action="store_true",
+                   help="also write the views as a capture in every layout (DIR/capture/: NeRF, COLMAP bin and txt "
+                        "with an OPENCV lens, nerfstudio)")
     a = p.parse_args(argv)
     a.relight_envs = [e for e in a.relight_envs.split(",") if e]
     for name in [a.train_env] + a.relight_envs:
@@ -271,6 +280,10 @@ def main():
     t_render = time.time()
     n_renders = 0
     jobs = [(a.train_env, "train"), (a.train_env, "test")] + [(e, "test") for e in a.relight_envs]
+    f = 0.5 * a.res / np.tan(0.5 * dscene.FOV_X)
+    intrinsics = (f, f, 0.5 * a.res, 0.5 * a.res)
+    train_env_map = envmaps.make_envmap(a.train_env, a.env_w, a.env_h)
+    capture_views = []
     for env, split in jobs:
         kit.set_environment(scene, env_files[env])
         for i, m in enumerate(poses[split]):
@@ -285,9 +298,15 @@ def main():
             write_rgba_png(os.path.join(view_dir, name), rgba)
             if split == "test" and env == a.train_env:
                 write_gt_pngs(view_dir, passes, rgba[..., 3])
+            if a.capture_layouts and env == a.train_env:
+                photo = capture.composite_over_environment(rgba, m, intrinsics, train_env_map)
+                capture_views.append(("%s_%03d" % (split, i), m, photo, rgba[..., 3]))
             log("%s_%03d/%s (%.1f s)" % (split, i, name, time.time() - t0))
     shutil.rmtree(tmp, ignore_errors=True)
     render_s = time.time() - t_render
+    if a.capture_layouts:
+        made = capture.write_capture_layouts(os.path.join(out, "capture"), capture_views, intrinsics)
+        log("capture layouts: " + ", ".join(sorted(made)))
 
     # The surface as Gaussians, and the oracle result.
     g, inexact = object_splats(objs)

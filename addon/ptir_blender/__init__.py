@@ -39,11 +39,11 @@ except ImportError:  # pragma: no cover - outside Blender
 
 if bpy is not None:
     from . import properties
-    from .operators import io_ops, material_ops, optimize_ops, render_engine
+    from .operators import capture_ops, io_ops, material_ops, optimize_ops, render_engine
     from .ui import panels
 
     # Registered in order, unregistered in reverse (Blender convention).
-    classes = (properties.classes + io_ops.classes + material_ops.classes + optimize_ops.classes
+    classes = (properties.classes + io_ops.classes + material_ops.classes + optimize_ops.classes + capture_ops.classes
                + render_engine.classes + panels.classes)
 else:
     classes = ()

@@ -72,13 +72,16 @@ class PTIRRenderSettings(bpy.types.PropertyGroup):
 class PTIROptimizeSettings(bpy.types.PropertyGroup):
     source: EnumProperty(
         name="Views", description="Where the training images and camera poses come from",
-        items=[("DATASET", "Dataset Folder", "A folder with transforms_<split>.json and the images"),
+        items=[("DATASET", "Dataset Folder", "A capture folder: NeRF (transforms_<split>.json), COLMAP, 3DGS output "
+                                             "or nerfstudio"),
                ("CAMERAS", "Scene Cameras", "The scene's cameras, each with an image (custom property "
                                             "'ptir_image' or its first background image)")],
         default="DATASET")
-    dataset_dir: StringProperty(name="Dataset", description="Folder with transforms_train.json and the images",
+    dataset_dir: StringProperty(name="Dataset", description="Capture folder: NeRF (transforms_train.json), COLMAP "
+                                "(sparse/0), 3DGS output (cameras.json) or nerfstudio (transforms.json)",
                                 subtype="DIR_PATH")
-    split: StringProperty(name="Split", description="Dataset split: reads transforms_<split>.json", default="train")
+    split: StringProperty(name="Split", description="Dataset split: NeRF reads transforms_<split>.json; other captures "
+                                                 "hold out every 8th photo (train, test or all)", default="train")
     splat_object: PointerProperty(
         name="Splats", type=bpy.types.Object, description="The splat object whose materials are recovered",
         poll=lambda self, obj: splat_object.is_splat_object(obj))
@@ -87,6 +90,9 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
         description="Also recover the materials ticked below (Principled BSDF base colour, roughness, metallic)")
     optimize_metallic: BoolProperty(name="Metallic", default=False,
                                     description="Also recover metallic (otherwise it stays 0)")
+    learn_exposure: BoolProperty(name="Learn Exposure", default=False,
+                                 description="Learn one exposure scale per photo (photos without EXIF exposure "
+                                             "that differ in brightness)")
     env: EnumProperty(
         name="Environment", description="Model of the recovered environment light",
         items=[("latlong", "Lat-long", "A lat-long texture"),

@@ -13,6 +13,7 @@ struct CaptureFlags {
   std::string layout = "auto", images, test_list, undistort_cache, dataparser_transforms, world = "auto";
   int holdout = 8;
   bool black_background = false;
+  bool ignore_exif = false;
 };
 
 inline void add_capture_flags(CLI::App* cmd, CaptureFlags* f) {
@@ -27,6 +28,8 @@ inline void add_capture_flags(CLI::App* cmd, CaptureFlags* f) {
                   "nerfstudio: splatfacto's dataparser_transforms.json (cameras into its Gaussians' frame)");
   cmd->add_option("--world", f->world, "nerfstudio world frame: auto, data, dataparser, colmap")->capture_default_str();
   cmd->add_flag("--black-background", f->black_background, "pixels that are exactly black are background (not supervised)");
+  cmd->add_flag("--ignore-exif", f->ignore_exif,
+                "real captures: do not divide the photos by their EXIF exposure (ExposureTime x ISO / FNumber^2)");
 }
 
 inline void apply_capture_flags(const CaptureFlags& f, DatasetOptions& d) {
@@ -38,6 +41,7 @@ inline void apply_capture_flags(const CaptureFlags& f, DatasetOptions& d) {
   d.dataparser_transforms = f.dataparser_transforms;
   d.world = f.world;
   d.black_background = f.black_background;
+  d.exif_exposure = !f.ignore_exif;
 }
 
 }  // namespace ptir::cli

@@ -48,6 +48,7 @@
 #include "job_stop.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
+#include "ptir/optim/iteration_estimate.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"
@@ -179,6 +180,14 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
                  (unsigned long long)o.opt.seed);
   if (!o.quiet && comm.size() > 1)
     std::fprintf(stderr, "optimize: %d MPI ranks, each view split in row bands across them\n", comm.size());
+  if (!o.quiet && opt.iteration() < opt.settings().iterations) {  // measured on a probe window (iteration_estimate.h)
+    const IterationEstimate est = estimate_iteration(opt);
+    std::fprintf(stderr, "optimize: estimated %.2f s/iter, %s for %d iterations (probe %d pixels at %d spp: %.2f + %.2f us per "
+                 "path sample, primal + replay)\n", est.seconds,
+                 duration_text(est.seconds * (opt.settings().iterations - opt.iteration())).c_str(),
+                 opt.settings().iterations - opt.iteration(), est.probe_pixels, est.probe_spp,
+                 1e6 * est.primal_per_sample, 1e6 * est.replay_per_sample);
+  }
 
   g_interrupted.store(false);
   auto previous = std::signal(SIGINT, on_sigint);
@@ -282,6 +291,8 @@ Runner add_optimize_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
+  cmd->add_flag("--learn-exposure", o->opt.learn_exposure,
+                "learn one exposure scale per training image (photos without EXIF exposure); OUT/exposure.json");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);
   add_capture_flags(cmd, &o->capture);

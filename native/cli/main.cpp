@@ -30,6 +30,7 @@ int run(int argc, char** argv, const ptir::Communicator& comm) {
   ptir::cli::Runner eval = ptir::cli::add_eval_command(app);
   ptir::cli::Runner relight = ptir::cli::add_relight_command(app);
   ptir::cli::Runner serve = ptir::cli::add_serve_command(app);
+  ptir::cli::Runner cameras = ptir::cli::add_cameras_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -47,6 +48,7 @@ int run(int argc, char** argv, const ptir::Communicator& comm) {
     if (app.got_subcommand("eval")) return eval();
     if (app.got_subcommand("relight")) return relight();
     if (app.got_subcommand("serve")) return serve();
+    if (app.got_subcommand("cameras")) return cameras();
   } catch (const ptir::Cancelled&) {
     std::fprintf(stderr, "ptir: cancelled\n");
     return 130;

@@ -71,3 +71,16 @@ def make_envmap(name, width=128, height=64):
         mu = direction(az, el)
         img = img + np.asarray(colour) * np.exp(sharp * (d @ mu - 1.0))[..., None]
     return img.astype(np.float32)
+
+
+def lookup(env, dirs):
+    """Radiance of a lat-long map (H, W, 3) in the directions dirs (..., 3): the texel
+    containing each direction (the inverse of texel_directions' mapping)."""
+    h, w = env.shape[:2]
+    d = np.asarray(dirs, np.float64)
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    theta = np.arccos(np.clip(d[..., 2], -1.0, 1.0))
+    u = (0.5 - np.arctan2(d[..., 1], d[..., 0]) / (2.0 * math.pi)) % 1.0
+    x = np.minimum((u * w).astype(int), w - 1)
+    y = np.minimum((theta / math.pi * h).astype(int), h - 1)
+    return env[y, x]

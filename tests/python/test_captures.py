@@ -22,9 +22,8 @@ import pytest
 
 from ptir_testing import CLI, MODULE_DIR, REPO, write_splat_ply
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(MODULE_DIR))
-import capture_layouts as cl  # noqa: E402
+from dataset import layouts as cl  # noqa: E402  (scripts/dataset: ptir_testing put scripts/ on sys.path)
 import ptir  # noqa: E402  (the build's module; the conftest fixture does the same)
 
 W, H = 48, 36

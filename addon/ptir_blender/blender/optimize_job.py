@@ -23,7 +23,7 @@ import os
 import bpy
 import numpy as np
 
-from ..io import dataset_file, scene_file, splat_ply, splat_transform
+from ..io import capture_cameras, dataset_file, scene_file, splat_ply, splat_transform
 from . import scene_bridge, scene_export, splat_object
 from ..errors import OptimizeError
 
@@ -142,12 +142,18 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
         if not src_dir or not os.path.isdir(src_dir):
             raise OptimizeError("dataset folder '%s' does not exist" % settings.dataset_dir)
         transforms = os.path.join(src_dir, "transforms_%s.json" % split)
-        if not os.path.isfile(transforms):
-            raise OptimizeError("dataset folder '%s' has no transforms_%s.json" % (src_dir, split))
         if np.allclose(job.matrix, np.eye(4), atol=0.0, rtol=0.0):
-            dataset_dir = src_dir
+            dataset_dir = src_dir  # any layout the engine reads (NeRF, COLMAP, 3DGS output, nerfstudio)
         else:
             _check_views_can_follow(obj, job.matrix)
+            if not capture_cameras.is_nerf_folder(src_dir, split):
+                # A capture in another layout: its cameras (pinhole, undistorted photos) as a NeRF file to move.
+                # Masks and EXIF exposure are not carried by that file.
+                transforms = os.path.join(views_dir, "capture_%s.json" % split)
+                os.makedirs(views_dir, exist_ok=True)
+                capture_cameras.export_cameras(cli_exe, src_dir, transforms, split)
+                job.warnings.append("the capture's cameras follow the moved object; its masks and EXIF exposure are "
+                                    "not used (optimise with the object at the identity to use them)")
             dataset_file.transform_dataset(transforms, os.path.join(views_dir, "transforms_%s.json" % split),
                                            job.matrix)
             dataset_dir = views_dir
@@ -188,6 +194,8 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
         args += ["--scene", scene_json]
     if want_meshes:
         args.append("--optimize-meshes")
+    if settings.learn_exposure:
+        args.append("--learn-exposure")
     if settings.optimize_metallic:
         args.append("--optimize-metallic")
     if settings.threads > 0:

@@ -159,6 +159,7 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
         col.prop(s, "source")
         if s.source == "DATASET":
             col.prop(s, "dataset_dir")
+            col.operator("ptir.import_capture_cameras", icon="OUTLINER_OB_CAMERA")
         col.prop(s, "split")
         col.prop_search(s, "splat_object", context.scene, "objects", text="Splats")
         col.prop(s, "env")
@@ -168,6 +169,7 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             row.prop(s, "env_height", text="")
         col.prop(s, "write_environment")
         col.prop(s, "optimize_metallic")
+        col.prop(s, "learn_exposure")
         col.prop(s, "optimize_meshes")
         if s.optimize_meshes:
             mats = sorted({slot.material for o in context.scene.objects if o.type == "MESH" and not o.hide_render

@@ -20,6 +20,7 @@
 #include "ptir/scene/dataset.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/row_bands.h"
+#include "ptir/render/render_path.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
 #include "ptir/scene/scene_json.h"
@@ -292,11 +293,17 @@ void evaluate_view(EvalRun& run, size_t i) {
   const fs::path vdir = run.out / view_folder(i);
   make_folder(vdir);
   const auto t0 = Clock::now();
+  std::shared_ptr<const TrainingImage> gt = run.data->target(i);
+  // A capture without masks is unbounded: its photos show the environment behind the Gaussians, and
+  // the render does too (rgba.exr then holds straight colour with the coverage as A); with a mask
+  // or alpha, the object on a transparent film composited over white (METHOD §7).
+  const bool unbounded = !gt->has_alpha;
   auto aov = [&](Aov a) {
     return render_split(run, cam, [&](const Camera& c) { return render_aov(tracer.accel(), c, a, run.as, s.control); });
   };
-  Image rgba =
-      render_split(run, cam, [&](const Camera& c) { return render_transparent(tracer, c, run.is, s.control); });
+  Image rgba = render_split(run, cam, [&](const Camera& c) {
+    return unbounded ? render_path(tracer, c, run.is, s.control) : render_transparent(tracer, c, run.is, s.control);
+  });
   Image albedo = aov(Aov::Albedo), rough = aov(Aov::Roughness), metal = aov(Aov::Metallic), normal = aov(Aov::Normal);
   run.render_s += seconds_since(t0);
   if (s.comm->rank() != 0) return;
@@ -307,11 +314,13 @@ void evaluate_view(EvalRun& run, size_t i) {
   write_image((vdir / "normal.exr").string(), normal);
 
   json v = {{"view", view_folder(i)}, {"camera", cam.name}};
-  std::shared_ptr<const TrainingImage> gt = run.data->target(i);
   const Image mask = foreground_mask(gt->alpha);
   const Image show = union_mask(mask, rgba);
-  const Image ours_rgb = unpremultiply(rgba);
-  const Image ours_disp = composite_srgb(ours_rgb, &rgba);
+  Image ours_rgb = unbounded ? Image(rgba.width, rgba.height, {"R", "G", "B"}) : unpremultiply(rgba);
+  if (unbounded)
+    for (size_t p = 0, n = size_t(rgba.width) * rgba.height; p < n; ++p)
+      for (int c = 0; c < 3; ++c) ours_rgb.pixels[3 * p + c] = rgba.pixels[4 * p + c];
+  const Image ours_disp = composite_srgb(ours_rgb, unbounded ? nullptr : &rgba);
   const Image gt_disp = composite_srgb(gt->rgb, &gt->alpha);
   double p = capped(psnr(ours_disp, gt_disp)), q = ssim(ours_disp, gt_disp);
   run.nvs_psnr.push_back(p);
@@ -481,7 +490,8 @@ std::string report_markdown(const EvalRun& run, const json& m) {
   md << (run.have_albedo
              ? fmt(json(scale[0]), "%.4f") + " " + fmt(json(scale[1]), "%.4f") + " " + fmt(json(scale[2]), "%.4f")
              : std::string("n/a (no albedo ground truth)"))
-     << ".\n\nProtocol (METHOD §7): NVS/relight compare sRGB display values composited over white, whole image; "
+     << ".\n\nProtocol (METHOD §7): NVS/relight compare sRGB display values composited over white, whole image "
+        "(photos without masks: against the render with the environment behind); "
         "albedo PSNR over foreground pixels (gt alpha > 0.5) after the scale, in sRGB (linear: "
      << fmt(m["albedo_psnr_linear"], "%.2f")
      << " dB); roughness MSE over the whole image with the background zeroed; normal MAE over foreground pixels. "

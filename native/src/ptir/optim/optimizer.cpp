@@ -114,6 +114,8 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
 
   install_environment(*scene_, settings_.params);
   params_ = make_parameters(*scene_, settings_.params);
+  if (settings_.params.learn_exposure)  // per-view exposure (exposure.h)
+    params_.groups.push_back({ParamKind::Exposure, settings_.params.lr_exposure, std::vector<float>(dataset_->size(), 0.0f)});
   for (const ParameterGroup& g : params_.groups) {
     adam_.emplace_back(g.raw.size(), g.lr, settings_.adam);
     adam_.back().shared_second_moment = g.kind == ParamKind::Environment && settings_.env_shared_moment;
@@ -224,8 +226,10 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
       }
   const double lr_scale = lr_factor(iteration_);
   for (size_t i = 0; i < params_.groups.size(); ++i) {
+    if (params_.groups[i].kind == ParamKind::Exposure) raw[i] = exposure_grads_.raw_gradient();  // exposure.h
     adam_[i].lr = float(params_.groups[i].lr * lr_scale);
     adam_[i].step(params_.groups[i].raw, raw[i]);
+    if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);
   }
   apply();
   log.update_s = seconds_since(t0);
@@ -279,6 +283,8 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   Image render = render_path_ranks(*comm_, *tracer_, w.cam, w.is, control, cache ? &sample_radiance : nullptr);
   log.primal_s += seconds_since(t0);
   log.primal_cpu_s += process_cpu_seconds() - c0;
+  const float exposure = ExposureGradients::scale(params_, pk.view);  // the loss sees s_v times the render
+  ExposureGradients::expose(render, exposure);
   Image pred(pk.w, pk.h, {"R", "G", "B"}), mask(pk.w, pk.h, {"A"});
   size_t masked = 0;
   for (size_t p = 0; p < w.px; ++p) {
@@ -308,6 +314,10 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     if (w.full->has_alpha && mask.pixels[p] == 0.0f) continue;  // the target stands there: no gradient
     for (int c = 0; c < 3; ++c)
       d_render.pixels[p * 3 + c] = inv_k * d_pred.pixels[p * d_pred.channels + c] * loss_encode_derivative(render.pixels[p * 4 + c]);
+  }
+  if (params_.find(ParamKind::Exposure)) {  // dL/dlog s_v, then d_render w.r.t. the unexposed render
+    exposure_grads_.accumulate(pk.view, d_render, render);
+    for (float& d : d_render.pixels) d *= exposure;
   }
   if (all_zero(d_render)) return;
   t0 = Clock::now();
@@ -379,6 +389,7 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
   log.iteration = it + 1;
   log.prior_weight = prior_weight(it);
   grads_.set_zero();
+  exposure_grads_.reset(dataset_->size());
   RenderControl control;
   control.cancel = cancel;
   const auto picks = pick_views(it);

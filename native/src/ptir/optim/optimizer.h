@@ -57,6 +57,7 @@
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/adam.h"
 #include "ptir/optim/checkpoint.h"
+#include "ptir/optim/exposure.h"
 #include "ptir/optim/losses.h"
 #include "ptir/optim/parameters.h"
 #include "ptir/render/aov.h"
@@ -198,6 +199,7 @@ class Optimizer {
   std::vector<IterationLog> log_;
   int iteration_ = 0;
   size_t nonfinite_ = 0;
+  ExposureGradients exposure_grads_;  // --learn-exposure (exposure.h)
   mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
   const Communicator* comm_ = &single_process();      // data-parallel runs (set_communicator)
 };

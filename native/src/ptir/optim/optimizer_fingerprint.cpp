@@ -92,6 +92,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"env_init", ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()},
       {"env_optimised", ps.optimize_env ? "1" : "0"},
       {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
+      {"exposure", ps.learn_exposure ? "learned" : "fixed"},
       {"lr", num(ps.lr_albedo) + " " + num(ps.lr_roughness) + " " + num(ps.lr_metallic) + " " + num(ps.lr_env) + " " +
                  num(ps.lr_mesh)},
       {"lr_schedule", num(settings_.lr_final) + " from " + num(settings_.lr_decay_start)},

@@ -67,6 +67,11 @@ void Optimizer::write_outputs(const std::string& dir) const {
   if (scene_->environment.present() && scene_->environment->parameters_json(&env_params))
     io::write_text_atomic((out / ("env_" + std::string(scene_->environment->type()) + ".json")).string(),
                           env_params.dump(2) + "\n");
+  if (const ParameterGroup* e = params_.find(ParamKind::Exposure)) {  // --learn-exposure: view name -> scale
+    ojson ex = ojson::object();
+    for (size_t v = 0; v < e->raw.size(); ++v) ex[dataset_->views[v].camera.name] = std::exp(double(e->raw[v]));
+    io::write_text_atomic((out / "exposure.json").string(), ex.dump(1) + "\n");
+  }
   if (params_.find(ParamKind::MeshColour))
     io::write_text_atomic((out / "mesh_materials.json").string(), mesh_materials_json(scene_->meshes));
 }

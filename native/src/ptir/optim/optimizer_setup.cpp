@@ -49,6 +49,7 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
     throw Error(names("fix_env") + " needs " + names("env_init") + " (the known environment map)");
   s.params.optimize_metallic = o.optimize_metallic;
   s.params.optimize_meshes = o.optimize_meshes;
+  s.params.learn_exposure = o.learn_exposure;
   return s;
 }
 

@@ -40,6 +40,7 @@ struct OptimizeOptions {
   bool fix_env = false;
   bool optimize_metallic = false;
   bool optimize_meshes = false;
+  bool learn_exposure = false;  // one exposure scale per training view (exposure.h)
   int k = AccelSettings{}.k;     // k-buffer size of the tracer
 };
 

@@ -25,6 +25,7 @@ const char* param_kind_name(ParamKind k) {
     case ParamKind::MeshRoughness: return "mesh_roughness";
     case ParamKind::MeshMetallic: return "mesh_metallic";
     case ParamKind::EnvironmentCoarse: return "environment_coarse";
+    case ParamKind::Exposure: return "exposure";
   }
   return "?";
 }
@@ -180,6 +181,8 @@ void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& sc
         check_size(g, scene.meshes.size());
         for (size_t i = 0; i < scene.meshes.size(); ++i) scene.meshes[i].material.metallic = sigmoid(g.raw[i]);
         break;
+      case ParamKind::Exposure:  // not in the scene: the optimiser scales its renders (exposure.h)
+        break;
     }
   }
 }
@@ -234,6 +237,8 @@ std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGr
       case ParamKind::MeshMetallic:
         check_size(g, gr.mesh_metallic.size());
         for (size_t i = 0; i < d.size(); ++i) d[i] = gr.mesh_metallic[i] * dsig(g.raw[i]);
+        break;
+      case ParamKind::Exposure:  // the optimiser supplies it (ExposureGradients)
         break;
     }
     out.push_back(std::move(d));

@@ -61,6 +61,8 @@ struct ParameterSettings {
   // 18.5 -> 22.4 dB, at the same cost.
   int env_coarse_width = -1;
   bool optimize_meshes = false;          // mesh materials of a --scene, one set per mesh
+  bool learn_exposure = false;           // one log-exposure per training view (optim/exposure.h)
+  float lr_exposure = 0.03f;
   // Adam learning rates (PTIR code).
   float lr_albedo = 0.035f, lr_roughness = 0.025f, lr_metallic = 0.035f, lr_env = 0.035f, lr_mesh = 0.035f;
 };
@@ -75,7 +77,8 @@ enum class ParamKind {
   MeshColour = 5,
   MeshRoughness = 6,
   MeshMetallic = 7,
-  EnvironmentCoarse = 8  // the coarse level of a lat-long environment (env_pyramid.h)
+  Exposure = 8,  // per-view log exposure (optim/exposure.h), added by the optimiser
+  EnvironmentCoarse = 9  // the coarse level of a lat-long environment (env_pyramid.h)
 };
 const char* param_kind_name(ParamKind k);
 

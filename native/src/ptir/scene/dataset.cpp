@@ -172,7 +172,12 @@ std::shared_ptr<const TrainingImage> Dataset::target(size_t i) const {
     if (cache_.size() != views.size()) cache_.resize(views.size());
     if (cache_[i]) return cache_[i];
   }
-  auto img = std::make_shared<const TrainingImage>(read_training_image(views[i].files.image, views[i].files.mask, black_background));
+  auto read = std::make_shared<TrainingImage>(read_training_image(views[i].files.image, views[i].files.mask, black_background));
+  if (views[i].exposure != 1.0) {  // EXIF exposure (DatasetOptions::exif_exposure)
+    const float inv = float(1.0 / views[i].exposure);
+    for (float& v : read->rgb.pixels) v *= inv;
+  }
+  std::shared_ptr<const TrainingImage> img = read;
   if (img->rgb.width != width || img->rgb.height != height)
     throw Error(views[i].files.image, "image is " + size_text(img->rgb.width, img->rgb.height) + ", the dataset's views are " +
                                           size_text(width, height));

@@ -67,6 +67,10 @@ struct DatasetOptions {
   std::string world = "auto";   // nerfstudio frame: auto (dataparser when its file is found, else data),
                                 // data (transforms.json as written), dataparser, colmap (undo applied_transform)
   bool black_background = false;  // pixels whose colour is exactly 0 are background (mask 0)
+  // Real captures whose every photo records EXIF ExposureTime (io/photo_exposure.h):
+  // each training image is divided by its exposure relative to the capture's
+  // median, so photos taken with different settings agree (false: as stored).
+  bool exif_exposure = true;
   // Training images are decoded once and kept while their total size stays under
   // this budget; beyond it each use reads the file again (a PNG read costs far
   // less than an iteration).
@@ -91,6 +95,7 @@ struct TrainingImage {
 struct DatasetView {
   Camera camera;  // camera.image_path == files.image
   ViewFiles files;
+  double exposure = 1.0;  // EXIF exposure relative to the capture's median (1: none); target() divides by it
 };
 
 class Dataset {

@@ -14,6 +14,7 @@
 #include <set>
 
 #include "ptir/core/error.h"
+#include "ptir/io/photo_exposure.h"
 #include "ptir/scene/colmap_model.h"
 #include "ptir/scene/dataset_layouts.h"
 #include "ptir/scene/undistort.h"
@@ -248,12 +249,20 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
   data->height = H;
   data->views.resize(picked.size());
   const std::vector<std::array<std::string, 2>> files = undistort_views(c, picked, windows, cache);
+  // EXIF exposure of every photo of the capture (train and test share the reference), from the source files.
+  std::vector<double> exposure;
+  if (o.exif_exposure) {
+    std::vector<std::optional<PhotoExposure>> photos(c.views.size());
+    tbb::parallel_for(size_t(0), c.views.size(), [&](size_t i) { photos[i] = read_photo_exposure(c.views[i].image); });
+    exposure = relative_exposures(photos);
+  }
   for (size_t k = 0; k < picked.size(); ++k) {
     const CaptureView& v = c.views[picked[k]];
     const PinholeWindow& w = windows[picked[k]];
     DatasetView& dv = data->views[k];
     dv.files.image = files[k][0];
     dv.files.mask = files[k][1];
+    if (!exposure.empty()) dv.exposure = exposure[picked[k]];
     float m[16] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
     for (int e = 0; e < 12; ++e) m[e] = float(v.cam_to_world[size_t(e)]);
     try {

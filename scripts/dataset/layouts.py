@@ -2,7 +2,8 @@
 from the formats' documentation, independent of the engine's C++ readers:
 COLMAP sparse models (binary and text), 3DGS output folders, nerfstudio and
 NeRF transforms files. Poses are given as world-to-camera (R, t) in COLMAP's
-convention (x_cam = R x_world + t; camera +z forward, +y down).
+convention (x_cam = R x_world + t; camera +z forward, +y down). Shared by the
+dataset maker (capture.py) and the tests (tests/python/test_captures.py).
 """
 
 import json
@@ -192,9 +193,10 @@ def read_colmap_bin(folder):
 # --- JSON layouts --------------------------------------------------------------------
 
 def write_nerfstudio(path, frames, intrinsics, extra=None):
-    """transforms.json: frames = [(file_path, c2w 4x4 OpenGL)]; intrinsics: top-level keys."""
+    """transforms.json: frames = [(file_path, c2w 4x4 OpenGL[, per-frame keys])]; intrinsics: top-level keys."""
     d = dict(intrinsics)
-    d["frames"] = [{"file_path": fp, "transform_matrix": np.asarray(m).tolist()} for fp, m in frames]
+    d["frames"] = [dict({"file_path": f[0], "transform_matrix": np.asarray(f[1]).tolist()}, **(f[2] if len(f) > 2 else {}))
+                   for f in frames]
     d.update(extra or {})
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text(json.dumps(d, indent=1))

@@ -1,0 +1,85 @@
+#include "ptir/optim/iteration_estimate.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "ptir/render/render_path.h"
+
+namespace ptir {
+
+namespace {
+
+double seconds_of(const std::chrono::steady_clock::time_point& t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+constexpr int kGrid = 4, kSide = 24;  // a 4 x 4 grid of 24 x 24 windows
+constexpr int kRatioSide = 48;         // the replay / primal window
+
+// The side x side window centred at (x, y), moved into the image (the whole image when smaller).
+Camera window(const Camera& c, int x, int y, int side) {
+  const int w = std::min(side, c.width), h = std::min(side, c.height);
+  if (w == c.width && h == c.height) return c;
+  return c.crop(std::clamp(x - w / 2, 0, c.width - w), std::clamp(y - h / 2, 0, c.height - h), w, h);
+}
+
+}  // namespace
+
+IterationEstimate estimate_iteration(const Optimizer& opt) {
+  IterationEstimate e;
+  const Dataset& data = opt.dataset();
+  if (data.size() == 0) return e;
+  const OptimizerSettings& s = opt.settings();
+  const Camera& view = data.views.front().camera;
+  IntegratorSettings is = s.integrator;
+  is.seed = 0x5eed;
+  // Warm-up: lazily built tables and first-touch memory are not part of an iteration's cost.
+  render_path(opt.tracer(), window(view, view.width / 2, view.height / 2, 8), is);
+  is.spp = std::max(1, std::min(s.integrator.spp, 4));
+  e.probe_spp = is.spp;
+  SceneGradients grads = SceneGradients::zeros_like(opt.scene());
+  // Primal cost per sample: over the grid of windows.
+  double primal = 0.0, samples = 0.0;
+  for (int gy = 0; gy < kGrid; ++gy)
+    for (int gx = 0; gx < kGrid; ++gx) {
+      const Camera probe = window(view, (2 * gx + 1) * view.width / (2 * kGrid), (2 * gy + 1) * view.height / (2 * kGrid),
+                                  kSide);
+      auto t0 = std::chrono::steady_clock::now();
+      render_path(opt.tracer(), probe, is);
+      primal += seconds_of(t0);
+      samples += double(probe.width) * probe.height * is.spp;
+      e.probe_pixels += probe.width * probe.height;
+    }
+  e.primal_per_sample = primal / samples;
+  // Replay: its cost relative to the primal on one central window, less a replay call's fixed cost
+  // (per-chunk gradient buffers sized by the scene, paid once per view), timed on a 1 x 1 window.
+  auto timed_pair = [&](const Camera& cam, double* t_primal, double* t_replay) {
+    std::vector<Vec3> cache;
+    auto t0 = std::chrono::steady_clock::now();
+    render_path(opt.tracer(), cam, is, {}, nullptr, &cache);
+    *t_primal = seconds_of(t0);
+    Image d(cam.width, cam.height, {"R", "G", "B"});
+    std::fill(d.pixels.begin(), d.pixels.end(), 1e-3f);
+    t0 = std::chrono::steady_clock::now();
+    render_path_backward(opt.tracer(), cam, is, d, grads, {}, &cache);
+    *t_replay = seconds_of(t0);
+  };
+  double p1 = 0.0, r1 = 0.0, pc = 0.0, rc = 0.0;
+  timed_pair(window(view, view.width / 2, view.height / 2, 1), &p1, &r1);
+  timed_pair(window(view, view.width / 2, view.height / 2, kRatioSide), &pc, &rc);
+  e.replay_fixed = r1;
+  const double ratio = pc > 0.0 ? std::max(0.5, (rc - r1) / pc) : 1.0;  // replay is never cheaper than half a primal
+  e.replay_per_sample = ratio * e.primal_per_sample;
+  // The crop size (when cropping) sets the pixels of a view in an iteration.
+  int w = data.width, h = data.height;
+  if (s.crop_size > 0) {
+    w = std::min(w, s.crop_size);
+    h = std::min(h, s.crop_size);
+  }
+  const double pixels = double(w) * h * s.views_per_iteration;
+  e.seconds = pixels * (double(s.integrator.spp) * (e.primal_per_sample + e.replay_per_sample) + e.primal_per_sample) +
+              s.views_per_iteration * e.replay_fixed;
+  return e;
+}
+
+}  // namespace ptir

@@ -1,0 +1,32 @@
+// The time one optimiser iteration will take, estimated before the run starts
+// (`ptir optimize` prints it), by measuring rather than by a model: the primal
+// render and the path replay of a probe window of the first training view are
+// timed and scaled to the iteration's pixels and samples.
+//
+// Probe: 16 windows of 24 x 24 pixels on a 4 x 4 grid over the first view (so
+// object and background are sampled in proportion; one central window
+// overestimated a view with much cheap background 6x), at min(spp, 4) samples,
+// after an 8 x 8 warm-up render (lazy tables, first-touch memory); the replay's
+// cost per sample is the primal's times the replay / primal ratio of one central
+// 48 x 48 window. Scaling: per
+// path sample cost x (view pixels x spp x views per iteration), plus the
+// material-map regulariser pass costed as one primal sample per pixel, plus a
+// replay's fixed cost (gradient buffers sized by the scene) per view. The
+// iterations' own "s/iter" then tells the truth.
+#pragma once
+
+#include "ptir/optim/optimizer.h"
+
+namespace ptir {
+
+struct IterationEstimate {
+  double seconds = 0.0;           // one iteration
+  double primal_per_sample = 0.0;  // seconds per path sample, primal
+  double replay_per_sample = 0.0;  // seconds per path sample, replay (backward)
+  double replay_fixed = 0.0;       // seconds per replay call, whatever its size
+  int probe_pixels = 0, probe_spp = 0;
+};
+
+IterationEstimate estimate_iteration(const Optimizer& opt);
+
+}  // namespace ptir
