@@ -3,8 +3,6 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
-#include <tbb/task_arena.h>
-
 #include <atomic>
 #include <mutex>
 
@@ -12,6 +10,7 @@
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/pixel_filter.h"
 #include "ptir/math/rng.h"
+#include "ptir/render/tile_reduce.h"
 
 namespace ptir {
 
@@ -86,26 +85,18 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
 
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control,
-                          const std::vector<Vec3>* sample_radiance) {
+                          const std::vector<Vec3>* sample_radiance, TileReduceStats* tile_stats) {
   if (d_image.width != camera.width || d_image.height != camera.height || d_image.channels < 3)
     throw Error("image adjoint must be " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
                 " with at least 3 channels");
   if (sample_radiance && sample_radiance->size() != size_t(camera.width) * camera.height * settings.spp)
     throw Error("stored sample radiance does not match the camera and sample count");
   const PixelFilterSampler filter(settings.filter);
-  const int chunks = std::max(1, tbb::this_task_arena::max_concurrency());
-  std::vector<SceneGradients> partial(size_t(chunks), grads);
-  for (auto& g : partial) g.set_zero();
-  std::atomic<int> rows_done{0};
-  std::mutex progress_mutex;
   const float inv_spp = 1.0f / float(settings.spp);
-
-  tbb::parallel_for(0, chunks, [&](int chunk) {
-    SceneGradients& g = partial[size_t(chunk)];
-    // Interleaved rows balance the chunks without making the result depend on scheduling.
-    for (int y = chunk; y < camera.height; y += chunks) {
-      if (control.cancel && control.cancel->load()) return;
-      for (int x = 0; x < camera.width; ++x) {
+  reduce_gradient_tiles(camera.width, camera.height, tracer.scene().environment, grads, control,
+                        [&](const PixelTile& tile, GradientTile& g) {
+    for (int y = tile.y0; y < tile.y1; ++y)
+      for (int x = tile.x0; x < tile.x1; ++x) {
         Vec3 dI(d_image.at(x, y, 0), d_image.at(x, y, 1), d_image.at(x, y, 2));
         if (dI.x == 0.0f && dI.y == 0.0f && dI.z == 0.0f) continue;
         for (int s = 0; s < settings.spp; ++s) {
@@ -118,15 +109,7 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
           tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint);
         }
       }
-      int done = ++rows_done;
-      if (control.progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        control.progress(float(done) / float(camera.height));
-      }
-    }
-  });
-  if (control.cancel && control.cancel->load()) throw Cancelled();
-  for (const SceneGradients& g : partial) grads.add(g);
+  }, tile_stats);
 }
 
 }  // namespace ptir

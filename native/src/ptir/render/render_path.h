@@ -11,6 +11,8 @@
 
 namespace ptir {
 
+struct TileReduceStats;
+
 // RGBA, linear radiance; A = fraction of samples whose camera ray found a surface.
 // When sample_radiance is given, it receives every sample's radiance
 // (width * height * spp, index (y * width + x) * spp + s) for a later
@@ -27,11 +29,13 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
 // render_path; parameter adjoints are ADDED to `grads` (sized by zeros_like).
 // Each sample's primal radiance is taken from `sample_radiance` (filled by
 // render_path with the same camera and settings) or recomputed just before its
-// replay; nothing per vertex is stored, so memory does not grow with bounces. Rows are dealt to a fixed number of chunks
-// (one per worker thread), each with its own buffers, summed in chunk order: the
-// result is deterministic for a given seed and thread count.
+// replay; nothing per vertex is stored, so memory does not grow with bounces.
+// Pixels are replayed in fixed tiles (16 x 16 on large images), each into a sparse buffer of the
+// parameters it touched, added in tile order (render/tile_reduce.h): the result
+// is deterministic for a seed and the same on any thread count, and memory does
+// not grow with the thread count.
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control = {},
-                          const std::vector<Vec3>* sample_radiance = nullptr);
+                          const std::vector<Vec3>* sample_radiance = nullptr, TileReduceStats* tile_stats = nullptr);
 
 }  // namespace ptir

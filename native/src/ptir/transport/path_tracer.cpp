@@ -8,7 +8,7 @@
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/rng.h"
 #include "ptir/math/sampling.h"
-#include "ptir/transport/gradients.h"
+#include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/interaction.h"
 #include "ptir/transport/scattering.h"
 
@@ -56,25 +56,19 @@ Vec3 lights_crossed(const Scene& scene, const Ray& ray, float max_t, float prev_
 // Gaussians composited into the interaction (normalised weights w_i / O, or the
 // picked one in discrete mode), or the mesh's material.
 void scatter_vertex_adjoint(const NextEvent& ev, const std::vector<WeightedHit>& hits, const MaterialGrad& g,
-                            InteractionMode mode, SceneGradients& grads) {
+                            InteractionMode mode, GradientTile& grads) {
   if (ev.kind == NextEvent::Mesh) {
-    grads.mesh_base_colour[ev.mesh.mesh] += g.d_albedo;
-    grads.mesh_roughness[ev.mesh.mesh] += g.d_roughness;
-    grads.mesh_metallic[ev.mesh.mesh] += g.d_metallic;
+    grads.add_mesh(uint32_t(ev.mesh.mesh), g.d_albedo, g.d_roughness, g.d_metallic);
     return;
   }
   if (mode == InteractionMode::Discrete) {
-    grads.gaussian_albedo[ev.si.picked] += g.d_albedo;
-    grads.gaussian_roughness[ev.si.picked] += g.d_roughness;
-    grads.gaussian_metallic[ev.si.picked] += g.d_metallic;
+    grads.add_gaussian(uint32_t(ev.si.picked), g.d_albedo, g.d_roughness, g.d_metallic);
     return;
   }
   const float inv_O = 1.0f / ev.si.opacity;
   for (const WeightedHit& h : hits) {
     float w = h.weight * inv_O;
-    grads.gaussian_albedo[h.id] += w * g.d_albedo;
-    grads.gaussian_roughness[h.id] += w * g.d_roughness;
-    grads.gaussian_metallic[h.id] += w * g.d_metallic;
+    grads.add_gaussian(uint32_t(h.id), w * g.d_albedo, w * g.d_roughness, w * g.d_metallic);
   }
 }
 
@@ -125,7 +119,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
       Vec3 Le = environment_radiance(scene.environment, ray.d);
       float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, environment_pdf(scene.environment, ray.d)) : 1.0f;
       add(beta * Le * w);
-      if (adj && adj->grads) scatterer.environment_adjoint(ray.d, adj->dL * beta * w, *adj->grads);
+      if (adj && adj->grads) adj->grads->add_environment(ray.d, adj->dL * beta * w);
       break;
     }
     // Emissive meshes are reached by BRDF sampling only (no MIS partner).

@@ -16,14 +16,14 @@
 
 namespace ptir {
 
-struct SceneGradients;
+class GradientTile;
 
 // Inputs of the adjoint (replay) mode of one sample: the sample's primal
 // radiance L and the adjoint dL of the loss with respect to it.
 struct PathAdjoint {
   Vec3 L;
   Vec3 dL;
-  SceneGradients* grads = nullptr;  // receives the parameter adjoints
+  GradientTile* grads = nullptr;  // receives the parameter adjoints
 };
 
 struct PathStats {

@@ -4,7 +4,7 @@
 
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/sampling.h"
-#include "ptir/transport/gradients.h"
+#include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/path_tracer.h"
 
 namespace ptir {
@@ -135,11 +135,6 @@ bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, ui
   return !blocked && !end.mesh.valid;
 }
 
-void Scatterer::environment_adjoint(Vec3 d, Vec3 d_Le, SceneGradients& grads) const {
-  const SceneEnvironment& env = scene_.environment;
-  if (env.present() && !grads.environment.empty()) env->adjoint(d, d_Le, grads.environment.data());
-}
-
 Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key, uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint) const {
   Vec3 Ld(0.0f);
   const auto& emitters = scene_.emitters;
@@ -180,7 +175,7 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
           if (adjoint) {
             Vec3 scale = adjoint->dL * adjoint->beta * (w / pdf);
             bsdf.eval_grad(wi_local, scale * Li, *adjoint->brdf);
-            if (adjoint->grads) environment_adjoint(wi, scale * f, *adjoint->grads);
+            if (adjoint->grads) adjoint->grads->add_environment(wi, scale * f);
           }
         }
       }

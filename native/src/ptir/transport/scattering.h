@@ -20,7 +20,7 @@
 namespace ptir {
 
 struct PathStats;
-struct SceneGradients;
+class GradientTile;
 
 // Adjoint inputs of direct_light during gradient replay (METHOD §6): the path
 // throughput beta and the adjoint dL of the sample's radiance. Light sampling
@@ -29,7 +29,7 @@ struct DirectAdjoint {
   Vec3 beta;
   Vec3 dL;
   MaterialGrad* brdf = nullptr;      // += adjoint of the vertex's BSDF parameters
-  SceneGradients* grads = nullptr;   // += adjoint of environment texels / SG amplitudes
+  GradientTile* grads = nullptr;     // += adjoint of environment texels / SG amplitudes
 };
 
 // Random streams of one bounce.
@@ -87,9 +87,6 @@ class Scatterer {
   // against BSDF sampling; returns the sum of f~ Li w / pdf (beta not applied).
   Vec3 direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key,
                     uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr) const;
-
-  // Adds to `grads` the adjoint d_Le of the environment radiance seen along d.
-  void environment_adjoint(Vec3 d, Vec3 d_Le, SceneGradients& grads) const;
 
   // Whether hit h (t_peak, Gaussian) on a ray spawned from `from` along d is the
   // surface just left, to be skipped.
