@@ -15,10 +15,6 @@ namespace ptir {
 
 namespace {
 
-// Tiles in flight per worker thread: enough that a slow tile holding up the
-// in-order stage does not starve the others.
-constexpr int kTokensPerThread = 4;
-
 // Reusable tile buffers (at most one per token), so their allocations persist.
 class TilePool {
  public:

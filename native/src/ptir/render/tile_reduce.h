@@ -23,6 +23,10 @@ namespace ptir {
 // 64 tiles, so that small images and crops still spread over the threads.
 int gradient_tile_side(int width, int height);
 
+// Tiles in flight per worker thread: enough that a slow tile holding up the
+// in-order stage does not starve the others; the buffers in memory are at most this many per thread.
+constexpr int kTokensPerThread = 2;
+
 struct PixelTile {
   int x0, y0, x1, y1;  // [x0, x1) x [y0, y1)
 };
