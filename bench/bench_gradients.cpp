@@ -2,12 +2,11 @@
 //
 // For each thread count: the primal render keeping every sample's radiance
 // (render_path), then the replay (render_path_backward) of a fixed image adjoint
-// (1 / pixels on every channel), with camera rays through the BVH and through
-// the screen-space bins (accel/primary_bins.h). Prints primal and replay seconds, path samples
+// (1 / pixels on every channel). Prints primal and replay seconds, path samples
 // per second (pixels x spp / (primal + replay)), replay / primal, the tile
 // reduction's figures (tiles, Gaussian entries, largest tile buffer, buffers in
-// flight, seconds in the in-order stage) and checks that every thread count and
-// both camera-ray paths give bit-identical gradients. Then the memory/time model of the reduction at more
+// flight, seconds in the in-order stage) and checks that every thread count gives
+// bit-identical gradients. Then the memory/time model of the reduction at more
 // threads: what the per-thread dense copies cost (threads x parameters x 20 B,
 // zeroed and summed serially) against the tiles (kTokensPerThread buffers per thread x the
 // largest tile buffer; the in-order stage bounds the speed-up at
@@ -68,15 +67,13 @@ int run(const Options& o) {
   std::printf("bench_gradients: %s, %zu Gaussians, %zu meshes, %dx%d, %d spp, %d bounces, env %zu parameters\n",
               o.scene.c_str(), n, scene.meshes.size(), cam.width, cam.height, o.spp, o.bounces,
               scene.environment.parameter_count());
-  std::printf("%7s %5s %9s %9s %8s %13s %7s %9s %11s %7s %9s %s\n", "threads", "bins", "primal s", "replay s", "Msps",
+  std::printf("%7s %9s %9s %8s %13s %7s %9s %11s %7s %9s %s\n", "threads", "primal s", "replay s", "Msps",
               "replay/primal", "tiles", "entries", "tile KB max", "buffers", "stage s", "gradients");
   SceneGradients reference;
   double stage_s = 0.0, replay_cpu_s = 0.0;
   size_t peak_tile = 0;
-  for (int t : o.threads)
-    for (bool bins : {false, true}) {
+  for (int t : o.threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(t));
-    is.primary_bins_bytes = bins ? size_t(256) << 20 : 0;
     std::vector<Vec3> radiance;
     double t0 = wall();
     render_path(tracer, cam, is, {}, nullptr, &radiance);
@@ -88,12 +85,12 @@ int run(const Options& o) {
     double replay = wall() - t0;
     bool same = reference.gaussian_albedo.empty() ? true : same_floats(g, reference);
     if (reference.gaussian_albedo.empty()) reference = g;
-    std::printf("%7d %5s %9.3f %9.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %s\n", t, bins ? "on" : "off", primal, replay,
+    std::printf("%7d %9.3f %9.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %s\n", t, primal, replay,
                 double(pixels) * o.spp / (primal + replay) * 1e-6, replay / primal, st.tiles, st.entries,
                 st.peak_tile_bytes / 1024.0, st.buffers, st.stage_seconds, same ? "identical" : "DIFFERENT");
-    if (t == 1 && bins) replay_cpu_s = replay, stage_s = st.stage_seconds;
+    if (t == 1) replay_cpu_s = replay, stage_s = st.stage_seconds;
     peak_tile = std::max(peak_tile, st.peak_tile_bytes);
-    }
+  }
   // Model of the reduction at more threads, from the one-thread figures.
   const double dense_bytes = double(n) * 20.0 + double(scene.meshes.size()) * 20.0 + 4.0 * scene.environment.parameter_count();
   SceneGradients a = SceneGradients::zeros_like(scene), b = SceneGradients::zeros_like(scene);

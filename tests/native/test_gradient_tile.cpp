@@ -140,14 +140,12 @@ TEST(GradientTile, ReplayIsTheSameOnAnyThreadCountAndEqualsPerPixelReplays) {
   // Reference: every pixel replayed alone, summed in double (no tiling involved in the order).
   std::vector<double> ref_alb(s.gaussians->size(), 0.0), ref_env(by_threads[0].environment.size(), 0.0);
   double ref_mesh = 0.0;
-  IntegratorSettings bvh = is;
-  bvh.primary_bins_bytes = 0;  // (and camera rays through the BVH: the same hits)
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
       Image one(cam.width, cam.height, {"R", "G", "B"});
       for (int c = 0; c < 3; ++c) one.at(x, y, c) = weights.at(x, y, c);
       SceneGradients g = SceneGradients::zeros_like(s);
-      render_path_backward(tracer, cam, bvh, one, g);
+      render_path_backward(tracer, cam, is, one, g);
       for (size_t i = 0; i < ref_alb.size(); ++i) ref_alb[i] += g.gaussian_albedo[i].x;
       for (size_t i = 0; i < ref_env.size(); ++i) ref_env[i] += g.environment[i];
       ref_mesh += g.mesh_base_colour[0].x;

@@ -4,7 +4,6 @@
 #include <tbb/parallel_for.h>
 
 #include <atomic>
-#include <memory>
 #include <mutex>
 
 #include "ptir/core/error.h"
@@ -29,12 +28,6 @@ Ray camera_sample(const Camera& camera, const PixelFilterSampler& filter, uint64
   return camera.generate_ray(filter.position(x, jitter.at(0)), filter.position(y, jitter.at(1)));
 }
 
-// The camera's screen-space bins for its camera rays, or null (disabled, or over budget: the BVH).
-std::unique_ptr<PrimaryBins> primary_bins(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings) {
-  if (settings.primary_bins_bytes == 0) return nullptr;
-  return PrimaryBins::build(tracer.accel(), camera, settings.primary_bins_bytes);
-}
-
 }  // namespace
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
@@ -49,7 +42,6 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
   std::atomic<size_t> done{0};
   std::atomic<uint64_t> paths{0}, vertices{0}, shadow_rays{0};
   std::mutex progress_mutex;
-  const std::unique_ptr<PrimaryBins> bins = primary_bins(tracer, camera, settings);
 
   tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, 8, 0, camera.width, 8), [&](const tbb::blocked_range2d<int>& r) {
     if (control.cancel && control.cancel->load()) return;
@@ -62,7 +54,7 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
           uint64_t pixel;
           Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
           float c = 0.0f;
-          Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local, bins.get());
+          Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
           if (sample_radiance) (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s] = L;
           if (!transparent_film || c > 0.0f) sum += L;
           covered += c;
@@ -101,7 +93,6 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
     throw Error("stored sample radiance does not match the camera and sample count");
   const PixelFilterSampler filter(settings.filter);
   const float inv_spp = 1.0f / float(settings.spp);
-  const std::unique_ptr<PrimaryBins> bins = primary_bins(tracer, camera, settings);
   reduce_gradient_tiles(camera.width, camera.height, tracer.scene().environment, grads, control,
                         [&](const PixelTile& tile, GradientTile& g) {
     for (int y = tile.y0; y < tile.y1; ++y)
@@ -113,9 +104,9 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
           Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
           // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
           Vec3 L = sample_radiance ? (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s]
-                                   : tracer.sample_radiance(ray, pixel, uint32_t(s), settings, nullptr, nullptr, bins.get());
+                                   : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);
           PathAdjoint adjoint{L, dI * inv_spp, &g};
-          tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint, bins.get());
+          tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint);
         }
       }
   }, tile_stats);

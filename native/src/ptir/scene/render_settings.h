@@ -52,10 +52,6 @@ struct IntegratorSettings {
   float fixed_offset = 0.02f;            // fixed-offset variant: origin offset (world units)
   float fixed_range = 0.08f;             // fixed-offset variant: skip range (world units)
   float min_throughput = 1e-4f;          // end a path when max(beta) falls below this
-  // Camera rays of render_path / render_path_backward walk screen-space bins
-  // (accel/primary_bins.h: the same hits as the BVH, bit for bit) when the bins
-  // fit in this many bytes; 0: they traverse the BVH.
-  size_t primary_bins_bytes = size_t(256) << 20;
 };
 
 }  // namespace ptir

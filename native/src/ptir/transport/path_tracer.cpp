@@ -75,21 +75,20 @@ void scatter_vertex_adjoint(const NextEvent& ev, const std::vector<WeightedHit>&
 }  // namespace
 
 Vec3 PathTracer::sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                                 float* coverage, PathStats* stats, const PrimaryBins* primary) const {
-  return trace(camera_ray, pixel, sample, settings, nullptr, coverage, stats, primary);
+                                 float* coverage, PathStats* stats) const {
+  return trace(camera_ray, pixel, sample, settings, nullptr, coverage, stats);
 }
 
 void PathTracer::sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                                const PathAdjoint& adjoint, const PrimaryBins* primary) const {
-  trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr, primary);
+                                const PathAdjoint& adjoint) const {
+  trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr);
 }
 
 Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                       const PathAdjoint* adj, float* coverage, PathStats* stats, const PrimaryBins* primary) const {
+                       const PathAdjoint* adj, float* coverage, PathStats* stats) const {
   const Scene& scene = scene_;
   const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
-  scatterer.use_primary_bins(primary);
 
   // Primal: L accumulates. Replay: L_rem starts at the primal L and loses every
   // contribution as it is passed; what is left is what later vertices bring.

@@ -11,7 +11,6 @@
 
 #include <memory>
 
-#include "ptir/accel/primary_bins.h"
 #include "ptir/accel/scene_accel.h"
 #include "ptir/scene/scene.h"
 
@@ -40,9 +39,8 @@ class PathTracer {
 
   // Radiance of one camera-ray sample; *coverage gets 1 when the ray found a
   // surface (Gaussian interaction or mesh), else 0. pixel is y * width + x.
-  // primary: screen-space bins of the camera that made camera_ray (or null: the BVH).
   Vec3 sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                       float* coverage = nullptr, PathStats* stats = nullptr, const PrimaryBins* primary = nullptr) const;
+                       float* coverage = nullptr, PathStats* stats = nullptr) const;
 
   // Path replay backpropagation of one sample (METHOD §6): replays the path with
   // the same random numbers, starting from the primal radiance adjoint.L and
@@ -53,7 +51,7 @@ class PathTracer {
   // visibility and validity decisions, and the sampled directions (no
   // reparameterisation term for roughness).
   void sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                      const PathAdjoint& adjoint, const PrimaryBins* primary = nullptr) const;
+                      const PathAdjoint& adjoint) const;
 
   const Scene& scene() const { return scene_; }
   const SceneAccel& accel() const { return *accel_; }
@@ -62,7 +60,7 @@ class PathTracer {
   // The path in either mode: primal (adjoint == nullptr) returns L; replay
   // accumulates gradients (one routine, so the two can never disagree).
   Vec3 trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-             const PathAdjoint* adjoint, float* coverage, PathStats* stats, const PrimaryBins* primary) const;
+             const PathAdjoint* adjoint, float* coverage, PathStats* stats) const;
 
   const Scene& scene_;
   std::unique_ptr<SceneAccel> accel_;

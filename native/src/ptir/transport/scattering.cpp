@@ -44,8 +44,6 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
   WalkEnd end;
   if (from.kind == SpawnContext::Gaussian) {
     end = accel_.walk(ray, [&](const GaussianHit& h) { return is_self_hit(from, ray.d, h) ? true : builder.add(h); });
-  } else if (from.kind == SpawnContext::Camera && primary_) {
-    end = primary_->walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, /*stop_when_opaque=*/true);
   } else {
     end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true);
   }

@@ -11,7 +11,6 @@
 
 #include <cstdint>
 
-#include "ptir/accel/primary_bins.h"
 #include "ptir/accel/scene_accel.h"
 #include "ptir/material/bsdf.h"
 #include "ptir/math/rng.h"
@@ -74,9 +73,6 @@ class Scatterer {
   NextEvent next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
                        std::vector<WeightedHit>* record = nullptr) const;
 
-  // Camera rays (SpawnContext::Camera) from then on walk these bins (may be null).
-  void use_primary_bins(const PrimaryBins* bins) { primary_ = bins; }
-
   SpawnContext spawn_context(const NextEvent& ev, const Ray& incoming) const;
   // The ray leaving `from` along unit direction wi (offsets applied).
   Ray spawn_ray(const SpawnContext& from, Vec3 wi, float max_distance = std::numeric_limits<float>::infinity()) const;
@@ -102,7 +98,6 @@ class Scatterer {
   const GaussianField& field_;
   IntegratorSettings settings_;
   float mesh_epsilon_;  // offset of rays leaving a mesh, scaled to the scene
-  const PrimaryBins* primary_ = nullptr;
 };
 
 }  // namespace ptir
