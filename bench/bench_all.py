@@ -64,7 +64,8 @@ def main():
         ("Gaussian / triangle ray rate, traversal only, 1 thread",
          grab(r"best Gaussian/triangle throughput, 1 thread, traversal: +([0-9.]+ \(1/[0-9.]+\))", trace)),
     ]
-    g_lines = [l.split() for l in grads.splitlines() if re.match(r"^ +\d+ +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9.]+ +\d+", l)]
+    g_table = grads.split("reduction model")[0]  # the per-thread-count rows, not the model's
+    g_lines = [l.split() for l in g_table.splitlines() if re.match(r"^ +\d+ +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9.]+ +\d+", l)]
     if g_lines:
         one, last = g_lines[0], g_lines[-1]
         rows += [
