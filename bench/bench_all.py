@@ -70,8 +70,9 @@ def main():
         one, last = g_lines[0], g_lines[-1]
         rows += [
             ("inversion M path samples/s (primal + replay), hetero sample, %s thread(s) / %s" % (one[0], last[0]),
-             "%s / %s" % (one[3], last[3])),
-            ("replay / primal, 1 thread", one[4]),
+             "%s / %s" % (one[4], last[4])),
+            ("replay / primal, 1 thread (replay reading the primal's shadow-ray outcomes)", one[5]),
+            ("replay reading shadow outcomes / replay tracing them, 1 thread", "%.2f" % (float(one[2]) / float(one[3]))),
             ("thread scaling of primal + replay, %s vs 1 thread (wall)" % last[0],
              "%.2f" % ((float(one[1]) + float(one[2])) / (float(last[1]) + float(last[2])))),
             ("gradients identical across thread counts", "yes" if "DIFFERENT" not in grads else "NO"),

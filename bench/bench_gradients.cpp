@@ -2,7 +2,8 @@
 //
 // For each thread count: the primal render keeping every sample's radiance
 // (render_path), then the replay (render_path_backward) of a fixed image adjoint
-// (1 / pixels on every channel). Prints primal and replay seconds, path samples
+// (1 / pixels on every channel), the replay reading the shadow-ray outcomes the
+// primal recorded (as the optimiser does; "replay traced s": tracing them again). Prints primal and replay seconds, path samples
 // per second (pixels x spp / (primal + replay)), replay / primal, the tile
 // reduction's figures (tiles, Gaussian entries, largest tile buffer, buffers in
 // flight, seconds in the in-order stage) and checks that every thread count gives
@@ -67,25 +68,29 @@ int run(const Options& o) {
   std::printf("bench_gradients: %s, %zu Gaussians, %zu meshes, %dx%d, %d spp, %d bounces, env %zu parameters\n",
               o.scene.c_str(), n, scene.meshes.size(), cam.width, cam.height, o.spp, o.bounces,
               scene.environment.parameter_count());
-  std::printf("%7s %9s %9s %8s %13s %7s %9s %11s %7s %9s %s\n", "threads", "primal s", "replay s", "Msps",
-              "replay/primal", "tiles", "entries", "tile KB max", "buffers", "stage s", "gradients");
+  std::printf("%7s %9s %9s %16s %8s %13s %7s %9s %11s %7s %9s %s\n", "threads", "primal s", "replay s", "replay traced s",
+              "Msps", "replay/primal", "tiles", "entries", "tile KB max", "buffers", "stage s", "gradients");
   SceneGradients reference;
   double stage_s = 0.0, replay_cpu_s = 0.0;
   size_t peak_tile = 0;
   for (int t : o.threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(t));
     std::vector<Vec3> radiance;
+    std::vector<uint64_t> shadows;
     double t0 = wall();
-    render_path(tracer, cam, is, {}, nullptr, &radiance);
+    render_path(tracer, cam, is, {}, nullptr, &radiance, false, &shadows);
     double primal = wall() - t0;
-    SceneGradients g = SceneGradients::zeros_like(scene);
+    SceneGradients g = SceneGradients::zeros_like(scene), traced = g;
     TileReduceStats st;
     t0 = wall();
-    render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, &st);
+    render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, &st, &shadows);
     double replay = wall() - t0;
-    bool same = reference.gaussian_albedo.empty() ? true : same_floats(g, reference);
+    t0 = wall();
+    render_path_backward(tracer, cam, is, d_image, traced, {}, &radiance);
+    double replay_traced = wall() - t0;
+    bool same = same_floats(g, traced) && (reference.gaussian_albedo.empty() || same_floats(g, reference));
     if (reference.gaussian_albedo.empty()) reference = g;
-    std::printf("%7d %9.3f %9.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %s\n", t, primal, replay,
+    std::printf("%7d %9.3f %9.3f %16.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %s\n", t, primal, replay, replay_traced,
                 double(pixels) * o.spp / (primal + replay) * 1e-6, replay / primal, st.tiles, st.entries,
                 st.peak_tile_bytes / 1024.0, st.buffers, st.stage_seconds, same ? "identical" : "DIFFERENT");
     if (t == 1) replay_cpu_s = replay, stage_s = st.stage_seconds;

@@ -258,7 +258,9 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   double c0 = process_cpu_seconds();
   const bool cache = with_gradients && w.px * size_t(w.is.spp) * sizeof(Vec3) <= settings_.sample_cache_bytes;
   std::vector<Vec3> sample_radiance;
-  Image render = render_path(*tracer_, w.cam, w.is, control, nullptr, cache ? &sample_radiance : nullptr);
+  std::vector<uint64_t> sample_shadows;  // each sample's shadow-ray outcomes: the replay does not trace them again
+  Image render = render_path(*tracer_, w.cam, w.is, control, nullptr, cache ? &sample_radiance : nullptr, false,
+                             cache ? &sample_shadows : nullptr);
   log.primal_s += seconds_since(t0);
   log.primal_cpu_s += process_cpu_seconds() - c0;
   Image pred(pk.w, pk.h, {"R", "G", "B"}), mask(pk.w, pk.h, {"A"});
@@ -283,7 +285,8 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   if (all_zero(d_render)) return;
   t0 = Clock::now();
   c0 = process_cpu_seconds();
-  render_path_backward(*tracer_, w.cam, w.is, d_render, grads_, control, cache ? &sample_radiance : nullptr);
+  render_path_backward(*tracer_, w.cam, w.is, d_render, grads_, control, cache ? &sample_radiance : nullptr, nullptr,
+                       cache ? &sample_shadows : nullptr);
   log.backward_s += seconds_since(t0);
   log.backward_cpu_s += process_cpu_seconds() - c0;
 }

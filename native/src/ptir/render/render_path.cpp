@@ -32,13 +32,14 @@ Ray camera_sample(const Camera& camera, const PixelFilterSampler& filter, uint64
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control, PathStats* stats, std::vector<Vec3>* sample_radiance,
-                  bool transparent_film) {
+                  bool transparent_film, std::vector<uint64_t>* sample_shadows) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
   if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
   const PixelFilterSampler filter(settings.filter);
   Image image(camera.width, camera.height, {"R", "G", "B", "A"});
   const size_t pixels = size_t(camera.width) * size_t(camera.height);
   if (sample_radiance) sample_radiance->assign(pixels * size_t(settings.spp), Vec3(0.0f));
+  if (sample_shadows) sample_shadows->assign(pixels * size_t(settings.spp), 0u);
   std::atomic<size_t> done{0};
   std::atomic<uint64_t> paths{0}, vertices{0}, shadow_rays{0};
   std::mutex progress_mutex;
@@ -54,8 +55,10 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
           uint64_t pixel;
           Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
           float c = 0.0f;
-          Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local);
-          if (sample_radiance) (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s] = L;
+          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
+          Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(s), settings, &c, &local,
+                                          sample_shadows ? &(*sample_shadows)[at] : nullptr);
+          if (sample_radiance) (*sample_radiance)[at] = L;
           if (!transparent_film || c > 0.0f) sum += L;
           covered += c;
         }
@@ -85,12 +88,15 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
 
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control,
-                          const std::vector<Vec3>* sample_radiance, TileReduceStats* tile_stats) {
+                          const std::vector<Vec3>* sample_radiance, TileReduceStats* tile_stats,
+                          const std::vector<uint64_t>* sample_shadows) {
   if (d_image.width != camera.width || d_image.height != camera.height || d_image.channels < 3)
     throw Error("image adjoint must be " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
                 " with at least 3 channels");
   if (sample_radiance && sample_radiance->size() != size_t(camera.width) * camera.height * settings.spp)
     throw Error("stored sample radiance does not match the camera and sample count");
+  if (sample_shadows && sample_shadows->size() != size_t(camera.width) * camera.height * settings.spp)
+    throw Error("stored shadow-ray outcomes do not match the camera and sample count");
   const PixelFilterSampler filter(settings.filter);
   const float inv_spp = 1.0f / float(settings.spp);
   reduce_gradient_tiles(camera.width, camera.height, tracer.scene().environment, grads, control,
@@ -103,9 +109,9 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
           uint64_t pixel;
           Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
           // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
-          Vec3 L = sample_radiance ? (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s]
-                                   : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);
-          PathAdjoint adjoint{L, dI * inv_spp, &g};
+          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
+          Vec3 L = sample_radiance ? (*sample_radiance)[at] : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);
+          PathAdjoint adjoint{L, dI * inv_spp, &g, sample_shadows ? &(*sample_shadows)[at] : nullptr};
           tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint);
         }
       }

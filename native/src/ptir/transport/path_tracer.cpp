@@ -75,17 +75,17 @@ void scatter_vertex_adjoint(const NextEvent& ev, const std::vector<WeightedHit>&
 }  // namespace
 
 Vec3 PathTracer::sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                                 float* coverage, PathStats* stats) const {
-  return trace(camera_ray, pixel, sample, settings, nullptr, coverage, stats);
+                                 float* coverage, PathStats* stats, uint64_t* shadow_bits) const {
+  return trace(camera_ray, pixel, sample, settings, nullptr, coverage, stats, shadow_bits);
 }
 
 void PathTracer::sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                                 const PathAdjoint& adjoint) const {
-  trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr);
+  trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr, nullptr);
 }
 
 Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                       const PathAdjoint* adj, float* coverage, PathStats* stats) const {
+                       const PathAdjoint* adj, float* coverage, PathStats* stats, uint64_t* shadow_bits) const {
   const Scene& scene = scene_;
   const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
@@ -98,6 +98,16 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     else L += contribution;
   };
   thread_local std::vector<WeightedHit> vertex_hits;  // the current vertex's Gaussians (replay only)
+  // Shadow rays: recorded by the primal pass, read back by the replay (same rays, same order).
+  ShadowLog shadow_log;
+  ShadowLog* shadows = nullptr;
+  if (adj && adj->shadow_bits) {
+    shadow_log.bits = *adj->shadow_bits;
+    shadow_log.replay = true;
+    shadows = &shadow_log;
+  } else if (!adj && shadow_bits) {
+    shadows = &shadow_log;
+  }
 
   Ray ray = camera_ray;
   SpawnContext spawn;          // the camera ray leaves no surface
@@ -136,7 +146,8 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
 
     // Next-event estimation: one sample of every light and of the environment.
     DirectAdjoint direct_adj{beta, adj ? adj->dL : Vec3(0.0f), &vertex_grad, adj ? adj->grads : nullptr};
-    add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr));
+    add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr,
+                                      shadows));
 
     // Continue with a BSDF sample.
     PathRng rng(path_key, uint64_t(bounce), kStreamBrdf);
@@ -157,6 +168,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     ray = scatterer.spawn_ray(here, frame.to_world(bs.wi));
     spawn = here;
   }
+  if (shadow_bits && !adj) *shadow_bits = shadow_log.bits;
   return L;
 }
 

@@ -32,6 +32,17 @@ struct DirectAdjoint {
   GradientTile* grads = nullptr;     // += adjoint of environment texels / SG amplitudes
 };
 
+// The shadow-ray outcomes of one path, in the order the path tests them: the
+// primal pass records them (bit k: the k-th shadow ray was unoccluded) and the
+// replay, which tests the same rays in the same order with the same random
+// numbers, reads them back instead of tracing again. Rays after the 64th are
+// traced in both passes.
+struct ShadowLog {
+  uint64_t bits = 0;
+  int count = 0;
+  bool replay = false;  // read bits (replay) instead of recording them (primal)
+};
+
 // Random streams of one bounce.
 constexpr uint64_t kStreamPass = 1;      // chi_pass: xi < T_ray
 constexpr uint64_t kStreamPick = 2;      // discrete interaction pick
@@ -85,8 +96,10 @@ class Scatterer {
 
   // One light sample of every emitter and of the environment, each MIS-weighted
   // against BSDF sampling; returns the sum of f~ Li w / pdf (beta not applied).
+  // shadows: records or replays the shadow-ray outcomes (may be null: traced).
   Vec3 direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key,
-                    uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr) const;
+                    uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr,
+                    ShadowLog* shadows = nullptr) const;
 
   // Whether hit h (t_peak, Gaussian) on a ray spawned from `from` along d is the
   // surface just left, to be skipped.
