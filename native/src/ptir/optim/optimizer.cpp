@@ -256,7 +256,8 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   // Primal render (keeping each sample's radiance for the replay when it fits) and the image loss.
   auto t0 = Clock::now();
   double c0 = process_cpu_seconds();
-  const bool cache = with_gradients && w.px * size_t(w.is.spp) * sizeof(Vec3) <= settings_.sample_cache_bytes;
+  const bool cache =
+      with_gradients && w.px * size_t(w.is.spp) * (sizeof(Vec3) + sizeof(uint64_t)) <= settings_.sample_cache_bytes;
   std::vector<Vec3> sample_radiance;
   std::vector<uint64_t> sample_shadows;  // each sample's shadow-ray outcomes: the replay does not trace them again
   Image render = render_path(*tracer_, w.cam, w.is, control, nullptr, cache ? &sample_radiance : nullptr, false,
