@@ -35,7 +35,7 @@ test-python: build install-addon
 test: test-native test-python
 
 bench: build
-	$(PYTHON) bench/bench_trace.py --build $(BUILD)
+	$(PYTHON) bench/bench_all.py --build $(BUILD)
 
 clean:
 	rm -rf $(BUILD)

@@ -1,12 +1,15 @@
 #!/usr/bin/python3
 """Inverse-rendering cost: seconds per iteration and peak memory of `ptir optimize`.
 
-    bench/bench_optimize.py [--build build] [--threads 2] [--iters 4] [--quick] [--only counts,pixels,bounces]
+    bench/bench_optimize.py [--build build] [--threads 2] [--iters 4] [--quick]
+                            [--only counts,pixels,bounces,threads] [--data-build BUILD]
 
 Sweeps (each point is one `ptir optimize` process on a synthetic dataset):
   counts   Gaussian count 10K -> 1M (a sphere shell of flat Gaussians), 256x256, 8 spp, 2 bounces
   pixels   pixels x spp at 100K Gaussians: 128^2 / 256^2 / 512^2 x 8 / 32 spp, 2 bounces
   bounces  1 / 2 / 4 / 9 bounces at 100K and 1M Gaussians, 256x256, 8 spp (memory must stay flat)
+  threads  1 thread .. --threads at 100K Gaussians, 256x256, 8 spp, 2 bounces: speed-up and peak RSS
+           (the gradients are reduced over fixed pixel tiles, so memory should not grow with threads)
 and prints, per point, wall-clock AND process-CPU-time / threads figures (the
 machine is shared: CPU time is what the work costs on that many idle cores):
 s/iter (median over iterations 2..N), the split primal /
@@ -186,6 +189,7 @@ def main():
     ap.add_argument("--quick", action="store_true", help="smaller sweeps (no 1M, no 512^2)")
     ap.add_argument("--only", default="counts,pixels,bounces")
     ap.add_argument("--data", default=str(ROOT / "out" / "bench_optimize"))
+    ap.add_argument("--data-build", help="build whose Python module makes the datasets (default: --build)")
     ap.add_argument("--make", nargs=2, type=int, metavar=("N", "RES"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     build = Path(args.build) if Path(args.build).is_absolute() else Path.cwd() / args.build
@@ -198,21 +202,24 @@ def main():
     if not cli.exists():
         sys.exit("bench_optimize: error: %s not found (build first)" % cli)
     only = set(args.only.split(","))
+    data_build = Path(args.data_build).resolve() if args.data_build else build
 
     results = []
 
-    def point(sweep, n, res, spp, bounces):
-        ply, ds = make_dataset(build, root, n, res)
-        out = root / "runs" / ("%s_%d_%d_%d_%d" % (sweep, n, res, spp, bounces))
-        rows, rss, wall = run_point(cli, ply, ds, out, args.iters, spp, bounces, args.threads)
-        _, rss0, _ = run_point(cli, ply, ds, root / "runs" / "load_only", 0, spp, bounces, args.threads)
-        s = summarise(rows, res * res, spp, args.threads)
-        s.update(sweep=sweep, gaussians=n, res=res, spp=spp, bounces=bounces, rss_mb=rss, rss0_mb=rss0)
+    def point(sweep, n, res, spp, bounces, threads=None):
+        threads = threads or args.threads
+        ply, ds = make_dataset(data_build, root, n, res)
+        out = root / "runs" / ("%s_%d_%d_%d_%d_t%d" % (sweep, n, res, spp, bounces, threads))
+        rows, rss, wall = run_point(cli, ply, ds, out, args.iters, spp, bounces, threads)
+        _, rss0, _ = run_point(cli, ply, ds, root / "runs" / "load_only", 0, spp, bounces, threads)
+        s = summarise(rows, res * res, spp, threads)
+        s.update(sweep=sweep, gaussians=n, res=res, spp=spp, bounces=bounces, threads=threads, rss_mb=rss, rss0_mb=rss0)
         results.append(s)
-        print("%-8s %8d %4d^2 %3d spp %d bnc | wall %7.3f s/it (primal %6.3f replay %6.3f reg %5.3f) %5.3f Msps"
+        print("%-8s %8d %4d^2 %3d spp %d bnc %2d thr | wall %7.3f s/it (primal %6.3f replay %6.3f reg %5.3f) %5.3f Msps"
               " | cpu/%d %7.3f s/it, replay/primal %4.2f, %5.3f Msps | peak RSS %7.1f MB (load only %7.1f)"
-              % (sweep, n, res, spp, bounces, s["s_iter"], s["primal"], s["backward"], s["reg"], s["msps"], args.threads,
-                 s["cpu_s_iter"], s["cpu_replay_over_primal"], s["cpu_msps"], rss, rss0), flush=True)
+              % (sweep, n, res, spp, bounces, threads, s["s_iter"], s["primal"], s["backward"], s["reg"], s["msps"],
+                 threads, s["cpu_s_iter"], s["cpu_replay_over_primal"], s["cpu_msps"], rss, rss0), flush=True)
+        return s
 
     print("bench_optimize: %d threads, %d iterations per point (medians exclude the first)" % (args.threads, args.iters))
     counts = [10_000, 100_000] if args.quick else [10_000, 100_000, 1_000_000]
@@ -231,6 +238,11 @@ def main():
             r1 = next(r for r in sel if r["bounces"] == 1)
             r9 = next(r for r in sel if r["bounces"] == 9)
             print("bounces %d Gaussians: peak RSS at 9 bounces / at 1 = %.4f" % (n, r9["rss_mb"] / r1["rss_mb"]))
+    if "threads" in only:
+        sel = [point("threads", 100_000, 256, 8, 2, t) for t in sorted({1, args.threads})]
+        for s in sel:
+            print("threads %2d: speed-up (wall) %.2f, (CPU-time model: cpu s/it on idle cores) %.2f; peak RSS %.1f MB"
+                  % (s["threads"], sel[0]["s_iter"] / s["s_iter"], sel[0]["cpu_s_iter"] / s["cpu_s_iter"], s["rss_mb"]))
     (root / "results.json").write_text(json.dumps(results, indent=1))
     print("bench_optimize: results in %s" % (root / "results.json"))
 

@@ -278,9 +278,14 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   // Primal render (keeping each sample's radiance for the replay when it fits) and the image loss.
   auto t0 = Clock::now();
   double c0 = process_cpu_seconds();
-  const bool cache = with_gradients && w.px * size_t(w.is.spp) * sizeof(Vec3) <= settings_.sample_cache_bytes;
-  std::vector<std::vector<Vec3>> sample_radiance;  // per row band (data_parallel.h: split across ranks)
-  Image render = render_path_ranks(*comm_, *tracer_, w.cam, w.is, control, cache ? &sample_radiance : nullptr);
+  const bool cache =
+      with_gradients && w.px * size_t(w.is.spp) * (sizeof(Vec3) + sizeof(uint64_t)) <= settings_.sample_cache_bytes;
+  // Per row band (data_parallel.h: split across ranks): each sample's radiance and shadow-ray
+  // outcomes, so the replay neither recomputes the one nor traces the other again.
+  std::vector<std::vector<Vec3>> sample_radiance;
+  std::vector<std::vector<uint64_t>> sample_shadows;
+  Image render = render_path_ranks(*comm_, *tracer_, w.cam, w.is, control, cache ? &sample_radiance : nullptr,
+                                   cache ? &sample_shadows : nullptr);
   log.primal_s += seconds_since(t0);
   log.primal_cpu_s += process_cpu_seconds() - c0;
   const float exposure = ExposureGradients::scale(params_, pk.view);  // the loss sees s_v times the render
@@ -323,7 +328,7 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   t0 = Clock::now();
   c0 = process_cpu_seconds();
   render_path_backward_ranks(*comm_, *tracer_, w.cam, w.is, d_render, grads_, control,
-                             cache ? &sample_radiance : nullptr);
+                             cache ? &sample_radiance : nullptr, cache ? &sample_shadows : nullptr);
   log.backward_s += seconds_since(t0);
   log.backward_cpu_s += process_cpu_seconds() - c0;
 }

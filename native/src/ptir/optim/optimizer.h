@@ -100,8 +100,8 @@ struct OptimizerSettings {
   // The environment's Adam uses one second moment for all its texels (adam.h).
   bool env_shared_moment = false;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
-  // The primal pass keeps every sample's radiance (12 bytes per pixel and sample)
-  // so the replay need not recompute it, while that fits this budget; beyond it
+  // The primal pass keeps every sample's radiance and shadow-ray outcomes (20 bytes
+  // per pixel and sample) so the replay need not recompute them, while that fits this budget; beyond it
   // the replay recomputes each sample (one more primal pass, no memory).
   size_t sample_cache_bytes = size_t(256) << 20;
   AccelSettings accel;

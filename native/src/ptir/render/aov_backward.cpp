@@ -1,9 +1,7 @@
 #include "ptir/render/aov_backward.h"
 
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
-
 #include "ptir/core/error.h"
+#include "ptir/render/tile_reduce.h"
 
 namespace ptir {
 
@@ -22,15 +20,11 @@ void render_aov_backward(const SceneAccel& accel, const Camera& camera, const Ao
   check_size(d_albedo, camera, 3, "albedo");
   check_size(d_roughness, camera, 1, "roughness");
   const GaussianField& field = accel.field();
-  const int chunks = std::max(1, tbb::this_task_arena::max_concurrency());
-  std::vector<SceneGradients> partial(size_t(chunks), grads);
-  for (auto& g : partial) g.set_zero();
-
-  tbb::parallel_for(0, chunks, [&](int chunk) {
-    SceneGradients& g = partial[size_t(chunk)];
-    std::vector<WeightedHit> hits;
-    for (int y = chunk; y < camera.height; y += chunks)
-      for (int x = 0; x < camera.width; ++x) {
+  const SceneEnvironment no_environment;  // material maps have no environment adjoint
+  reduce_gradient_tiles(camera.width, camera.height, no_environment, grads, {}, [&](const PixelTile& tile, GradientTile& g) {
+    thread_local std::vector<WeightedHit> hits;
+    for (int y = tile.y0; y < tile.y1; ++y)
+      for (int x = tile.x0; x < tile.x1; ++x) {
         Vec3 dA = d_albedo ? Vec3(d_albedo->at(x, y, 0), d_albedo->at(x, y, 1), d_albedo->at(x, y, 2)) : Vec3(0.0f);
         float dR = d_roughness ? d_roughness->at(x, y, 0) : 0.0f;
         if (dA.x == 0.0f && dA.y == 0.0f && dA.z == 0.0f && dR == 0.0f) continue;
@@ -43,22 +37,18 @@ void render_aov_backward(const SceneAccel& accel, const Camera& camera, const Ao
         SurfaceInteraction si = builder.finish(ray);
         if (si.valid) {
           if (settings.interaction.mode == InteractionMode::Discrete) {
-            g.gaussian_albedo[si.picked] += dA;
-            g.gaussian_roughness[si.picked] += dR;
+            g.add_gaussian(uint32_t(si.picked), dA, dR, 0.0f);
             continue;
           }
           for (const WeightedHit& h : hits) {
             float w = h.weight / si.opacity;
-            g.gaussian_albedo[h.id] += w * dA;
-            g.gaussian_roughness[h.id] += w * dR;
+            g.add_gaussian(uint32_t(h.id), w * dA, w * dR, 0.0f);
           }
         } else if (!end.stopped && end.mesh.valid) {
-          g.mesh_base_colour[end.mesh.mesh] += dA;
-          g.mesh_roughness[end.mesh.mesh] += dR;
+          g.add_mesh(uint32_t(end.mesh.mesh), dA, dR, 0.0f);
         }
       }
   });
-  for (const SceneGradients& g : partial) grads.add(g);
 }
 
 }  // namespace ptir

@@ -11,7 +11,7 @@ namespace ptir {
 // size of the camera's image (either may be null), to what each pixel centre's
 // primary interaction is made of: its Gaussians with normalised weights w_i / O
 // (the picked one in discrete mode), or the mesh material when the ray found no
-// valid Gaussian interaction. Adds to `grads`. Deterministic like render_path_backward.
+// valid Gaussian interaction. Adds to `grads`. Deterministic and thread-count independent like render_path_backward.
 void render_aov_backward(const SceneAccel& accel, const Camera& camera, const AovSettings& settings,
                          const Image* d_albedo, const Image* d_roughness, SceneGradients& grads);
 

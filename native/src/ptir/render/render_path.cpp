@@ -3,8 +3,6 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
-#include <tbb/task_arena.h>
-
 #include <atomic>
 #include <mutex>
 
@@ -12,6 +10,7 @@
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/pixel_filter.h"
 #include "ptir/math/rng.h"
+#include "ptir/render/tile_reduce.h"
 
 namespace ptir {
 
@@ -33,13 +32,14 @@ Ray camera_sample(const Camera& camera, const PixelFilterSampler& filter, uint64
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control, PathStats* stats, std::vector<Vec3>* sample_radiance,
-                  bool transparent_film, uint32_t first_sample) {
+                  bool transparent_film, uint32_t first_sample, std::vector<uint64_t>* sample_shadows) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
   if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
   const PixelFilterSampler filter(settings.filter);
   Image image(camera.width, camera.height, {"R", "G", "B", "A"});
   const size_t pixels = size_t(camera.width) * size_t(camera.height);
   if (sample_radiance) sample_radiance->assign(pixels * size_t(settings.spp), Vec3(0.0f));
+  if (sample_shadows) sample_shadows->assign(pixels * size_t(settings.spp), 0u);
   std::atomic<size_t> done{0};
   std::atomic<uint64_t> paths{0}, vertices{0}, shadow_rays{0};
   std::mutex progress_mutex;
@@ -58,8 +58,10 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
           const uint32_t index = first_sample + uint32_t(s);
           Ray ray = camera_sample(camera, filter, settings.seed, x, y, int(index), &pixel);
           float c = 0.0f;
-          Vec3 L = tracer.sample_radiance(ray, pixel, index, settings, &c, &local);
-          if (sample_radiance) (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s] = L;
+          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
+          Vec3 L = tracer.sample_radiance(ray, pixel, index, settings, &c, &local,
+                                          sample_shadows ? &(*sample_shadows)[at] : nullptr);
+          if (sample_radiance) (*sample_radiance)[at] = L;
           if (!transparent_film || c > 0.0f) sum += L;
           covered += c;
         }
@@ -89,47 +91,34 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
 
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control,
-                          const std::vector<Vec3>* sample_radiance) {
+                          const std::vector<Vec3>* sample_radiance, TileReduceStats* tile_stats,
+                          const std::vector<uint64_t>* sample_shadows) {
   if (d_image.width != camera.width || d_image.height != camera.height || d_image.channels < 3)
     throw Error("image adjoint must be " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
                 " with at least 3 channels");
   if (sample_radiance && sample_radiance->size() != size_t(camera.width) * camera.height * settings.spp)
     throw Error("stored sample radiance does not match the camera and sample count");
+  if (sample_shadows && sample_shadows->size() != size_t(camera.width) * camera.height * settings.spp)
+    throw Error("stored shadow-ray outcomes do not match the camera and sample count");
   const PixelFilterSampler filter(settings.filter);
-  const int chunks = std::max(1, tbb::this_task_arena::max_concurrency());
-  std::vector<SceneGradients> partial(size_t(chunks), grads);
-  for (auto& g : partial) g.set_zero();
-  std::atomic<int> rows_done{0};
-  std::mutex progress_mutex;
   const float inv_spp = 1.0f / float(settings.spp);
-
-  tbb::parallel_for(0, chunks, [&](int chunk) {
-    SceneGradients& g = partial[size_t(chunk)];
-    // Interleaved rows balance the chunks without making the result depend on scheduling.
-    for (int y = chunk; y < camera.height; y += chunks) {
-      if (control.cancel && control.cancel->load()) return;
-      for (int x = 0; x < camera.width; ++x) {
+  reduce_gradient_tiles(camera.width, camera.height, tracer.scene().environment, grads, control,
+                        [&](const PixelTile& tile, GradientTile& g) {
+    for (int y = tile.y0; y < tile.y1; ++y)
+      for (int x = tile.x0; x < tile.x1; ++x) {
         Vec3 dI(d_image.at(x, y, 0), d_image.at(x, y, 1), d_image.at(x, y, 2));
         if (dI.x == 0.0f && dI.y == 0.0f && dI.z == 0.0f) continue;
         for (int s = 0; s < settings.spp; ++s) {
           uint64_t pixel;
           Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
           // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
-          Vec3 L = sample_radiance ? (*sample_radiance)[(size_t(y) * camera.width + x) * settings.spp + s]
-                                   : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);
-          PathAdjoint adjoint{L, dI * inv_spp, &g};
+          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
+          Vec3 L = sample_radiance ? (*sample_radiance)[at] : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);
+          PathAdjoint adjoint{L, dI * inv_spp, &g, sample_shadows ? &(*sample_shadows)[at] : nullptr};
           tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint);
         }
       }
-      int done = ++rows_done;
-      if (control.progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        control.progress(float(done) / float(camera.height));
-      }
-    }
-  });
-  if (control.cancel && control.cancel->load()) throw Cancelled();
-  for (const SceneGradients& g : partial) grads.add(g);
+  }, tile_stats);
 }
 
 }  // namespace ptir

@@ -8,7 +8,7 @@
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/rng.h"
 #include "ptir/math/sampling.h"
-#include "ptir/transport/gradients.h"
+#include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/interaction.h"
 #include "ptir/transport/scattering.h"
 
@@ -56,42 +56,36 @@ Vec3 lights_crossed(const Scene& scene, const Ray& ray, float max_t, float prev_
 // Gaussians composited into the interaction (normalised weights w_i / O, or the
 // picked one in discrete mode), or the mesh's material.
 void scatter_vertex_adjoint(const NextEvent& ev, const std::vector<WeightedHit>& hits, const MaterialGrad& g,
-                            InteractionMode mode, SceneGradients& grads) {
+                            InteractionMode mode, GradientTile& grads) {
   if (ev.kind == NextEvent::Mesh) {
-    grads.mesh_base_colour[ev.mesh.mesh] += g.d_albedo;
-    grads.mesh_roughness[ev.mesh.mesh] += g.d_roughness;
-    grads.mesh_metallic[ev.mesh.mesh] += g.d_metallic;
+    grads.add_mesh(uint32_t(ev.mesh.mesh), g.d_albedo, g.d_roughness, g.d_metallic);
     return;
   }
   if (mode == InteractionMode::Discrete) {
-    grads.gaussian_albedo[ev.si.picked] += g.d_albedo;
-    grads.gaussian_roughness[ev.si.picked] += g.d_roughness;
-    grads.gaussian_metallic[ev.si.picked] += g.d_metallic;
+    grads.add_gaussian(uint32_t(ev.si.picked), g.d_albedo, g.d_roughness, g.d_metallic);
     return;
   }
   const float inv_O = 1.0f / ev.si.opacity;
   for (const WeightedHit& h : hits) {
     float w = h.weight * inv_O;
-    grads.gaussian_albedo[h.id] += w * g.d_albedo;
-    grads.gaussian_roughness[h.id] += w * g.d_roughness;
-    grads.gaussian_metallic[h.id] += w * g.d_metallic;
+    grads.add_gaussian(uint32_t(h.id), w * g.d_albedo, w * g.d_roughness, w * g.d_metallic);
   }
 }
 
 }  // namespace
 
 Vec3 PathTracer::sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                                 float* coverage, PathStats* stats) const {
-  return trace(camera_ray, pixel, sample, settings, nullptr, coverage, stats);
+                                 float* coverage, PathStats* stats, uint64_t* shadow_bits) const {
+  return trace(camera_ray, pixel, sample, settings, nullptr, coverage, stats, shadow_bits);
 }
 
 void PathTracer::sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                                 const PathAdjoint& adjoint) const {
-  trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr);
+  trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr, nullptr);
 }
 
 Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                       const PathAdjoint* adj, float* coverage, PathStats* stats) const {
+                       const PathAdjoint* adj, float* coverage, PathStats* stats, uint64_t* shadow_bits) const {
   const Scene& scene = scene_;
   const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
@@ -104,6 +98,16 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     else L += contribution;
   };
   thread_local std::vector<WeightedHit> vertex_hits;  // the current vertex's Gaussians (replay only)
+  // Shadow rays: recorded by the primal pass, read back by the replay (same rays, same order).
+  ShadowLog shadow_log;
+  ShadowLog* shadows = nullptr;
+  if (adj && adj->shadow_bits) {
+    shadow_log.bits = *adj->shadow_bits;
+    shadow_log.replay = true;
+    shadows = &shadow_log;
+  } else if (!adj && shadow_bits) {
+    shadows = &shadow_log;
+  }
 
   Ray ray = camera_ray;
   SpawnContext spawn;          // the camera ray leaves no surface
@@ -125,7 +129,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
       Vec3 Le = environment_radiance(scene.environment, ray.d);
       float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, environment_pdf(scene.environment, ray.d)) : 1.0f;
       add(beta * Le * w);
-      if (adj && adj->grads) scatterer.environment_adjoint(ray.d, adj->dL * beta * w, *adj->grads);
+      if (adj && adj->grads) adj->grads->add_environment(ray.d, adj->dL * beta * w);
       break;
     }
     // Emissive meshes are reached by BRDF sampling only (no MIS partner).
@@ -142,7 +146,8 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
 
     // Next-event estimation: one sample of every light and of the environment.
     DirectAdjoint direct_adj{beta, adj ? adj->dL : Vec3(0.0f), &vertex_grad, adj ? adj->grads : nullptr};
-    add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr));
+    add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr,
+                                      shadows));
 
     // Continue with a BSDF sample.
     PathRng rng(path_key, uint64_t(bounce), kStreamBrdf);
@@ -163,6 +168,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     ray = scatterer.spawn_ray(here, frame.to_world(bs.wi));
     spawn = here;
   }
+  if (shadow_bits && !adj) *shadow_bits = shadow_log.bits;
   return L;
 }
 

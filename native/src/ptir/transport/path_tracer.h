@@ -16,14 +16,16 @@
 
 namespace ptir {
 
-struct SceneGradients;
+class GradientTile;
 
 // Inputs of the adjoint (replay) mode of one sample: the sample's primal
 // radiance L and the adjoint dL of the loss with respect to it.
 struct PathAdjoint {
   Vec3 L;
   Vec3 dL;
-  SceneGradients* grads = nullptr;  // receives the parameter adjoints
+  GradientTile* grads = nullptr;  // receives the parameter adjoints
+  // The sample's shadow-ray outcomes recorded by its primal pass (or null: traced again).
+  const uint64_t* shadow_bits = nullptr;
 };
 
 struct PathStats {
@@ -39,8 +41,9 @@ class PathTracer {
 
   // Radiance of one camera-ray sample; *coverage gets 1 when the ray found a
   // surface (Gaussian interaction or mesh), else 0. pixel is y * width + x.
+  // shadow_bits: receives the path's shadow-ray outcomes for its replay (PathAdjoint::shadow_bits).
   Vec3 sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                       float* coverage = nullptr, PathStats* stats = nullptr) const;
+                       float* coverage = nullptr, PathStats* stats = nullptr, uint64_t* shadow_bits = nullptr) const;
 
   // Path replay backpropagation of one sample (METHOD §6): replays the path with
   // the same random numbers, starting from the primal radiance adjoint.L and
@@ -60,7 +63,7 @@ class PathTracer {
   // The path in either mode: primal (adjoint == nullptr) returns L; replay
   // accumulates gradients (one routine, so the two can never disagree).
   Vec3 trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-             const PathAdjoint* adjoint, float* coverage, PathStats* stats) const;
+             const PathAdjoint* adjoint, float* coverage, PathStats* stats, uint64_t* shadow_bits) const;
 
   const Scene& scene_;
   std::unique_ptr<SceneAccel> accel_;

@@ -4,7 +4,7 @@
 
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/sampling.h"
-#include "ptir/transport/gradients.h"
+#include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/path_tracer.h"
 
 namespace ptir {
@@ -135,12 +135,24 @@ bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, ui
   return !blocked && !end.mesh.valid;
 }
 
-void Scatterer::environment_adjoint(Vec3 d, Vec3 d_Le, SceneGradients& grads) const {
-  const SceneEnvironment& env = scene_.environment;
-  if (env.present() && !grads.environment.empty()) env->adjoint(d, d_Le, grads.environment.data());
+namespace {
+
+// The outcome of the next shadow ray of a path: from the log when it holds it, else traced.
+template <class Trace>
+bool shadow_outcome(ShadowLog* log, Trace&& trace) {
+  if (!log) return trace();
+  const int k = log->count++;
+  if (k >= 64) return trace();
+  if (log->replay) return (log->bits >> k) & 1u;
+  const bool visible = trace();
+  if (visible) log->bits |= uint64_t(1) << k;
+  return visible;
 }
 
-Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key, uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint) const {
+}  // namespace
+
+Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key,
+                             uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint, ShadowLog* shadows) const {
   Vec3 Ld(0.0f);
   const auto& emitters = scene_.emitters;
   // Emitters: light sample, MIS against the BRDF density (delta lights: weight 1).
@@ -153,7 +165,7 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
     const Vec3 f = fp.f;
     if (max_component(f) <= 0.0f) continue;
     if (stats) stats->shadow_rays++;
-    if (!unoccluded(from, ls.wi, ls.distance, path_key, bounce, l)) continue;
+    if (!shadow_outcome(shadows, [&] { return unoccluded(from, ls.wi, ls.distance, path_key, bounce, l); })) continue;
     float w = ls.delta ? 1.0f : power_heuristic(1, ls.pdf, 1, fp.pdf);
     Ld += f * ls.Li * (w / ls.pdf);
     // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
@@ -173,14 +185,14 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
       const Vec3 f = fp.f;
       if (max_component(f) > 0.0f) {
         if (stats) stats->shadow_rays++;
-        if (unoccluded(from, wi, INFINITY, path_key, bounce, l)) {
+        if (shadow_outcome(shadows, [&] { return unoccluded(from, wi, INFINITY, path_key, bounce, l); })) {
           float w = power_heuristic(1, pdf, 1, fp.pdf);
           Ld += f * Li * (w / pdf);
           // Adjoint: into the BRDF (through f~) and into the environment (through Li).
           if (adjoint) {
             Vec3 scale = adjoint->dL * adjoint->beta * (w / pdf);
             bsdf.eval_grad(wi_local, scale * Li, *adjoint->brdf);
-            if (adjoint->grads) environment_adjoint(wi, scale * f, *adjoint->grads);
+            if (adjoint->grads) adjoint->grads->add_environment(wi, scale * f);
           }
         }
       }

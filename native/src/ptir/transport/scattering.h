@@ -20,7 +20,7 @@
 namespace ptir {
 
 struct PathStats;
-struct SceneGradients;
+class GradientTile;
 
 // Adjoint inputs of direct_light during gradient replay (METHOD §6): the path
 // throughput beta and the adjoint dL of the sample's radiance. Light sampling
@@ -29,7 +29,18 @@ struct DirectAdjoint {
   Vec3 beta;
   Vec3 dL;
   MaterialGrad* brdf = nullptr;      // += adjoint of the vertex's BSDF parameters
-  SceneGradients* grads = nullptr;   // += adjoint of environment texels / SG amplitudes
+  GradientTile* grads = nullptr;     // += adjoint of environment texels / SG amplitudes
+};
+
+// The shadow-ray outcomes of one path, in the order the path tests them: the
+// primal pass records them (bit k: the k-th shadow ray was unoccluded) and the
+// replay, which tests the same rays in the same order with the same random
+// numbers, reads them back instead of tracing again. Rays after the 64th are
+// traced in both passes.
+struct ShadowLog {
+  uint64_t bits = 0;
+  int count = 0;
+  bool replay = false;  // read bits (replay) instead of recording them (primal)
 };
 
 // Random streams of one bounce.
@@ -85,11 +96,10 @@ class Scatterer {
 
   // One light sample of every emitter and of the environment, each MIS-weighted
   // against BSDF sampling; returns the sum of f~ Li w / pdf (beta not applied).
+  // shadows: records or replays the shadow-ray outcomes (may be null: traced).
   Vec3 direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key,
-                    uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr) const;
-
-  // Adds to `grads` the adjoint d_Le of the environment radiance seen along d.
-  void environment_adjoint(Vec3 d, Vec3 d_Le, SceneGradients& grads) const;
+                    uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr,
+                    ShadowLog* shadows = nullptr) const;
 
   // Whether hit h (t_peak, Gaussian) on a ray spawned from `from` along d is the
   // surface just left, to be skipped.

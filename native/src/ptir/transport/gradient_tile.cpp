@@ -1,0 +1,120 @@
+#include "ptir/transport/gradient_tile.h"
+
+#include <algorithm>
+
+namespace ptir {
+
+namespace {
+
+// Environments with at most this many parameters get a dense per-tile buffer
+// (128 KB: 24 SGs, a constant, maps up to 128 x 85); larger maps log their
+// adjoint calls instead (24 bytes each, a few per path), which costs less than
+// adding a whole map per tile.
+constexpr size_t kDenseEnvironmentFloats = size_t(1) << 15;
+
+constexpr uint32_t kInitialSlotsLog2 = 10;
+
+uint32_t slot_of(uint32_t id, uint32_t shift) { return (id * 0x9E3779B1u) >> shift; }
+
+}  // namespace
+
+GradientTile::GradientTile(const SceneGradients& like, const SceneEnvironment& env) {
+  mesh_base_colour_.assign(like.mesh_base_colour.size(), Vec3(0.0f));
+  mesh_roughness_.assign(like.mesh_roughness.size(), 0.0f);
+  mesh_metallic_.assign(like.mesh_metallic.size(), 0.0f);
+  if (env.present() && !like.environment.empty()) {
+    env_ = &env;
+    if (like.environment.size() <= kDenseEnvironmentFloats) env_dense_.assign(like.environment.size(), 0.0f);
+  }
+  slots_.assign(size_t(1) << kInitialSlotsLog2, 0u);
+  shift_ = 32 - kInitialSlotsLog2;
+}
+
+void GradientTile::clear() {
+  if (!entries_.empty()) std::fill(slots_.begin(), slots_.end(), 0u);
+  entries_.clear();
+  if (mesh_touched_) {
+    std::fill(mesh_base_colour_.begin(), mesh_base_colour_.end(), Vec3(0.0f));
+    std::fill(mesh_roughness_.begin(), mesh_roughness_.end(), 0.0f);
+    std::fill(mesh_metallic_.begin(), mesh_metallic_.end(), 0.0f);
+  }
+  mesh_touched_ = false;
+  if (env_touched_) std::fill(env_dense_.begin(), env_dense_.end(), 0.0f);
+  env_log_.clear();
+  env_touched_ = false;
+}
+
+void GradientTile::grow() {
+  slots_.assign(slots_.size() * 2, 0u);
+  --shift_;
+  const uint32_t mask = uint32_t(slots_.size() - 1);
+  for (uint32_t e = 0; e < entries_.size(); ++e) {
+    uint32_t s = slot_of(entries_[e].id, shift_);
+    while (slots_[s] != 0u) s = (s + 1) & mask;
+    slots_[s] = e + 1;
+  }
+}
+
+void GradientTile::add_gaussian(uint32_t id, Vec3 d_albedo, float d_roughness, float d_metallic) {
+  const uint32_t mask = uint32_t(slots_.size() - 1);
+  uint32_t s = slot_of(id, shift_);
+  for (;; s = (s + 1) & mask) {
+    const uint32_t e = slots_[s];
+    if (e == 0u) break;
+    Entry& x = entries_[e - 1];
+    if (x.id == id) {
+      x.albedo += d_albedo;
+      x.roughness += d_roughness;
+      x.metallic += d_metallic;
+      return;
+    }
+  }
+  entries_.push_back({id, d_albedo, d_roughness, d_metallic});
+  slots_[s] = uint32_t(entries_.size());
+  if (2 * entries_.size() > slots_.size()) grow();  // load factor <= 1/2
+}
+
+void GradientTile::add_mesh(uint32_t mesh, Vec3 d_base_colour, float d_roughness, float d_metallic) {
+  mesh_base_colour_[mesh] += d_base_colour;
+  mesh_roughness_[mesh] += d_roughness;
+  mesh_metallic_[mesh] += d_metallic;
+  mesh_touched_ = true;
+}
+
+void GradientTile::add_environment(Vec3 d, Vec3 d_Le) {
+  if (!env_) return;
+  env_touched_ = true;
+  if (!env_dense_.empty()) (*env_)->adjoint(d, d_Le, env_dense_.data());
+  else env_log_.push_back({d, d_Le});
+}
+
+void GradientTile::finish() {
+  // The hash slots now point at other entries: a finished tile takes no more adds until clear().
+  std::sort(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) { return a.id < b.id; });
+}
+
+void GradientTile::add_to(SceneGradients& g) const {
+  for (const Entry& e : entries_) {
+    g.gaussian_albedo[e.id] += e.albedo;
+    g.gaussian_roughness[e.id] += e.roughness;
+    g.gaussian_metallic[e.id] += e.metallic;
+  }
+  if (mesh_touched_)
+    for (size_t m = 0; m < mesh_base_colour_.size(); ++m) {
+      g.mesh_base_colour[m] += mesh_base_colour_[m];
+      g.mesh_roughness[m] += mesh_roughness_[m];
+      g.mesh_metallic[m] += mesh_metallic_[m];
+    }
+  if (!env_touched_) return;
+  if (!env_dense_.empty())
+    for (size_t i = 0; i < env_dense_.size(); ++i) g.environment[i] += env_dense_[i];
+  for (const EnvRecord& r : env_log_) (*env_)->adjoint(r.d, r.d_Le, g.environment.data());
+}
+
+size_t GradientTile::bytes() const {
+  return slots_.capacity() * sizeof(uint32_t) + entries_.capacity() * sizeof(Entry) +
+         env_dense_.capacity() * sizeof(float) + env_log_.capacity() * sizeof(EnvRecord) +
+         mesh_base_colour_.capacity() * sizeof(Vec3) + 2 * mesh_roughness_.capacity() * sizeof(float);
+}
+
+}  // namespace ptir
