@@ -14,5 +14,6 @@ Runner add_render_command(CLI::App& app);
 Runner add_optimize_command(CLI::App& app);
 Runner add_eval_command(CLI::App& app);
 Runner add_relight_command(CLI::App& app);
+Runner add_fit_command(CLI::App& app);
 
 }  // namespace ptir::cli

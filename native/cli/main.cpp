@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   ptir::cli::Runner optimize = ptir::cli::add_optimize_command(app);
   ptir::cli::Runner eval = ptir::cli::add_eval_command(app);
   ptir::cli::Runner relight = ptir::cli::add_relight_command(app);
+  ptir::cli::Runner fit = ptir::cli::add_fit_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
     if (app.got_subcommand("optimize")) return optimize();
     if (app.got_subcommand("eval")) return eval();
     if (app.got_subcommand("relight")) return relight();
+    if (app.got_subcommand("fit")) return fit();
   } catch (const ptir::Cancelled&) {
     std::fprintf(stderr, "ptir: cancelled\n");
     return 130;

@@ -23,6 +23,15 @@ const char* param_kind_name(ParamKind k) {
     case ParamKind::MeshColour: return "mesh_base_colour";
     case ParamKind::MeshRoughness: return "mesh_roughness";
     case ParamKind::MeshMetallic: return "mesh_metallic";
+    case ParamKind::GaussianPosition: return "position";
+    case ParamKind::GaussianLogScale: return "log_scale";
+    case ParamKind::GaussianRotation: return "rotation";
+    case ParamKind::GaussianOpacity: return "opacity";
+    case ParamKind::GaussianShDc: return "sh_dc";
+    case ParamKind::GaussianShRest: return "sh_rest";
+    case ParamKind::GaussianNormal: return "normal";
+    case ParamKind::FitStatistics: return "fit_statistics";
+    case ParamKind::FitLogRows: return "fit_log";
   }
   return "?";
 }
@@ -154,7 +163,7 @@ void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& sc
       case ParamKind::MeshMetallic:
         check_size(g, scene.meshes.size());
         for (size_t i = 0; i < scene.meshes.size(); ++i) scene.meshes[i].material.metallic = sigmoid(g.raw[i]);
-        break;
+        break;      default: break;  // the geometry stage's kinds (optim/geometry_fit.h)
     }
   }
 }
@@ -200,7 +209,7 @@ std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGr
       case ParamKind::MeshMetallic:
         check_size(g, gr.mesh_metallic.size());
         for (size_t i = 0; i < d.size(); ++i) d[i] = gr.mesh_metallic[i] * dsig(g.raw[i]);
-        break;
+        break;      default: break;  // the geometry stage's kinds (optim/geometry_fit.h)
     }
     out.push_back(std::move(d));
   }
