@@ -125,6 +125,10 @@ Runner add_fit_command(CLI::App& app) {
   cmd->add_option("--lambda-normal", o->s.lambda_normal, "weight of the pseudo-normal term")->capture_default_str();
   cmd->add_option("--normal-from", o->s.normal_from, "iteration from which the pseudo-normal term applies")
       ->capture_default_str();
+  cmd->add_option("--normal-radius", o->s.normal_radius, "stencil radius (pixels) of the depth pseudo-normals")
+      ->capture_default_str();
+  cmd->add_flag("--normal-to-weights", o->s.normal_to_weights, "let the normal term move the splats too");
+  cmd->add_option("--lr-normal", o->s.lr_normal, "shading-normal learning rate")->capture_default_str();
   cmd->add_option("--lambda-mask", o->s.lambda_mask, "weight of |opacity - mask| where the images have alpha")
       ->capture_default_str();
   cmd->add_option("--lr-position", o->s.lr_position, "position learning rate (times the cameras' extent)")

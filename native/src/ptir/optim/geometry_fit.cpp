@@ -106,7 +106,12 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   RenderControl control;
   control.cancel = cancel;
 
+  using clock = std::chrono::steady_clock;
+  auto since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
+  const auto tb = clock::now();
   SceneAccel accel(field_, {}, settings_.accel);
+  log.build_s = since(tb);
+  const auto t1 = clock::now();
   const Vec3 black(0.0f);
   SplatImage fwd = render_splat(accel, cam, black, control);
   Image d_colour, d_opacity, d_normal;
@@ -115,14 +120,16 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   if (masked) log.mask = mask_term(fwd.opacity, target->alpha, settings_.lambda_mask, &d_opacity);
   const bool normals = it >= settings_.normal_from && settings_.lambda_normal > 0.0f;
   if (normals)
-    log.normal = normal_consistency(fwd.normal, pseudo_normals(cam, fwd.depth, fwd.opacity), settings_.lambda_normal,
+    log.normal = normal_consistency(fwd.normal, pseudo_normals(cam, fwd.depth, fwd.opacity, settings_.normal_radius), settings_.lambda_normal,
                                     &d_normal);
   log.loss = log.image + settings_.lambda_mask * log.mask + settings_.lambda_normal * log.normal;
 
+  log.forward_s = since(t1);
+  const auto t2 = clock::now();
   SplatGradients g;
   g.resize(field_.size(), field_.sh_stride());
   render_splat_backward(accel, cam, black, fwd, &d_colour, masked ? &d_opacity : nullptr, normals ? &d_normal : nullptr,
-                        g, control);
+                        g, control, settings_.normal_to_weights);
 
   // Densification statistics: |dL/dmu| in 3DGS's NDC units (dL/dpixel * W/2).
   const float ndc = std::tan(0.5f * cam.fov_x);
@@ -134,13 +141,14 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   }
   const std::vector<std::vector<float>> raw = fit_raw_gradients(groups_, g, field_);
   for (size_t k = 0; k < groups_.size(); ++k) adam_[k].step(groups_[k].raw, raw[k]);
+  log.backward_s = since(t2);
   iteration_++;
   if (iteration_ % settings_.densify_every == 0 && iteration_ >= settings_.densify_from &&
       iteration_ < settings_.densify_until)
     densify(iteration_, log);
   apply();
   log.gaussians = field_.size();
-  log.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  log.seconds = since(t0);
   log_.push_back(log);
   return log;
 }

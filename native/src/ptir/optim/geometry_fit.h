@@ -53,6 +53,8 @@ struct GeometryFitSettings {
   float lambda_mask = 0.1f;
   float lambda_normal = 0.05f;
   int normal_from = 0;  // iteration from which the pseudo-normal term applies
+  int normal_radius = 2;  // stencil radius of the pseudo-normals (pixels)
+  bool normal_to_weights = false;  // the normal term moves the splats too (else only the normals)
   // Adam learning rates (3DGS's; position scaled by the cameras' extent).
   float lr_position = 1.6e-4f, lr_scale = 5e-3f, lr_rotation = 1e-3f, lr_opacity = 0.05f;
   float lr_sh_dc = 2.5e-3f, lr_sh_rest = 1.25e-4f, lr_normal = 1e-2f;
@@ -72,7 +74,8 @@ struct FitLog {
   double loss = 0, image = 0, mask = 0, normal = 0;
   size_t gaussians = 0;
   int pruned = 0, cloned = 0, split = 0;  // densification at this iteration
-  double seconds = 0;
+  double seconds = 0;  // wall time of the iteration, of which:
+  double build_s = 0, forward_s = 0, backward_s = 0;  // BVH build, render + loss, replay + update
   size_t view = 0;
 };
 

@@ -4,7 +4,7 @@
 
 namespace ptir {
 
-Image pseudo_normals(const Camera& cam, const Image& depth, const Image& opacity, float min_opacity,
+Image pseudo_normals(const Camera& cam, const Image& depth, const Image& opacity, int r, float min_opacity,
                      float max_relative_step) {
   Image out(cam.width, cam.height, {"X", "Y", "Z", "A"});
   auto point = [&](int x, int y) {
@@ -12,15 +12,15 @@ Image pseudo_normals(const Camera& cam, const Image& depth, const Image& opacity
     return r.o + depth.at(x, y, 0) * r.d;
   };
   auto solid = [&](int x, int y) { return opacity.at(x, y, 0) > min_opacity; };
-  for (int y = 1; y + 1 < cam.height; ++y)
-    for (int x = 1; x + 1 < cam.width; ++x) {
-      if (!solid(x, y) || !solid(x - 1, y) || !solid(x + 1, y) || !solid(x, y - 1) || !solid(x, y + 1)) continue;
+  for (int y = r; y + r < cam.height; ++y)
+    for (int x = r; x + r < cam.width; ++x) {
+      if (!solid(x, y) || !solid(x - r, y) || !solid(x + r, y) || !solid(x, y - r) || !solid(x, y + r)) continue;
       const float dc = depth.at(x, y, 0);
       bool edge = false;
-      for (auto [nx, ny] : {std::pair{x - 1, y}, {x + 1, y}, {x, y - 1}, {x, y + 1}})
+      for (auto [nx, ny] : {std::pair{x - r, y}, {x + r, y}, {x, y - r}, {x, y + r}})
         edge |= std::fabs(depth.at(nx, ny, 0) - dc) > max_relative_step * dc;
       if (edge) continue;
-      Vec3 n = cross(point(x + 1, y) - point(x - 1, y), point(x, y + 1) - point(x, y - 1));
+      Vec3 n = cross(point(x + r, y) - point(x - r, y), point(x, y + r) - point(x, y - r));
       const float len = length(n);
       if (!(len > 0.0f)) continue;
       n = n / len;

@@ -103,8 +103,8 @@ inline void replay(const GaussianField& f, const CullSettings& cull, const Ray& 
   st.acc_normal += w * n;
   const float inv = 1.0f / (1.0f - alpha);
   const Vec3 rest_c = s.colour - st.acc_colour, rest_n = s.normal_sum - st.acc_normal;
-  const float d_alpha = dot(adj.colour, st.T * c - inv * rest_c) + adj.opacity * s.transmittance * inv +
-                        dot(adj.normal_sum, st.T * n - inv * rest_n);
+  float d_alpha = dot(adj.colour, st.T * c - inv * rest_c) + adj.opacity * s.transmittance * inv;
+  if (adj.normal_to_weights) d_alpha += dot(adj.normal_sum, st.T * n - inv * rest_n);
   // Colour: dC/dc_i = w_i, through the SH basis where the colour is not clamped at 0.
   const int stride = f.sh_stride(), nk = stride / 3;
   if (f.sh.size() >= (size_t(h.id) + 1) * size_t(stride)) {
@@ -207,7 +207,7 @@ SplatImage render_splat(const SceneAccel& accel, const Camera& cam, Vec3 backgro
 
 void render_splat_backward(const SceneAccel& accel, const Camera& cam, Vec3 background, const SplatImage& fwd,
                            const Image* d_colour, const Image* d_opacity, const Image* d_normal, SplatGradients& grads,
-                           const RenderControl& control) {
+                           const RenderControl& control, bool normal_to_weights) {
   (void)background;
   check_adjoint(d_colour, cam, 3, "colour");
   check_adjoint(d_opacity, cam, 1, "opacity");
@@ -234,6 +234,7 @@ void render_splat_backward(const SceneAccel& accel, const Camera& cam, Vec3 back
           if (d_colour) adj[l].colour = Vec3(d_colour->at(x, y, 0), d_colour->at(x, y, 1), d_colour->at(x, y, 2));
           if (d_opacity) adj[l].opacity = d_opacity->at(x, y, 0);
           if (d_normal) adj[l].normal_sum = Vec3(d_normal->at(x, y, 0), d_normal->at(x, y, 1), d_normal->at(x, y, 2));
+          adj[l].normal_to_weights = normal_to_weights;
         }
         WalkEnd ends[16];
         accel.walk_packet(

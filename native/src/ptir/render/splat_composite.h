@@ -49,6 +49,9 @@ struct SplatRayAdjoint {
   Vec3 colour;    // dL/dC
   float opacity = 0;  // dL/dO (O = 1 - T_end)
   Vec3 normal_sum;    // dL/dNsum
+  // false: dL/dNsum reaches the normals only, not the weights (alpha, geometry):
+  // a normal term then shapes the shading normals without moving the splats.
+  bool normal_to_weights = true;
 };
 
 // Gradients with respect to the field's values: position, log scale, the unit
@@ -87,7 +90,7 @@ SplatImage render_splat(const SceneAccel& accel, const Camera& camera, Vec3 back
 // for a given thread count.
 void render_splat_backward(const SceneAccel& accel, const Camera& camera, Vec3 background, const SplatImage& forward,
                            const Image* d_colour, const Image* d_opacity, const Image* d_normal, SplatGradients& grads,
-                           const RenderControl& control = {});
+                           const RenderControl& control = {}, bool normal_to_weights = true);
 
 // dL/dq of R = quat_to_mat3(q) (unit q) given dL/dR.
 std::array<float, 4> quat_to_mat3_adjoint(const std::array<float, 4>& q, const Mat3& dR);
