@@ -46,6 +46,7 @@ int run_fit(FitCommand& o) {
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
   if (o.s.iterations < 0) throw Error("--iters must be >= 0");
+  if (o.s.densify_every < 1) throw Error("--densify-every must be >= 1");
   if (o.s.accel.k < 1 || o.s.accel.k > SceneAccel::kMaxK) throw Error("--k must be in 1..64");
   guard_outputs({{o.gaussians}, {o.dataset}, {}}, {{}, {o.out}}, o.force);
   remove_stale_outputs({o.out}, o.quiet);
@@ -127,6 +128,7 @@ Runner add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--normal-radius", o->s.normal_radius, "stencil radius (pixels) of the depth pseudo-normals")
       ->capture_default_str();
+  cmd->add_flag("!--mean-depth", o->s.median_depth, "pseudo-normals from the mean depth (default: the median depth)");
   cmd->add_flag("--normal-to-weights", o->s.normal_to_weights, "let the normal term move the splats too");
   cmd->add_option("--lr-normal", o->s.lr_normal, "shading-normal learning rate")->capture_default_str();
   cmd->add_option("--lambda-mask", o->s.lambda_mask, "weight of |opacity - mask| where the images have alpha")
@@ -134,6 +136,10 @@ Runner add_fit_command(CLI::App& app) {
   cmd->add_option("--lr-position", o->s.lr_position, "position learning rate (times the cameras' extent)")
       ->capture_default_str();
   cmd->add_option("--densify-grad", o->s.densify_grad, "mean positional gradient (3DGS units) that densifies")
+      ->capture_default_str();
+  cmd->add_option("--densify-every", o->s.densify_every, "iterations between densification steps")->capture_default_str();
+  cmd->add_option("--densify-from", o->s.densify_from, "first densification iteration")->capture_default_str();
+  cmd->add_option("--densify-until", o->s.densify_until, "no densification from this iteration on")
       ->capture_default_str();
   cmd->add_option("--max-gaussians", o->max_gaussians, "upper bound on the count (0: 1.5 x the input's)");
   cmd->add_flag("--no-densify", o->no_densify, "keep the count (no pruning, cloning or splitting)");

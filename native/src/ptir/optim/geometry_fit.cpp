@@ -37,7 +37,6 @@ GeometryFit::GeometryFit(GaussianField field, std::shared_ptr<const Dataset> dat
   if (!dataset_ || dataset_->size() == 0) throw Error("geometry fit: the dataset has no training views");
   if (field_.size() == 0) throw Error(field_.source_path, "no Gaussians to fit");
   if (settings_.iterations < 0) throw Error("geometry fit: iterations must be >= 0");
-  if (settings_.densify_until < 0) settings_.densify_until = settings_.iterations / 2;
   initial_count_ = field_.size();
   if (settings_.max_gaussians == 0) settings_.max_gaussians = initial_count_ + initial_count_ / 2;
   extent_ = camera_extent(*dataset_);
@@ -120,7 +119,7 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   if (masked) log.mask = mask_term(fwd.opacity, target->alpha, settings_.lambda_mask, &d_opacity);
   const bool normals = it >= settings_.normal_from && settings_.lambda_normal > 0.0f;
   if (normals)
-    log.normal = normal_consistency(fwd.normal, pseudo_normals(cam, fwd.depth, fwd.opacity, settings_.normal_radius), settings_.lambda_normal,
+    log.normal = normal_consistency(fwd.normal, pseudo_normals(cam, settings_.median_depth ? fwd.median_depth : fwd.depth, fwd.opacity, settings_.normal_radius), settings_.lambda_normal,
                                     &d_normal);
   log.loss = log.image + settings_.lambda_mask * log.mask + settings_.lambda_normal * log.normal;
 

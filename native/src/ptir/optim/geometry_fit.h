@@ -54,12 +54,14 @@ struct GeometryFitSettings {
   float lambda_normal = 0.05f;
   int normal_from = 0;  // iteration from which the pseudo-normal term applies
   int normal_radius = 2;  // stencil radius of the pseudo-normals (pixels)
+  bool median_depth = true;  // pseudo-normals from the median depth (else the mean, Dsum / O)
   bool normal_to_weights = false;  // the normal term moves the splats too (else only the normals)
   // Adam learning rates (3DGS's; position scaled by the cameras' extent).
   float lr_position = 1.6e-4f, lr_scale = 5e-3f, lr_rotation = 1e-3f, lr_opacity = 0.05f;
   float lr_sh_dc = 2.5e-3f, lr_sh_rest = 1.25e-4f, lr_normal = 1e-2f;
   // Densification and pruning.
-  int densify_every = 100, densify_from = 200, densify_until = -1;  // -1: half the iterations
+  // (Fixed iteration numbers, not fractions of the run: a resumed run may go further.)
+  int densify_every = 100, densify_from = 200, densify_until = 1500;
   float densify_grad = 2e-4f;      // mean |dL/d(screen position)| (3DGS NDC units)
   float densify_fraction = 0.05f;  // at most this share of the count added per step
   float prune_opacity = 0.005f;

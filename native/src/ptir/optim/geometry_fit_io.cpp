@@ -40,7 +40,7 @@ Fingerprint GeometryFit::fingerprint() const {
           {"lambda_mask", num(s.lambda_mask)},
           {"lambda_normal", num(s.lambda_normal)},
           {"normal_from", std::to_string(s.normal_from) + " r" + std::to_string(s.normal_radius) +
-                              (s.normal_to_weights ? " weights" : "")},
+                              (s.normal_to_weights ? " weights" : "") + (s.median_depth ? " median" : " mean")},
           {"lr", num(s.lr_position) + " " + num(s.lr_scale) + " " + num(s.lr_rotation) + " " + num(s.lr_opacity) + " " +
                      num(s.lr_sh_dc) + " " + num(s.lr_sh_rest) + " " + num(s.lr_normal)},
           {"densify", std::to_string(s.densify_every) + " " + std::to_string(s.densify_from) + " " +
@@ -57,6 +57,7 @@ Checkpoint GeometryFit::checkpoint() const {
     c.groups.push_back({groups_[k].kind, groups_[k].lr, adam_[k].t, groups_[k].raw, adam_[k].m, adam_[k].v});
   CheckpointGroup stats{ParamKind::FitStatistics, 0.0f, 0, grad_accum_, {}, {}};
   stats.raw.insert(stats.raw.end(), grad_count_.begin(), grad_count_.end());
+  stats.m.assign(stats.raw.size(), 0.0f), stats.v = stats.m;  // the file holds moments for every group
   c.groups.push_back(std::move(stats));
   CheckpointGroup rows{ParamKind::FitLogRows, 0.0f, 0, {}, {}, {}};
   for (const FitLog& l : log_)
@@ -64,6 +65,7 @@ Checkpoint GeometryFit::checkpoint() const {
                                      float(l.gaussians), float(l.pruned), float(l.cloned), float(l.split),
                                      float(l.seconds), float(l.view), float(l.build_s), float(l.forward_s),
                                      float(l.backward_s)});
+  rows.m.assign(rows.raw.size(), 0.0f), rows.v = rows.m;
   c.groups.push_back(std::move(rows));
   return c;
 }

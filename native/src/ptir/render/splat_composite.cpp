@@ -51,6 +51,7 @@ struct RayState {
   float T = 1.0f;
   Vec3 colour, normal_sum, acc_colour, acc_normal;
   float depth_sum = 0.0f;
+  float median_t = 0.0f;
 };
 
 // Forward step for hit h.
@@ -59,6 +60,7 @@ inline void composite(const GaussianField& f, const Ray& ray, const GaussianHit&
   st.colour += w * f.sh_colour(h.id, ray.d);
   st.normal_sum += w * f.normal[h.id];
   st.depth_sum += w * h.t;
+  if (st.T > 0.5f && st.T * (1.0f - h.alpha) <= 0.5f) st.median_t = h.t;
   st.T *= 1.0f - h.alpha;
 }
 
@@ -181,6 +183,7 @@ SplatImage render_splat(const SceneAccel& accel, const Camera& cam, Vec3 backgro
   out.opacity = Image(cam.width, cam.height, {"A"});
   out.normal = Image(cam.width, cam.height, {"X", "Y", "Z"});
   out.depth = Image(cam.width, cam.height, {"Z"});
+  out.median_depth = Image(cam.width, cam.height, {"Z"});
   const int rows4 = (cam.height + 3) / 4;
   tbb::parallel_for(0, rows4, [&](int br) {
     if (control.cancel && control.cancel->load()) return;
@@ -198,6 +201,7 @@ SplatImage render_splat(const SceneAccel& accel, const Camera& cam, Vec3 backgro
         for (int k = 0; k < 3; ++k) out.colour.at(x, y, k) = c[k], out.normal.at(x, y, k) = st[l].normal_sum[k];
         out.opacity.at(x, y, 0) = o;
         out.depth.at(x, y, 0) = o > 0.0f ? st[l].depth_sum / o : 0.0f;
+        out.median_depth.at(x, y, 0) = st[l].median_t;
       }
     }
   });

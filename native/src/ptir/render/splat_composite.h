@@ -79,6 +79,7 @@ struct SplatImage {
   Image opacity; // O
   Image normal;  // Nsum (not normalised)
   Image depth;   // Dsum / O (0 where O = 0)
+  Image median_depth;  // t_peak of the hit where T first falls to 0.5 or below (0: never)
 };
 
 SplatImage render_splat(const SceneAccel& accel, const Camera& camera, Vec3 background,
