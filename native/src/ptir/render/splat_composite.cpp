@@ -46,6 +46,10 @@ std::array<float, 4> quat_to_mat3_adjoint(const std::array<float, 4>& q, const M
 
 namespace {
 
+// The normal sum covers the hits in front of the median depth (T > 1/2 before
+// them): the surface the pseudo-normals describe, not the far side seen through it.
+constexpr float kFrontT = 0.5f;
+
 // Per-ray compositing state, shared by the forward and the replay.
 struct RayState {
   float T = 1.0f;
@@ -58,7 +62,7 @@ struct RayState {
 inline void composite(const GaussianField& f, const Ray& ray, const GaussianHit& h, RayState& st) {
   const float w = st.T * h.alpha;
   st.colour += w * f.sh_colour(h.id, ray.d);
-  st.normal_sum += w * f.normal[h.id];
+  if (st.T > kFrontT) st.normal_sum += w * f.normal[h.id];
   st.depth_sum += w * h.t;
   if (st.T > 0.5f && st.T * (1.0f - h.alpha) <= 0.5f) st.median_t = h.t;
   st.T *= 1.0f - h.alpha;
@@ -101,12 +105,13 @@ inline void replay(const GaussianField& f, const CullSettings& cull, const Ray& 
                    const SplatRaySample& s, const SplatRayAdjoint& adj, RayState& st, float* basis, SplatGradients& g) {
   const float alpha = h.alpha, w = st.T * alpha;
   const Vec3 c = f.sh_colour(h.id, ray.d), n = f.normal[h.id];
+  const bool front = st.T > kFrontT;
   st.acc_colour += w * c;
-  st.acc_normal += w * n;
+  if (front) st.acc_normal += w * n;
   const float inv = 1.0f / (1.0f - alpha);
   const Vec3 rest_c = s.colour - st.acc_colour, rest_n = s.normal_sum - st.acc_normal;
   float d_alpha = dot(adj.colour, st.T * c - inv * rest_c) + adj.opacity * s.transmittance * inv;
-  if (adj.normal_to_weights) d_alpha += dot(adj.normal_sum, st.T * n - inv * rest_n);
+  if (adj.normal_to_weights) d_alpha += dot(adj.normal_sum, (front ? st.T : 0.0f) * n - inv * rest_n);
   // Colour: dC/dc_i = w_i, through the SH basis where the colour is not clamped at 0.
   const int stride = f.sh_stride(), nk = stride / 3;
   if (f.sh.size() >= (size_t(h.id) + 1) * size_t(stride)) {
@@ -118,7 +123,7 @@ inline void replay(const GaussianField& f, const CullSettings& cull, const Ray& 
       for (int k = 0; k < nk; ++k) gs[k * 3 + ch] += basis[k] * gc;
     }
   }
-  g.normal[h.id] += w * adj.normal_sum;
+  if (front) g.normal[h.id] += w * adj.normal_sum;
   alpha_backward(f, ray, h.id, alpha, d_alpha, cull, g);
   st.T *= 1.0f - alpha;
 }

@@ -7,7 +7,8 @@
 // opacity-aware k-buffer, alpha_i = min(0.99, sigma_i rho_i)):
 //   w_i = T_i alpha_i,  T_{i+1} = T_i (1 - alpha_i)
 //   C = sum w_i c_i(d) + T_end * background      (c_i: SH colour, display space)
-//   O = 1 - T_end,  Nsum = sum w_i n_i,  Dsum = sum w_i t_i
+//   O = 1 - T_end,  Nsum = sum_{T_i > 1/2} w_i n_i,  Dsum = sum w_i t_i
+// (the normal sum stops at the median depth: the front surface, not its far side)
 // A triangle ends the walk (it is treated as background); the geometry stage
 // traces Gaussians only.
 //
@@ -40,7 +41,7 @@ namespace ptir {
 struct SplatRaySample {
   Vec3 colour;               // sum w_i c_i + T_end * background
   float transmittance = 1;   // T_end
-  Vec3 normal_sum;           // sum w_i n_i
+  Vec3 normal_sum;           // sum w_i n_i over the hits with T_i > 1/2
   float depth_sum = 0;       // sum w_i t_peak_i
 };
 
