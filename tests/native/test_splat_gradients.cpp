@@ -196,3 +196,33 @@ TEST(SplatGradients, IndependentOfKBufferSize) {
     EXPECT_NEAR(g4.opacity[i], g32.opacity[i], 1e-5f);
   }
 }
+
+// A ray that turns opaque stops (T < 0.001): the Gaussians behind the cut are
+// never visited and get no gradient, those in front match finite differences,
+// including where alpha is clamped at 0.99 (no gradient there either).
+TEST(SplatGradients, OpaqueCutAndClampedAlpha) {
+  GaussianField f;
+  test::add_gaussian(f, Vec3(0.05f, 0.0f, 0.4f), Vec3(0.5f, 0.4f, 0.05f), {1, 0.1f, 0.2f, 0}, 0.9995f);
+  test::add_gaussian(f, Vec3(-0.05f, 0.05f, 0.1f), Vec3(0.45f, 0.5f, 0.05f), {1, -0.1f, 0, 0.3f}, 0.9995f);
+  test::add_gaussian(f, Vec3(0.0f, 0.0f, -0.3f), Vec3(0.3f, 0.3f, 0.1f), {1, 0, 0, 0}, 0.8f);
+  f.sh_degree = 0;
+  const Adjoints a = random_adjoints(9);
+  const SplatGradients g = gradients(f, a, 32);
+  // The back Gaussian: reached only where the front two leave T >= 0.001, so its
+  // gradient is that of the rim pixels; the finite differences agree everywhere.
+  Check c;
+  for (size_t i = 0; i < f.size(); ++i)
+    for (int j = 0; j < 3; ++j) {
+      check_param(f, a, 32, 1e-3f, [&](GaussianField& x, float d) { x.position[i][j] += d; }, g.position[i][j], 2e-3, c,
+                  "position");
+      check_param(f, a, 32, 1e-3f, [&](GaussianField& x, float d) { x.scale[i][j] *= std::exp(d); }, g.log_scale[i][j],
+                  2e-3, c, "log scale");
+    }
+  EXPECT_GE(c.compared, 12);
+  // The centre pixel's walk stops before the back Gaussian.
+  SceneAccel accel(f, {});
+  std::vector<uint32_t> ids;
+  accel.walk(test_camera().generate_ray(kSize / 2 + 0.5f, kSize / 2 + 0.5f),
+             [&](const GaussianHit& h) { return ids.push_back(h.id), true; }, nullptr, true);
+  EXPECT_EQ(ids, (std::vector<uint32_t>{0, 1}));
+}
