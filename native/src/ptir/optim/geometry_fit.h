@@ -54,7 +54,7 @@ struct GeometryFitSettings {
   // Off by default: measured on the dataset maker's Cycles sets at 100^2, depth
   // pseudo-normals (28 degrees from the truth after fitting) pull the shortest-axis
   // normals away (normal MAE 11.8 degrees without the term, 15.4 with 0.05 from
-  // iteration 750 at lr 1e-3, 23.0 at lr 1e-2). README, geometry stage.
+  // iteration 750 at lr 1e-3, 23.0 at lr 1e-2 from the mean depth). README, geometry stage.
   float lambda_normal = 0.0f;
   int normal_from = 0;  // iteration from which the pseudo-normal term applies
   int normal_radius = 2;  // stencil radius of the pseudo-normals (pixels)
