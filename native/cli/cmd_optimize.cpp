@@ -44,6 +44,7 @@
 #include "capture_flags.h"
 #include "commands.h"
 #include "output_guard.h"
+#include "run_control.h"
 #include "filter_flags.h"
 #include "job_stop.h"
 #include "ptir/core/error.h"
@@ -93,23 +94,6 @@ bool resolve_dataset_defaults(OptimizeCommand& o) {
     if (!o.quiet) std::fprintf(stderr, "optimize: Gaussians from the dataset: %s\n", o.gaussians.c_str());
   }
   return true;
-}
-
-std::atomic<bool> g_interrupted{false};
-
-extern "C" void on_sigint(int) {
-  g_interrupted.store(true);
-  std::signal(SIGINT, SIG_DFL);  // a second Ctrl-C ends the process at once
-}
-
-std::string duration_text(double s) {
-  if (!std::isfinite(s) || s < 0) return "?";
-  long t = long(s + 0.5);
-  char b[32];
-  if (t >= 3600) std::snprintf(b, sizeof b, "%ldh%02ldm", t / 3600, (t / 60) % 60);
-  else if (t >= 60) std::snprintf(b, sizeof b, "%ldm%02lds", t / 60, t % 60);
-  else std::snprintf(b, sizeof b, "%.1fs", s);
-  return b;
 }
 
 // The optimiser for the command's options (inputs loaded; resumed when asked).
@@ -189,8 +173,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
                  1e6 * est.primal_per_sample, 1e6 * est.replay_per_sample);
   }
 
-  g_interrupted.store(false);
-  auto previous = std::signal(SIGINT, on_sigint);
+  auto previous = install_sigint();
   const int start_it = opt.iteration();
   const auto t0 = std::chrono::steady_clock::now();
   RunOptions ro;
@@ -225,10 +208,10 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   try {
     r = run_optimizer(opt, ro);
   } catch (...) {
-    std::signal(SIGINT, previous);
+    restore_sigint(previous);
     throw;
   }
-  std::signal(SIGINT, previous);
+  restore_sigint(previous);
   if (opt.nonfinite_gradients() > 0 && !o.quiet)
     std::fprintf(stderr, "warning: %zu non-finite gradient entries were dropped\n", opt.nonfinite_gradients());
   if (r == RunResult::Cancelled) {

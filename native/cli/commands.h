@@ -16,5 +16,6 @@ Runner add_eval_command(CLI::App& app);
 Runner add_relight_command(CLI::App& app);
 Runner add_serve_command(CLI::App& app);
 Runner add_cameras_command(CLI::App& app);
+Runner add_fit_command(CLI::App& app);
 
 }  // namespace ptir::cli

@@ -31,6 +31,7 @@ int run(int argc, char** argv, const ptir::Communicator& comm) {
   ptir::cli::Runner relight = ptir::cli::add_relight_command(app);
   ptir::cli::Runner serve = ptir::cli::add_serve_command(app);
   ptir::cli::Runner cameras = ptir::cli::add_cameras_command(app);
+  ptir::cli::Runner fit = ptir::cli::add_fit_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -49,6 +50,7 @@ int run(int argc, char** argv, const ptir::Communicator& comm) {
     if (app.got_subcommand("relight")) return relight();
     if (app.got_subcommand("serve")) return serve();
     if (app.got_subcommand("cameras")) return cameras();
+    if (app.got_subcommand("fit")) return fit();
   } catch (const ptir::Cancelled&) {
     std::fprintf(stderr, "ptir: cancelled\n");
     return 130;

@@ -129,7 +129,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   for (uint64_t i = 0; i < ng; ++i) {
     CheckpointGroup g;
     uint32_t kind = r.pod<uint32_t>();
-    if (kind > uint32_t(ParamKind::EnvironmentCoarse)) throw Error(path, "checkpoint has an unknown parameter group");
+    if (kind > uint32_t(ParamKind::LastKind)) throw Error(path, "checkpoint has an unknown parameter group");
     if (kind == kEnvSgBeforeOneGroup) kind = uint32_t(ParamKind::Environment);
     g.kind = ParamKind(kind);
     g.lr = r.pod<float>();

@@ -26,6 +26,15 @@ const char* param_kind_name(ParamKind k) {
     case ParamKind::MeshMetallic: return "mesh_metallic";
     case ParamKind::EnvironmentCoarse: return "environment_coarse";
     case ParamKind::Exposure: return "exposure";
+    case ParamKind::GaussianPosition: return "position";
+    case ParamKind::GaussianLogScale: return "log_scale";
+    case ParamKind::GaussianRotation: return "rotation";
+    case ParamKind::GaussianOpacity: return "opacity";
+    case ParamKind::GaussianShDc: return "sh_dc";
+    case ParamKind::GaussianShRest: return "sh_rest";
+    case ParamKind::GaussianNormal: return "normal";
+    case ParamKind::FitStatistics: return "fit_statistics";
+    case ParamKind::FitLogRows: return "fit_log";
   }
   return "?";
 }
@@ -183,6 +192,7 @@ void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& sc
         break;
       case ParamKind::Exposure:  // not in the scene: the optimiser scales its renders (exposure.h)
         break;
+      default: break;  // the geometry stage's kinds (optim/geometry_fit.h)
     }
   }
 }
@@ -240,6 +250,7 @@ std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGr
         break;
       case ParamKind::Exposure:  // the optimiser supplies it (ExposureGradients)
         break;
+      default: break;  // the geometry stage's kinds (optim/geometry_fit.h)
     }
     out.push_back(std::move(d));
   }

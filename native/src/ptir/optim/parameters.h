@@ -78,7 +78,19 @@ enum class ParamKind {
   MeshRoughness = 6,
   MeshMetallic = 7,
   Exposure = 8,  // per-view log exposure (optim/exposure.h), added by the optimiser
-  EnvironmentCoarse = 9  // the coarse level of a lat-long environment (env_pyramid.h)
+  EnvironmentCoarse = 9,  // the coarse level of a lat-long environment (env_pyramid.h)
+  // The geometry stage (optim/geometry_fit.h): raw per-Gaussian geometry, radiance
+  // and normals, and its densification statistics and log rows (no Adam).
+  GaussianPosition = 10,
+  GaussianLogScale = 11,
+  GaussianRotation = 12,
+  GaussianOpacity = 13,
+  GaussianShDc = 14,
+  GaussianShRest = 15,
+  GaussianNormal = 16,
+  FitStatistics = 17,
+  FitLogRows = 18,
+  LastKind = FitLogRows
 };
 const char* param_kind_name(ParamKind k);
 

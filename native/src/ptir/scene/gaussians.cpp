@@ -46,6 +46,22 @@ Vec3 GaussianField::sh_colour(size_t i, Vec3 dir) const {
   return vmax(result + Vec3(0.5f), Vec3(0.0f));
 }
 
+void sh_basis(int degree, Vec3 dir, float* out) {
+  out[0] = kC0;
+  if (degree < 1) return;
+  const Vec3 d = normalize(dir);
+  const float x = d.x, y = d.y, z = d.z;
+  out[1] = -kC1 * y, out[2] = kC1 * z, out[3] = -kC1 * x;
+  if (degree < 2) return;
+  const float xx = x * x, yy = y * y, zz = z * z, xy = x * y, yz = y * z, xz = x * z;
+  out[4] = kC2[0] * xy, out[5] = kC2[1] * yz, out[6] = kC2[2] * (2.0f * zz - xx - yy), out[7] = kC2[3] * xz;
+  out[8] = kC2[4] * (xx - yy);
+  if (degree < 3) return;
+  out[9] = kC3[0] * y * (3.0f * xx - yy), out[10] = kC3[1] * xy * z, out[11] = kC3[2] * y * (4.0f * zz - xx - yy);
+  out[12] = kC3[3] * z * (2.0f * zz - 3.0f * xx - 3.0f * yy), out[13] = kC3[4] * x * (4.0f * zz - xx - yy);
+  out[14] = kC3[5] * z * (xx - yy), out[15] = kC3[6] * x * (xx - 3.0f * yy);
+}
+
 // The local axis with the smallest standard deviation (first one on ties).
 void init_normals_shortest_axis(GaussianField& field) {
   const size_t n = field.size();
