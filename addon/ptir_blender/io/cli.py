@@ -28,6 +28,15 @@ from ..errors import JobError
 _ADDON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+def wait_or_kill(proc, grace):
+    """Waits up to `grace` seconds for a process told to stop, then kills it."""
+    try:
+        proc.wait(timeout=grace)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
 def find_cli(preferred=""):
     """The `ptir` executable: the preference, the copy inside the add-on (bin/ptir), $PTIR_CLI, PATH."""
     candidates = []
@@ -183,11 +192,7 @@ class ChildJob:
                 self.proc.send_signal(signal.SIGINT)
             except OSError:
                 pass
-            try:
-                self.proc.wait(timeout=grace)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+            wait_or_kill(self.proc, grace)
         return self.poll()
 
     def error_message(self):

@@ -28,6 +28,7 @@ import threading
 import time
 
 from ..errors import JobError
+from .cli import wait_or_kill
 
 
 def _pid_alive(pid):
@@ -233,11 +234,7 @@ class EngineProcess:
                 self.proc.stdin.close()
             except (OSError, ValueError):
                 pass
-            try:
-                self.proc.wait(timeout=grace)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+            wait_or_kill(self.proc, grace)
         if self._log:
             self._log.close()
             self._log = None

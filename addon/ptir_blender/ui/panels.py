@@ -6,8 +6,8 @@ import bpy
 from ..blender import splat_object
 
 
-class RENDER_PT_ptir_sampling(bpy.types.Panel):
-    bl_label = "PTIR Path Tracing"
+class _RenderPropertiesPanel:
+    """Render Properties panels shown only when PTIR is the render engine."""
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "render"
@@ -16,6 +16,10 @@ class RENDER_PT_ptir_sampling(bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
+
+
+class RENDER_PT_ptir_sampling(_RenderPropertiesPanel, bpy.types.Panel):
+    bl_label = "PTIR Path Tracing"
 
     def draw(self, context):
         layout = self.layout
@@ -35,18 +39,10 @@ class RENDER_PT_ptir_sampling(bpy.types.Panel):
         layout.prop(s, "aov_passes")
 
 
-class RENDER_PT_ptir_film(bpy.types.Panel):
+class RENDER_PT_ptir_film(_RenderPropertiesPanel, bpy.types.Panel):
     """Film under PTIR (Blender 3.x has no engine-neutral Film panel; Eevee's shows settings PTIR ignores)."""
     bl_label = "Film"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "render"
     bl_options = {"DEFAULT_CLOSED"}
-    COMPAT_ENGINES = {"PTIR"}
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES
 
     def draw(self, context):
         layout = self.layout

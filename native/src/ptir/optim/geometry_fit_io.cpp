@@ -138,42 +138,8 @@ void GeometryFit::write_outputs(const std::string& dir) const {
 }
 
 RunResult run_geometry_fit(GeometryFit& fit, const FitRunOptions& o) {
-  const bool write = !o.out_dir.empty();
-  const std::string ckpt = write ? (fs::path(o.out_dir) / "checkpoint.bin").string() : "";
-  if (write) {
-    std::error_code ec;
-    fs::create_directories(o.out_dir, ec);
-    if (!fs::is_directory(o.out_dir)) throw Error(o.out_dir, "cannot create the output folder");
-  }
-  bool cancelled = false;
-  while (fit.iteration() < fit.settings().iterations) {
-    if (o.cancel && o.cancel->load()) {
-      cancelled = true;
-      break;
-    }
-    FitLog log;
-    try {
-      log = fit.step(o.cancel);
-    } catch (const Cancelled&) {
-      cancelled = true;
-      break;
-    }
-    const bool go_on = o.on_iteration ? o.on_iteration(log) : true;
-    if (write && o.checkpoint_every > 0 && fit.iteration() % o.checkpoint_every == 0 &&
-        fit.iteration() < fit.settings().iterations) {
-      write_checkpoint(ckpt, fit.checkpoint());
-      io::write_text_atomic((fs::path(o.out_dir) / "log.csv").string(), fit.log_csv());
-    }
-    if (!go_on) {
-      cancelled = true;
-      break;
-    }
-  }
-  if (write) {
-    write_checkpoint(ckpt, fit.checkpoint());
-    fit.write_outputs(o.out_dir);
-  }
-  return cancelled ? RunResult::Cancelled : RunResult::Finished;
+  return run_iterations<GeometryFit, FitLog>(fit, o.out_dir, o.checkpoint_every, o.on_iteration, o.cancel,
+                                             [&](const std::string& path) { write_checkpoint(path, fit.checkpoint()); });
 }
 
 }  // namespace ptir

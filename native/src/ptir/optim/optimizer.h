@@ -60,6 +60,7 @@
 #include "ptir/optim/exposure.h"
 #include "ptir/optim/losses.h"
 #include "ptir/optim/parameters.h"
+#include "ptir/optim/run_loop.h"
 #include "ptir/render/aov.h"
 #include "ptir/scene/scene.h"
 #include "ptir/transport/gradients.h"
@@ -213,7 +214,6 @@ struct RunOptions {
   const std::atomic<bool>* cancel = nullptr;
 };
 
-enum class RunResult { Finished, Cancelled };
 
 // Runs until settings().iterations; on cancel (flag or callback) stops after the
 // last completed iteration. Either way writes OUT/checkpoint.bin and the outputs.

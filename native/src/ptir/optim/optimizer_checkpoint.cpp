@@ -54,42 +54,8 @@ void Optimizer::restore(const Checkpoint& c, const std::string& path) {
 }
 
 RunResult run_optimizer(Optimizer& opt, const RunOptions& o) {
-  const bool write = !o.out_dir.empty();
-  const std::string ckpt = write ? (fs::path(o.out_dir) / "checkpoint.bin").string() : "";
-  if (write) {
-    std::error_code ec;
-    fs::create_directories(o.out_dir, ec);
-    if (!fs::is_directory(o.out_dir)) throw Error(o.out_dir, "cannot create the output folder");
-  }
-  bool cancelled = false;
-  while (opt.iteration() < opt.settings().iterations) {
-    if (o.cancel && o.cancel->load()) {
-      cancelled = true;
-      break;
-    }
-    IterationLog log;
-    try {
-      log = opt.step(o.cancel);
-    } catch (const Cancelled&) {
-      cancelled = true;
-      break;
-    }
-    bool go_on = o.on_iteration ? o.on_iteration(log) : true;
-    if (write && o.checkpoint_every > 0 && opt.iteration() % o.checkpoint_every == 0 &&
-        opt.iteration() < opt.settings().iterations) {
-      opt.save_checkpoint(ckpt);
-      io::write_text_atomic((fs::path(o.out_dir) / "log.csv").string(), opt.log_csv());
-    }
-    if (!go_on) {
-      cancelled = true;
-      break;
-    }
-  }
-  if (write) {
-    opt.save_checkpoint(ckpt);
-    opt.write_outputs(o.out_dir);
-  }
-  return cancelled ? RunResult::Cancelled : RunResult::Finished;
+  return run_iterations<Optimizer, IterationLog>(opt, o.out_dir, o.checkpoint_every, o.on_iteration, o.cancel,
+                                                 [&](const std::string& path) { opt.save_checkpoint(path); });
 }
 
 }  // namespace ptir
