@@ -79,8 +79,8 @@ def optimise(a, row, out_dir, meta):
     flags += [f.format(**subst) for f in ROWS[row]] + shlex.split(a.extra)
     if "--gaussians" not in flags:
         flags += ["--gaussians", os.path.join(a.dataset, "gaussians.ply")]
-    cmd = [a.ptir, "optimize", "--dataset", a.dataset, "--out", os.path.join(out_dir, "result"), "--seed", "0", "-q",
-           "--force"] + flags
+    cmd = [a.ptir, "optimize", "--dataset", a.dataset, "--out", os.path.join(out_dir, "result"), "--seed", str(a.seed),
+           "-q", "--force"] + flags
     stamp = os.path.join(out_dir, "command.txt")
     if os.path.exists(os.path.join(out_dir, "result", "eval", "metrics.json")) and \
             os.path.exists(stamp) and open(stamp).read() == " ".join(cmd):
@@ -115,6 +115,7 @@ def main():
     p.add_argument("--iters", type=int, default=300)
     p.add_argument("--spp", type=int, default=8)
     p.add_argument("--eval-spp", type=int, default=32)
+    p.add_argument("--seed", type=int, default=0, help="optimisation seed (run-to-run spread: run twice)")
     p.add_argument("--rows", default="oracle,base,gt_env,gt_normals,gt_both,spp4,iters4,views4,no_tv")
     p.add_argument("--extra", default="", help="more optimize flags for every row")
     a = p.parse_args()

@@ -13,7 +13,7 @@ The pattern: smooth 3D noise (a sum of random-direction sinusoids at three
 frequencies, deterministic for a seed) at each polygon's centre in world space.
     base colour = lerp(material colour, its complement-ish second colour, n1), in [0.03, 0.95]
     roughness   = 0.1 + 0.8 n2                                  (linear, in [0.1, 0.9])
-    metallic    = 1 where n3 > 1 - metal_fraction, else 0       (sharp patches; 0 by default)
+    metallic    = 1 on the metal_fraction of polygons with the largest n3, else 0 (patches; none by default)
 """
 
 import bpy
@@ -74,7 +74,8 @@ def texture_objects(objs, material_values, seed=1, metal_fraction=0.0):
         second = np.array([_second_colour(material_values(m)[0]) for m in mats])[np.clip(mat_idx, 0, len(mats) - 1)]
         albedo = np.clip(base + (second - base) * n1[:, None], 0.03, 0.95)
         rough = 0.1 + 0.8 * n2
-        metal = (n3 > 1.0 - metal_fraction).astype(np.float64) if metal_fraction > 0 else np.zeros(len(n3))
+        # The top metal_fraction of the third pattern: patches of the asked share of polygons.
+        metal = (n3 > np.quantile(n3, 1.0 - metal_fraction)).astype(np.float64) if metal_fraction > 0 else np.zeros(len(n3))
         for name in (ALBEDO, ROUGHNESS, METALLIC):
             if name in me.attributes:
                 me.attributes.remove(me.attributes[name])
