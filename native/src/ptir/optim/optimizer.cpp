@@ -148,6 +148,17 @@ double Optimizer::lr_factor(int it) const {
   return std::pow(double(settings_.lr_final), f);
 }
 
+double Optimizer::material_lr_factor(int it) const {
+  const double warm = double(settings_.material_warmup) * double(settings_.iterations);
+  return warm <= 0.0 ? 1.0 : std::min(1.0, (double(it) + 1.0) / warm);
+}
+
+double Optimizer::tv_weight(int it) const {
+  const double half = 0.5 * double(settings_.iterations);
+  const double f = half <= 0.0 ? 0.0 : std::max(0.0, 1.0 - double(it) / half);
+  return double(settings_.lambda_tv) * (1.0 + (double(settings_.tv_warmup) - 1.0) * f);
+}
+
 const std::array<int, 4>& Optimizer::mask_box(size_t view) const {
   std::array<int, 4>& b = mask_box_[view];
   if (b[2] >= b[0]) return b;
@@ -227,7 +238,11 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   const double lr_scale = lr_factor(iteration_);
   for (size_t i = 0; i < params_.groups.size(); ++i) {
     if (params_.groups[i].kind == ParamKind::Exposure) raw[i] = exposure_grads_.raw_gradient();  // exposure.h
-    adam_[i].lr = float(params_.groups[i].lr * lr_scale);
+    const ParamKind kind = params_.groups[i].kind;
+    const bool material = kind == ParamKind::GaussianAlbedo || kind == ParamKind::GaussianRoughness ||
+                          kind == ParamKind::GaussianMetallic || kind == ParamKind::MeshColour ||
+                          kind == ParamKind::MeshRoughness || kind == ParamKind::MeshMetallic;
+    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (material ? material_lr_factor(iteration_) : 1.0));
     adam_[i].step(params_.groups[i].raw, raw[i]);
     if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);
   }
@@ -343,7 +358,8 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
     if (!w.view->files.prior_roughness.empty())
       prior_r = crop_image(dataset_->prior_roughness(pk.view), pk.x0, pk.y0, pk.w, pk.h);
   }
-  if (!(settings_.lambda_tv > 0.0f || prior_a.width > 0 || prior_r.width > 0)) return;
+  const float lambda_tv = float(tv_weight(log.iteration - 1));
+  if (!(lambda_tv > 0.0f || prior_a.width > 0 || prior_r.width > 0)) return;
   auto t0 = Clock::now();
   AovSettings as;
   as.interaction = w.is.interaction;
@@ -363,14 +379,14 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
     auto accumulate = [](Image& dst, const Image& src, float f) {
       for (size_t i = 0; i < dst.pixels.size(); ++i) dst.pixels[i] += f * src.pixels[i];
     };
-    if (settings_.lambda_tv > 0.0f) {
+    if (lambda_tv > 0.0f) {
       Image da, dr;
       double tv = edge_aware_tv(alb, w.target, &aov_mask, with_gradients ? &da : nullptr) +
                   edge_aware_tv(rough, w.target, &aov_mask, with_gradients ? &dr : nullptr);
-      log.tv += inv_k * settings_.lambda_tv * tv;
+      log.tv += inv_k * lambda_tv * tv;
       if (with_gradients) {
-        accumulate(d_alb, da, inv_k * settings_.lambda_tv);
-        accumulate(d_rough, dr, inv_k * settings_.lambda_tv);
+        accumulate(d_alb, da, inv_k * lambda_tv);
+        accumulate(d_rough, dr, inv_k * lambda_tv);
       }
     }
     if (prior_a.width > 0) {

@@ -100,6 +100,13 @@ struct OptimizerSettings {
   float lr_decay_start = 0.5f;
   // The environment's Adam uses one second moment for all its texels (adam.h).
   bool env_shared_moment = false;
+  // Light first: the material groups' rates ramp linearly from 0 to full over the
+  // first material_warmup x iterations (the environment's do not), so the shading
+  // goes to the light before per-Gaussian albedos can absorb it (0: off).
+  float material_warmup = 0.0f;
+  // The TV weight starts at tv_warmup x lambda_tv and falls linearly to lambda_tv at
+  // half the iterations (1: constant).
+  float tv_warmup = 1.0f;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
   // The primal pass keeps every sample's radiance and shadow-ray outcomes (20 bytes
   // per pixel and sample) so the replay need not recompute them, while that fits this budget; beyond it
@@ -140,8 +147,12 @@ class Optimizer {
 
   // Prior-map weight at (0-based) iteration it.
   double prior_weight(int it) const;
-  // The learning-rate multiplier at (0-based) iteration it (the schedule above).
+  // The learning-rate multiplier at (0-based) iteration it (the schedule above), and
+  // the extra one of the material groups (material_warmup).
   double lr_factor(int it) const;
+  double material_lr_factor(int it) const;
+  // The TV weight at (0-based) iteration it.
+  double tv_weight(int it) const;
 
   Fingerprint fingerprint() const;
   Checkpoint checkpoint() const;
