@@ -64,6 +64,7 @@ ROWS = {
     "coarse_lr": ["--env-coarse", "16", "--lr-final", "0.1"],
     "sg": ["--env", "sg"],
     "warmup": ["--material-warmup", "0.25"],
+    "warmup50": ["--material-warmup", "0.5"],
     "tv_warmup": ["--tv-warmup", "10"],
 }
 

@@ -165,14 +165,23 @@ echo
 import json, sys
 ours, oracle = (json.load(open(p)) for p in sys.argv[1:3])
 def f(v, d): return "n/a" if v is None else ("%%.%df" % d) % v
-rows = [("Albedo PSNR (dB) ^", "albedo_psnr", 2, "32.12"), ("NVS PSNR (dB) ^", "nvs_psnr", 2, "36.17"),
+rows = [("Albedo PSNR (dB, foreground, sRGB) ^", "albedo_psnr", 2, ""),
+        ("Albedo PSNR (dB, foreground, linear) ^", "albedo_psnr_linear", 2, ""),
+        ("Albedo PSNR (dB, TensoIR's protocol) ^", "albedo_psnr_tensoir", 2, "32.12"),
+        ("NVS PSNR (dB) ^", "nvs_psnr", 2, "36.17"),
         ("NVS SSIM ^", "nvs_ssim", 4, "-"), ("Relight PSNR (dB) ^", "relight_psnr", 2, "31.84")]
 rows += [("  relight %s" % k, ("relight", k), 2, "") for k in ours["relight"]]
 rows += [("Roughness MSE v", "roughness_mse", 4, "0.015"), ("Normal MAE (deg) v", "normal_mae_deg", 2, "4.03")]
+rows += [("Environment PSNR (dB, scale-aligned) ^", ("environment", "psnr"), 2, "")]
 print("| metric | ours | oracle (true materials) | PTIR paper, TensoIR set |")
 print("|---|---:|---:|---:|")
 for name, key, d, paper in rows:
-    get = (lambda m: m["relight"][key[1]]["psnr"]) if isinstance(key, tuple) else (lambda m: m[key])
+    if isinstance(key, tuple) and key[0] == "environment":
+        get = lambda m: (m.get("environment") or {}).get("psnr")
+    elif isinstance(key, tuple):
+        get = lambda m, k=key[1]: m["relight"][k]["psnr"]
+    else:
+        get = lambda m, k=key: m.get(k)
     print("| %s | %s | %s | %s |" % (name, f(get(ours), d), f(get(oracle), d), paper))
 print("\nalbedo scale (gt/ours, linear): %s" % " ".join("%.3f" % s for s in ours["albedo_scale"]))
 PY
