@@ -65,6 +65,7 @@ ROWS = {
     "sg": ["--env", "sg"],
     "warmup": ["--material-warmup", "0.25"],
     "warmup50": ["--material-warmup", "0.5"],
+    "warmup75": ["--material-warmup", "0.75"],
     "tv_warmup": ["--tv-warmup", "10"],
 }
 
