@@ -23,7 +23,7 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     coarse8/32    the coarse level 8x4 / 32x16
     coarse_lr     coarse and lr_decay together
     sg            24 spherical Gaussians instead of texels (--env sg)
-    warmup        light first: material rates ramp up over the first quarter (--material-warmup 0.25)
+    warmup        light first: material rates ramp up over the first quarter (--albedo-warmup 0.25)
     tv_warmup     TV weight 10x at the start, falling to 1x at half the iterations (--tv-warmup 10)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
 Extra optimize flags for every row: --extra "...".
@@ -63,9 +63,10 @@ ROWS = {
     "coarse32": ["--env-coarse", "32"],
     "coarse_lr": ["--env-coarse", "16", "--lr-final", "0.1"],
     "sg": ["--env", "sg"],
-    "warmup": ["--material-warmup", "0.25"],
-    "warmup50": ["--material-warmup", "0.5"],
-    "warmup75": ["--material-warmup", "0.75"],
+    "warmup": ["--albedo-warmup", "0.25"],
+    "no_warmup": ["--albedo-warmup", "0"],
+    "warmup50": ["--albedo-warmup", "0.5"],
+    "warmup75": ["--albedo-warmup", "0.75"],
     "tv_warmup": ["--tv-warmup", "10"],
 }
 

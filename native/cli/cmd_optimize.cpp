@@ -272,8 +272,8 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-coarse", o->opt.env_coarse,
                   "lat-long environment: width of a coarse level learnt with the texels (coarse-to-fine; 0: none; -1: 1/8 of the map's width)")
       ->capture_default_str();
-  cmd->add_option("--material-warmup", o->opt.material_warmup,
-                  "fraction of the iterations over which the material learning rates ramp up from 0 (light first)")
+  cmd->add_option("--albedo-warmup", o->opt.albedo_warmup,
+                  "fraction of the iterations over which the albedo learning rates ramp up from 0 (light first)")
       ->capture_default_str();
   cmd->add_option("--tv-warmup", o->opt.tv_warmup,
                   "the TV weight starts at this multiple of --lambda-tv and falls to it at half the iterations")

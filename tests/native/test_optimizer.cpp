@@ -573,7 +573,7 @@ TEST(Optimizer, SchedulesFollowTheirDefinitions) {
   s.iterations = 100;
   s.lr_final = 0.1f;
   s.lr_decay_start = 0.5f;
-  s.material_warmup = 0.2f;
+  s.albedo_warmup = 0.2f;
   s.tv_warmup = 5.0f;
   Optimizer opt(input_scene(fx.n), fx.data, s);
   // Learning rate: 1 up to 50 %, then exponential to 0.1 at the last iteration.
@@ -582,10 +582,10 @@ TEST(Optimizer, SchedulesFollowTheirDefinitions) {
   EXPECT_NEAR(opt.lr_factor(99), 0.1, 1e-6);
   EXPECT_NEAR(opt.lr_factor(75), std::pow(0.1, 25.0 / 49.0), 1e-6);
   // Materials ramp from 1/20 to 1 over the first 20 iterations.
-  EXPECT_NEAR(opt.material_lr_factor(0), 0.05, 1e-6);
-  EXPECT_NEAR(opt.material_lr_factor(9), 0.5, 1e-6);
-  EXPECT_NEAR(opt.material_lr_factor(19), 1.0, 1e-6);
-  EXPECT_DOUBLE_EQ(opt.material_lr_factor(80), 1.0);
+  EXPECT_NEAR(opt.albedo_lr_factor(0), 0.05, 1e-6);
+  EXPECT_NEAR(opt.albedo_lr_factor(9), 0.5, 1e-6);
+  EXPECT_NEAR(opt.albedo_lr_factor(19), 1.0, 1e-6);
+  EXPECT_DOUBLE_EQ(opt.albedo_lr_factor(80), 1.0);
   // TV: 5x at the start, falling linearly to 1x at iteration 50.
   EXPECT_NEAR(opt.tv_weight(0), 5.0 * s.lambda_tv, 1e-6);
   EXPECT_NEAR(opt.tv_weight(25), 3.0 * s.lambda_tv, 1e-6);

@@ -148,8 +148,8 @@ double Optimizer::lr_factor(int it) const {
   return std::pow(double(settings_.lr_final), f);
 }
 
-double Optimizer::material_lr_factor(int it) const {
-  const double warm = double(settings_.material_warmup) * double(settings_.iterations);
+double Optimizer::albedo_lr_factor(int it) const {
+  const double warm = double(settings_.albedo_warmup) * double(settings_.iterations);
   return warm <= 0.0 ? 1.0 : std::min(1.0, (double(it) + 1.0) / warm);
 }
 
@@ -239,10 +239,8 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   for (size_t i = 0; i < params_.groups.size(); ++i) {
     if (params_.groups[i].kind == ParamKind::Exposure) raw[i] = exposure_grads_.raw_gradient();  // exposure.h
     const ParamKind kind = params_.groups[i].kind;
-    const bool material = kind == ParamKind::GaussianAlbedo || kind == ParamKind::GaussianRoughness ||
-                          kind == ParamKind::GaussianMetallic || kind == ParamKind::MeshColour ||
-                          kind == ParamKind::MeshRoughness || kind == ParamKind::MeshMetallic;
-    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (material ? material_lr_factor(iteration_) : 1.0));
+    const bool albedo = kind == ParamKind::GaussianAlbedo || kind == ParamKind::MeshColour;
+    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0));
     adam_[i].step(params_.groups[i].raw, raw[i]);
     if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);
   }

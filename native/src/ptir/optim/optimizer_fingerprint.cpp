@@ -98,7 +98,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"lr_schedule", num(settings_.lr_final) + " from " + num(settings_.lr_decay_start)},
       {"env_adam", settings_.env_shared_moment ? "shared" : "texel"},
       {"env_coarse", std::to_string(ps.env_coarse_width)},
-      {"warmup", num(settings_.material_warmup) + " tv " + num(settings_.tv_warmup)},
+      {"warmup", num(settings_.albedo_warmup) + " tv " + num(settings_.tv_warmup)},
       {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},
       {"orient_normals", settings_.orient_normals ? "1" : "0"},
   };

@@ -35,9 +35,9 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.env_shared_moment = o.env_adam == "shared";
   if (o.env_coarse < -1) throw Error(names("env_coarse") + " must be >= 0 (0: no coarse level; -1: automatic)");
   s.params.env_coarse_width = o.env_coarse;
-  if (!(o.material_warmup >= 0.0f && o.material_warmup < 1.0f)) throw Error(names("material_warmup") + " must be in [0, 1)");
+  if (!(o.albedo_warmup >= 0.0f && o.albedo_warmup < 1.0f)) throw Error(names("albedo_warmup") + " must be in [0, 1)");
   if (!(o.tv_warmup >= 1.0f)) throw Error(names("tv_warmup") + " must be >= 1");
-  s.material_warmup = o.material_warmup;
+  s.albedo_warmup = o.albedo_warmup;
   s.tv_warmup = o.tv_warmup;
   s.accel.k = o.k;
   if (o.loss_space == "srgb") s.srgb_loss = true;

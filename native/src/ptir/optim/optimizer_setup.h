@@ -34,7 +34,7 @@ struct OptimizeOptions {
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
   std::string env_adam = OptimizerSettings{}.env_shared_moment ? "shared" : "texel";
   int env_coarse = ParameterSettings{}.env_coarse_width;
-  float material_warmup = OptimizerSettings{}.material_warmup;
+  float albedo_warmup = OptimizerSettings{}.albedo_warmup;
   float tv_warmup = OptimizerSettings{}.tv_warmup;
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
