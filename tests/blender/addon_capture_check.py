@@ -74,7 +74,10 @@ def optimise(spec, work, splats, name):
     s.env, s.env_width, s.env_height = "latlong", 16, 8
     s.learn_exposure = True
     s.output_dir = os.path.join(work, name)
-    before = splat_object.read_data_from_object(splats).albedo.copy()
+    # A sentinel albedo the optimiser never starts from (it starts at 0.3): a result that lands
+    # in the object differs from it everywhere.
+    before = np.full_like(splat_object.read_data_from_object(splats).albedo, 0.77)
+    splat_object.write_material_attributes(splats.data, albedo=before)
     r = bpy.ops.ptir.optimize()
     h.check(r == {"FINISHED"}, "optimise (%s): %s" % (name, s.status))
     h.check(os.path.isfile(os.path.join(s.output_dir, "exposure.json")), "Learn Exposure reaches the engine")
