@@ -19,6 +19,20 @@ sys.path.insert(0, os.path.join(REPO, "addon"))
 sys.path.insert(0, os.path.join(REPO, "scripts"))  # blender_kit: the shared Blender helpers
 
 
+def gui_fail(msg):
+    """Ends a GUI (timer-driven) check at once: exceptions in timers do not stop Blender."""
+    sys.stderr.write("ADDON_CHECK: FAILED: %s\n" % msg)
+    sys.stderr.flush()
+    os._exit(1)
+
+
+def window_and_view3d():
+    """The first window and its 3D viewport area."""
+    import bpy
+    win = bpy.context.window_manager.windows[0]
+    return win, next(a for a in win.screen.areas if a.type == "VIEW_3D")
+
+
 def argv():
     return sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 

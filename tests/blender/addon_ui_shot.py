@@ -38,15 +38,11 @@ OUT, WORK = h.argv()[0], h.argv()[1]
 STATE = {"step": 0, "ticks": 0, "result": {}}
 
 
-def fail(msg):
-    sys.stderr.write("ADDON_CHECK: FAILED: %s\n" % msg)
-    sys.stderr.flush()
-    os._exit(1)
+fail = h.gui_fail
 
 
 def window_parts():
-    win = bpy.context.window_manager.windows[0]
-    view3d = next(a for a in win.screen.areas if a.type == "VIEW_3D")
+    win, view3d = h.window_and_view3d()
     props = next((a for a in win.screen.areas if a.type == "PROPERTIES"), None)
     return win, view3d, props
 

@@ -35,7 +35,6 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
@@ -49,16 +48,6 @@ BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
 RES, SPP, SEEDS = 128, 16, 8
 
 pytestmark = pytest.mark.skipif(BLENDER is None, reason="blender not installed")
-
-
-@pytest.fixture(scope="module")
-def ptir():
-    module_dir = BUILD / "python"
-    if not any(module_dir.glob("ptir*.so")):
-        pytest.fail(f"no native module in {module_dir} (run 'make build' or set PTIR_BUILD_DIR)")
-    sys.path.insert(0, str(module_dir))
-    import ptir as module
-    return module
 
 
 @pytest.fixture(scope="module")

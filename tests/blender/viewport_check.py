@@ -50,16 +50,8 @@ STEPS = ["base", "albedo", "lights", "camera", "move"] + (["kill", "restarted"] 
 S = {"i": 0, "t_edit": None, "result": {"steps": {}}, "phase": "start", "sent_before": {}}
 
 
-def fail(msg):
-    sys.stderr.write("ADDON_CHECK: FAILED: %s\n" % msg)
-    sys.stderr.flush()
-    os._exit(1)
-
-
-def parts():
-    win = bpy.context.window_manager.windows[0]
-    view3d = next(a for a in win.screen.areas if a.type == "VIEW_3D")
-    return win, view3d
+fail = h.gui_fail
+parts = h.window_and_view3d
 
 
 def viewport():
