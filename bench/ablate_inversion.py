@@ -25,6 +25,9 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     sg            24 spherical Gaussians instead of texels (--env sg)
     warmup        light first: material rates ramp up over the first quarter (--albedo-warmup 0.25)
     tv_warmup     TV weight 10x at the start, falling to 1x at half the iterations (--tv-warmup 10)
+    env_smooth    smoothness prior on the environment's log radiance (--lambda-env-smooth 1e-3)
+    env_smooth10  the same prior at 1e-2; env_smooth_off: 0
+    fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
 Extra optimize flags for every row: --extra "...".
 
@@ -68,6 +71,10 @@ ROWS = {
     "warmup50": ["--albedo-warmup", "0.5"],
     "warmup75": ["--albedo-warmup", "0.75"],
     "tv_warmup": ["--tv-warmup", "10"],
+    "env_smooth": ["--lambda-env-smooth", "1e-3"],
+    "env_smooth10": ["--lambda-env-smooth", "1e-2"],
+    "env_smooth_off": ["--lambda-env-smooth", "0"],
+    "fine_warmup": ["--env-fine-warmup", "0.5"],
 }
 
 

@@ -278,6 +278,12 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--tv-warmup", o->opt.tv_warmup,
                   "the TV weight starts at this multiple of --lambda-tv and falls to it at half the iterations")
       ->capture_default_str();
+  cmd->add_option("--lambda-env-smooth", o->opt.lambda_env_smooth,
+                  "weight of the lat-long environment's smoothness prior (Dirichlet energy of its log radiance; 0: off)")
+      ->capture_default_str();
+  cmd->add_option("--env-fine-warmup", o->opt.env_fine_warmup,
+                  "fraction of the iterations over which the fine environment texels' rate ramps up from 0 (the coarse level learns first)")
+      ->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("--learn-exposure", o->opt.learn_exposure,

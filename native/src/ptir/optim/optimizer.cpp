@@ -12,6 +12,7 @@
 #include "ptir/core/error.h"
 #include "ptir/math/rng.h"
 #include "ptir/optim/data_parallel.h"
+#include "ptir/optim/env_smoothness.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/aov_backward.h"
 #include "ptir/render/render_path.h"
@@ -148,10 +149,12 @@ double Optimizer::lr_factor(int it) const {
   return std::pow(double(settings_.lr_final), f);
 }
 
-double Optimizer::albedo_lr_factor(int it) const {
-  const double warm = double(settings_.albedo_warmup) * double(settings_.iterations);
+double Optimizer::warmup_factor(float fraction, int it) const {
+  const double warm = double(fraction) * double(settings_.iterations);
   return warm <= 0.0 ? 1.0 : std::min(1.0, (double(it) + 1.0) / warm);
 }
+
+double Optimizer::albedo_lr_factor(int it) const { return warmup_factor(settings_.albedo_warmup, it); }
 
 double Optimizer::tv_weight(int it) const {
   const double half = 0.5 * double(settings_.iterations);
@@ -240,7 +243,9 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
     if (params_.groups[i].kind == ParamKind::Exposure) raw[i] = exposure_grads_.raw_gradient();  // exposure.h
     const ParamKind kind = params_.groups[i].kind;
     const bool albedo = kind == ParamKind::GaussianAlbedo || kind == ParamKind::MeshColour;
-    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0));
+    const bool fine_env = kind == ParamKind::Environment && params_.find(ParamKind::EnvironmentCoarse);
+    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0) *
+                        (fine_env ? warmup_factor(settings_.env_fine_warmup, iteration_) : 1.0));
     adam_[i].step(params_.groups[i].raw, raw[i]);
     if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);
   }
@@ -402,6 +407,22 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
   log.regulariser_s += seconds_since(t0);
 }
 
+// The environment's smoothness prior (env_smoothness.h), on the log radiance of the
+// lat-long texels; its gradient goes into the texels' value gradients (d log L / dL
+// = 1 / L), so the raw chain (fine texels and coarse level) carries it like the
+// image's. Added after the ranks' sum: every rank adds the same numbers once.
+void Optimizer::environment_smoothness_term(bool with_gradients, IterationLog& log) {
+  const Environment* env = scene_->environment.as<Environment>();
+  if (!(settings_.lambda_env_smooth > 0.0f) || !env || !params_.find(ParamKind::Environment)) return;
+  const std::vector<float>& texels = env->texels();
+  std::vector<float> log_l(texels.size()), d_log(texels.size(), 0.0f);
+  for (size_t i = 0; i < texels.size(); ++i) log_l[i] = std::log(std::max(texels[i], 1e-8f));
+  const float lambda = settings_.lambda_env_smooth;
+  log.tv += lambda * latlong_log_dirichlet(log_l.data(), env->width(), env->height(), with_gradients ? d_log.data() : nullptr, lambda);
+  if (with_gradients)
+    for (size_t i = 0; i < texels.size(); ++i) grads_.environment[i] += d_log[i] / std::max(texels[i], 1e-8f);
+}
+
 IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<bool>* cancel) {
   const auto t_start = Clock::now();
   IterationLog log;
@@ -422,6 +443,7 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
     if (cancel && cancel->load()) throw Cancelled();
   }
   if (with_gradients) allreduce_gradients(*comm_, grads_);  // data-parallel: the ranks' bands summed in rank order
+  environment_smoothness_term(with_gradients, log);
   log.loss = log.image + log.tv + log.prior;
   log.seconds = seconds_since(t_start);
   return log;

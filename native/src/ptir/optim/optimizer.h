@@ -115,6 +115,13 @@ struct OptimizerSettings {
   // The TV weight starts at tv_warmup x lambda_tv and falls linearly to lambda_tv at
   // half the iterations (1: constant).
   float tv_warmup = 1.0f;
+  // Smoothness prior on the lat-long environment's log radiance (env_smoothness.h):
+  // weight of its Dirichlet energy (0: off). Logged with the TV term.
+  float lambda_env_smooth = 0.0f;
+  // Coarse first in time: the fine environment texels' rate ramps linearly from 0
+  // to full over the first env_fine_warmup x iterations while the coarse level
+  // (EnvironmentCoarse) learns at full rate from the start (0: off).
+  float env_fine_warmup = 0.0f;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
   // The primal pass keeps every sample's radiance and shadow-ray outcomes (20 bytes
   // per pixel and sample) so the replay need not recompute them, while that fits this budget; beyond it
@@ -159,6 +166,8 @@ class Optimizer {
   // the extra one of the albedo groups (albedo_warmup).
   double lr_factor(int it) const;
   double albedo_lr_factor(int it) const;
+  // A linear ramp from 0 to 1 over the first `fraction` x iterations (0: always 1).
+  double warmup_factor(float fraction, int it) const;
   // The TV weight at (0-based) iteration it.
   double tv_weight(int it) const;
 
@@ -206,6 +215,7 @@ class Optimizer {
   // The image loss of one view (and its gradient through the path replay), then
   // the regularisers on its primary-hit material maps; both add to `log`.
   void image_term(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control, IterationLog& log);
+  void environment_smoothness_term(bool with_gradients, IterationLog& log);
   void regulariser_terms(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control,
                          IterationLog& log);
 

@@ -39,6 +39,10 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (!(o.tv_warmup >= 1.0f)) throw Error(names("tv_warmup") + " must be >= 1");
   s.albedo_warmup = o.albedo_warmup;
   s.tv_warmup = o.tv_warmup;
+  if (!(o.lambda_env_smooth >= 0.0f)) throw Error(names("lambda_env_smooth") + " must be >= 0");
+  if (!(o.env_fine_warmup >= 0.0f && o.env_fine_warmup < 1.0f)) throw Error(names("env_fine_warmup") + " must be in [0, 1)");
+  s.lambda_env_smooth = o.lambda_env_smooth;
+  s.env_fine_warmup = o.env_fine_warmup;
   s.accel.k = o.k;
   if (o.loss_space == "srgb") s.srgb_loss = true;
   else if (o.loss_space == "linear") s.srgb_loss = false;

@@ -36,6 +36,8 @@ struct OptimizeOptions {
   int env_coarse = ParameterSettings{}.env_coarse_width;
   float albedo_warmup = OptimizerSettings{}.albedo_warmup;
   float tv_warmup = OptimizerSettings{}.tv_warmup;
+  float lambda_env_smooth = OptimizerSettings{}.lambda_env_smooth;
+  float env_fine_warmup = OptimizerSettings{}.env_fine_warmup;
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start
