@@ -27,6 +27,8 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     tv_warmup     TV weight 10x at the start, falling to 1x at half the iterations (--tv-warmup 10)
     env_smooth    smoothness prior on the environment's log radiance (--lambda-env-smooth 1e-3)
     env_smooth10  the same prior at 1e-2; env_smooth_off: 0
+    env_chroma    colour-consistency prior on the environment (--lambda-env-chroma 3); env_chroma30: 30
+    lr_env3       the environment's rate 3x (--lr-env 0.105)
     fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
 Extra optimize flags for every row: --extra "...".
@@ -74,6 +76,9 @@ ROWS = {
     "env_smooth": ["--lambda-env-smooth", "1e-3"],
     "env_smooth10": ["--lambda-env-smooth", "1e-2"],
     "env_smooth_off": ["--lambda-env-smooth", "0"],
+    "env_chroma": ["--lambda-env-chroma", "3"],
+    "env_chroma30": ["--lambda-env-chroma", "30"],
+    "lr_env3": ["--lr-env", "0.105"],
     "fine_warmup": ["--env-fine-warmup", "0.5"],
 }
 

@@ -281,6 +281,11 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--lambda-env-smooth", o->opt.lambda_env_smooth,
                   "weight of the lat-long environment's smoothness prior (Dirichlet energy of its log radiance; 0: off)")
       ->capture_default_str();
+  cmd->add_option("--lr-env", o->opt.lr_env, "the environment's Adam learning rate (its log radiance per step)")
+      ->capture_default_str();
+  cmd->add_option("--lambda-env-chroma", o->opt.lambda_env_chroma,
+                  "weight of the lat-long environment's colour-consistency prior (variance of its log chromaticity over the sphere; 0: off)")
+      ->capture_default_str();
   cmd->add_option("--env-fine-warmup", o->opt.env_fine_warmup,
                   "fraction of the iterations over which the fine environment texels' rate ramps up from 0 (the coarse level learns first)")
       ->capture_default_str();

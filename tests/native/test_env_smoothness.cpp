@@ -1,7 +1,5 @@
-// The environment's smoothness prior (optim/env_smoothness.h) against closed forms
-// of the Dirichlet energy on the sphere and against finite differences; and the
-// optimiser's use of it: the prior pulls a texel no view constrains toward its
-// neighbours.
+// The environment's priors (optim/env_smoothness.h) against closed forms on the
+// sphere (Dirichlet energy of z and x; variance of z^2) and finite differences.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -67,5 +65,39 @@ TEST(EnvSmoothness, GradientMatchesFiniteDifferences) {
     m[i] -= h;
     const double fd = weight * (latlong_log_dirichlet(p.data(), W, H) - latlong_log_dirichlet(m.data(), W, H)) / (2.0 * h);
     EXPECT_NEAR(g[i], fd, 1e-3 * std::abs(fd) + 1e-4) << i;
+  }
+}
+
+TEST(EnvChroma, VarianceOfTheLogChromaticity) {
+  // Grey light of any brightness distribution, and a global tint: no energy.
+  const int W = 64, H = 32;
+  auto tinted = sample_map(W, H, [](const double* d) { return 2.0 * d[2] * d[2]; });  // channels 1x, 2x, 3x: a tint that varies
+  std::vector<float> grey(size_t(W) * H * 3), tint(grey.size());
+  for (size_t t = 0; t < grey.size() / 3; ++t)
+    for (int c = 0; c < 3; ++c) {
+      grey[3 * t + c] = tinted[3 * t];              // the same log radiance in all channels
+      tint[3 * t + c] = tinted[3 * t] + 0.4f * c;   // plus a constant per-channel offset
+    }
+  EXPECT_NEAR(latlong_log_chroma_variance(grey.data(), W, H), 0.0, 1e-9);
+  EXPECT_NEAR(latlong_log_chroma_variance(tint.data(), W, H), 0.0, 1e-9);
+  // Log chromaticity q = (c+1 - 2) f for f = 2 z^2: q_c = (c - 1) f, so C = sum_c (c-1)^2 Var(f) = 2 Var(f),
+  // with Var(2 z^2) over the sphere = 4 (E[z^4] - E[z^2]^2) = 4 (1/5 - 1/9) = 16/45.
+  EXPECT_NEAR(latlong_log_chroma_variance(tinted.data(), W, H), 2.0 * 16.0 / 45.0, 2e-3);
+}
+
+TEST(EnvChroma, GradientMatchesFiniteDifferences) {
+  const int W = 16, H = 8;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+  std::vector<float> r(size_t(W) * H * 3), g(r.size(), 0.0f);
+  for (float& v : r) v = u(rng);
+  latlong_log_chroma_variance(r.data(), W, H, g.data(), 1.3f);
+  for (size_t i : {size_t(0), size_t(4), size_t((3 * W + 7) * 3 + 2), size_t(((H - 1) * W + 2) * 3 + 1)}) {
+    std::vector<float> p = r, m = r;
+    const float h = 1e-2f;
+    p[i] += h;
+    m[i] -= h;
+    const double fd = 1.3 * (latlong_log_chroma_variance(p.data(), W, H) - latlong_log_chroma_variance(m.data(), W, H)) / (2.0 * h);
+    EXPECT_NEAR(g[i], fd, 1e-3 * std::abs(fd) + 1e-5) << i;
   }
 }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <vector>
 
 #include "ptir/core/error.h"
 
@@ -35,6 +36,41 @@ double latlong_log_dirichlet(const float* raw, int width, int height, float* d_r
       for (int x = 0; x < width; ++x) pair(at(x, y, 0), at(x, y + 1, 0), col_w);
     }
   }
+  return e;
+}
+
+double latlong_log_chroma_variance(const float* raw, int width, int height, float* d_raw, float weight) {
+  if (width < 1 || height < 1) throw Error("environment colour prior: the map size must be positive");
+  const double pi = 3.14159265358979323846;
+  const double dphi = 2.0 * pi / width, dtheta = pi / height;
+  const size_t n = size_t(width) * height;
+  // Texel solid angles (exact for the cell between its row's edges) and chromaticities.
+  std::vector<double> omega(n), q(3 * n);
+  double qbar[3] = {0.0, 0.0, 0.0}, total = 0.0;
+  for (int y = 0; y < height; ++y) {
+    const double om = dphi * (std::cos(y * dtheta) - std::cos((y + 1) * dtheta));
+    for (int x = 0; x < width; ++x) {
+      const size_t t = size_t(y) * width + x;
+      const float* r = raw + 3 * t;
+      const double l = (double(r[0]) + double(r[1]) + double(r[2])) / 3.0;
+      omega[t] = om;
+      total += om;
+      for (int c = 0; c < 3; ++c) {
+        q[3 * t + c] = double(r[c]) - l;
+        qbar[c] += om * q[3 * t + c];
+      }
+    }
+  }
+  for (double& m : qbar) m /= total;
+  // C and its gradient: dC/dq_tc = 2 omega_t (q_tc - qbar_c) / 4pi (the mean's own
+  // term vanishes); and dC/dr_tc = dC/dq_tc, since the three q_t - qbar sum to 0.
+  double e = 0.0;
+  for (size_t t = 0; t < n; ++t)
+    for (int c = 0; c < 3; ++c) {
+      const double dq = q[3 * t + c] - qbar[c];
+      e += omega[t] * dq * dq / (4.0 * pi);
+      if (d_raw) d_raw[3 * t + c] += float(2.0 * omega[t] * dq / (4.0 * pi)) * weight;
+    }
   return e;
 }
 

@@ -22,4 +22,17 @@ namespace ptir {
 // given, weight x dE/draw is added to it.
 double latlong_log_dirichlet(const float* raw, int width, int height, float* d_raw = nullptr, float weight = 1.0f);
 
+// Colour consistency of the light: the solid-angle weighted variance over the
+// sphere of each texel's log chromaticity q_c = log L_c - mean_c' log L_c',
+//     C = 1/(4 pi) sum_c integral (q_c - qbar_c)^2 dOmega,   qbar_c its mean.
+// Blind to the overall brightness, to the brightness's distribution (the sun) and
+// to a global tint (white balance, which the albedo's per-channel scale trades
+// against anyway); it penalises a light whose colour changes with direction. Why
+// (README, method notes): while the albedo is held back (light first) or where
+// it is textured, the environment otherwise takes on the colours of the parts of
+// the object that its directions light (a bluish lower hemisphere under a bluish
+// pedestal), and the albedo comes out with the complementary cast. PTIR pulls
+// the light toward grey (2e-4); this variant leaves the white balance free.
+double latlong_log_chroma_variance(const float* raw, int width, int height, float* d_raw = nullptr, float weight = 1.0f);
+
 }  // namespace ptir

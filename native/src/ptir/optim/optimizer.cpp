@@ -407,18 +407,20 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
   log.regulariser_s += seconds_since(t0);
 }
 
-// The environment's smoothness prior (env_smoothness.h), on the log radiance of the
-// lat-long texels; its gradient goes into the texels' value gradients (d log L / dL
+// The environment's priors (env_smoothness.h: smoothness, colour consistency), on
+// the log radiance of the lat-long texels; their gradient goes into the texels' value gradients (d log L / dL
 // = 1 / L), so the raw chain (fine texels and coarse level) carries it like the
 // image's. Added after the ranks' sum: every rank adds the same numbers once.
 void Optimizer::environment_smoothness_term(bool with_gradients, IterationLog& log) {
   const Environment* env = scene_->environment.as<Environment>();
-  if (!(settings_.lambda_env_smooth > 0.0f) || !env || !params_.find(ParamKind::Environment)) return;
+  const float ls = settings_.lambda_env_smooth, lc = settings_.lambda_env_chroma;
+  if (!(ls > 0.0f || lc > 0.0f) || !env || !params_.find(ParamKind::Environment)) return;
   const std::vector<float>& texels = env->texels();
   std::vector<float> log_l(texels.size()), d_log(texels.size(), 0.0f);
   for (size_t i = 0; i < texels.size(); ++i) log_l[i] = std::log(std::max(texels[i], 1e-8f));
-  const float lambda = settings_.lambda_env_smooth;
-  log.tv += lambda * latlong_log_dirichlet(log_l.data(), env->width(), env->height(), with_gradients ? d_log.data() : nullptr, lambda);
+  float* d = with_gradients ? d_log.data() : nullptr;
+  if (ls > 0.0f) log.tv += ls * latlong_log_dirichlet(log_l.data(), env->width(), env->height(), d, ls);
+  if (lc > 0.0f) log.tv += lc * latlong_log_chroma_variance(log_l.data(), env->width(), env->height(), d, lc);
   if (with_gradients)
     for (size_t i = 0; i < texels.size(); ++i) grads_.environment[i] += d_log[i] / std::max(texels[i], 1e-8f);
 }

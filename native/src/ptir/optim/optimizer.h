@@ -118,6 +118,9 @@ struct OptimizerSettings {
   // Smoothness prior on the lat-long environment's log radiance (env_smoothness.h):
   // weight of its Dirichlet energy (0: off). Logged with the TV term.
   float lambda_env_smooth = 0.0f;
+  // Colour consistency of the lat-long environment (env_smoothness.h: variance of
+  // its log chromaticity over the sphere; 0: off). Logged with the TV term.
+  float lambda_env_chroma = 0.0f;
   // Coarse first in time: the fine environment texels' rate ramps linearly from 0
   // to full over the first env_fine_warmup x iterations while the coarse level
   // (EnvironmentCoarse) learns at full rate from the start (0: off).

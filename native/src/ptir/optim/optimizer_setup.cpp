@@ -30,6 +30,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");
   s.lr_final = o.lr_final;
   s.lr_decay_start = o.lr_decay_start;
+  if (!(o.lr_env > 0.0f)) throw Error(names("lr_env") + " must be > 0");
+  s.params.lr_env = o.lr_env;
   if (o.env_adam != "shared" && o.env_adam != "texel")
     throw Error(names("env_adam") + " must be 'shared' or 'texel', got '" + o.env_adam + "'");
   s.env_shared_moment = o.env_adam == "shared";
@@ -42,6 +44,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (!(o.lambda_env_smooth >= 0.0f)) throw Error(names("lambda_env_smooth") + " must be >= 0");
   if (!(o.env_fine_warmup >= 0.0f && o.env_fine_warmup < 1.0f)) throw Error(names("env_fine_warmup") + " must be in [0, 1)");
   s.lambda_env_smooth = o.lambda_env_smooth;
+  if (!(o.lambda_env_chroma >= 0.0f)) throw Error(names("lambda_env_chroma") + " must be >= 0");
+  s.lambda_env_chroma = o.lambda_env_chroma;
   s.env_fine_warmup = o.env_fine_warmup;
   s.accel.k = o.k;
   if (o.loss_space == "srgb") s.srgb_loss = true;

@@ -32,11 +32,13 @@ struct OptimizeOptions {
   float lambda_tv = 0.095f;
   float lr_final = OptimizerSettings{}.lr_final;
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
+  float lr_env = ParameterSettings{}.lr_env;  // the environment's Adam rate (both levels)
   std::string env_adam = OptimizerSettings{}.env_shared_moment ? "shared" : "texel";
   int env_coarse = ParameterSettings{}.env_coarse_width;
   float albedo_warmup = OptimizerSettings{}.albedo_warmup;
   float tv_warmup = OptimizerSettings{}.tv_warmup;
   float lambda_env_smooth = OptimizerSettings{}.lambda_env_smooth;
+  float lambda_env_chroma = OptimizerSettings{}.lambda_env_chroma;
   float env_fine_warmup = OptimizerSettings{}.env_fine_warmup;
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
