@@ -13,6 +13,7 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     spp4          4x the samples per pixel
     iters4        4x the iterations
     views4        4 views per iteration
+    views4_eq     4 views per iteration at a quarter of the spp (the same samples per iteration)
     no_tv         edge-aware TV off (--lambda-tv 0)
     linear_loss   the image loss on linear values
     lr_decay      the learning rate decays to 0.1x over the second half (--lr-final 0.1)
@@ -28,6 +29,7 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     env_smooth    smoothness prior on the environment's log radiance (--lambda-env-smooth 1e-3)
     env_smooth10  the same prior at 1e-2; env_smooth_off: 0
     env_chroma    colour-consistency prior on the environment (--lambda-env-chroma 3); env_chroma30: 30
+    init_albedo5/7  the albedo starts at 0.5 / 0.7 instead of 0.3 (--init-albedo)
     lr_env3       the environment's rate 3x (--lr-env 0.105)
     fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
@@ -56,6 +58,7 @@ ROWS = {
     "spp4": ["--spp", "{spp4}"],
     "iters4": ["--iters", "{iters4}"],
     "views4": ["--views-per-iter", "4"],
+    "views4_eq": ["--views-per-iter", "4", "--spp", "{spp_quarter}"],
     "no_tv": ["--lambda-tv", "0"],
     "linear_loss": ["--loss-space", "linear"],
     "lr_decay": ["--lr-final", "0.1"],
@@ -78,6 +81,8 @@ ROWS = {
     "env_smooth_off": ["--lambda-env-smooth", "0"],
     "env_chroma": ["--lambda-env-chroma", "3"],
     "env_chroma30": ["--lambda-env-chroma", "30"],
+    "init_albedo5": ["--init-albedo", "0.5"],
+    "init_albedo7": ["--init-albedo", "0.7"],
     "lr_env3": ["--lr-env", "0.105"],
     "fine_warmup": ["--env-fine-warmup", "0.5"],
 }
@@ -93,7 +98,7 @@ def run(cmd, log):
 def optimise(a, row, out_dir, meta):
     env = os.path.join(a.dataset, meta["envmaps"][meta["train_env"]])
     subst = {"env": env, "oracle_ply": os.path.join(a.dataset, "oracle", "gaussians.ply"),
-             "spp4": str(4 * a.spp), "iters4": str(4 * a.iters)}
+             "spp4": str(4 * a.spp), "spp_quarter": str(max(1, a.spp // 4)), "iters4": str(4 * a.iters)}
     flags = ["--iters", str(a.iters), "--spp", str(a.spp)]
     flags += [f.format(**subst) for f in ROWS[row]] + shlex.split(a.extra)
     if "--gaussians" not in flags:

@@ -281,6 +281,8 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--lambda-env-smooth", o->opt.lambda_env_smooth,
                   "weight of the lat-long environment's smoothness prior (Dirichlet energy of its log radiance; 0: off)")
       ->capture_default_str();
+  cmd->add_option("--init-albedo", o->opt.init_albedo, "the Gaussians' starting albedo (linear, every channel)")
+      ->capture_default_str();
   cmd->add_option("--lr-env", o->opt.lr_env, "the environment's Adam learning rate (its log radiance per step)")
       ->capture_default_str();
   cmd->add_option("--lambda-env-chroma", o->opt.lambda_env_chroma,

@@ -32,6 +32,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.lr_decay_start = o.lr_decay_start;
   if (!(o.lr_env > 0.0f)) throw Error(names("lr_env") + " must be > 0");
   s.params.lr_env = o.lr_env;
+  if (!(o.init_albedo > 0.0f && o.init_albedo < 1.0f)) throw Error(names("init_albedo") + " must be in (0, 1)");
+  s.params.init_albedo = o.init_albedo;
   if (o.env_adam != "shared" && o.env_adam != "texel")
     throw Error(names("env_adam") + " must be 'shared' or 'texel', got '" + o.env_adam + "'");
   s.env_shared_moment = o.env_adam == "shared";

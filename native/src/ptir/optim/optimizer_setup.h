@@ -32,6 +32,7 @@ struct OptimizeOptions {
   float lambda_tv = 0.095f;
   float lr_final = OptimizerSettings{}.lr_final;
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
+  float init_albedo = ParameterSettings{}.init_albedo;
   float lr_env = ParameterSettings{}.lr_env;  // the environment's Adam rate (both levels)
   std::string env_adam = OptimizerSettings{}.env_shared_moment ? "shared" : "texel";
   int env_coarse = ParameterSettings{}.env_coarse_width;
