@@ -283,6 +283,12 @@ Runner add_optimize_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--init-albedo", o->opt.init_albedo, "the Gaussians' starting albedo (linear, every channel)")
       ->capture_default_str();
+  cmd->add_option("--light-balance", o->opt.light_balance,
+                  "learn the light-albedo balance: one scale per channel moving all albedos against the environment (lat-long)")
+      ->capture_default_str();
+  cmd->add_option("--lr-balance", o->opt.lr_balance, "the light-albedo balance's Adam learning rate")->capture_default_str();
+  cmd->add_option("--balance-start", o->opt.balance_start, "fraction of the iterations before the light-albedo balance learns")
+      ->capture_default_str();
   cmd->add_option("--lr-env", o->opt.lr_env, "the environment's Adam learning rate (its log radiance per step)")
       ->capture_default_str();
   cmd->add_option("--lambda-env-chroma", o->opt.lambda_env_chroma,

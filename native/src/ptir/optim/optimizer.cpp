@@ -13,6 +13,7 @@
 #include "ptir/math/rng.h"
 #include "ptir/optim/data_parallel.h"
 #include "ptir/optim/env_smoothness.h"
+#include "ptir/optim/light_balance.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/aov_backward.h"
 #include "ptir/render/render_path.h"
@@ -117,6 +118,8 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   params_ = make_parameters(*scene_, settings_.params);
   if (settings_.params.learn_exposure)  // per-view exposure (exposure.h)
     params_.groups.push_back({ParamKind::Exposure, settings_.params.lr_exposure, std::vector<float>(dataset_->size(), 0.0f)});
+  if (settings_.light_balance && light_balance_applies(params_, *scene_))  // light_balance.h
+    params_.groups.push_back({ParamKind::LightBalance, settings_.params.lr_balance, std::vector<float>(3, 0.0f)});
   for (const ParameterGroup& g : params_.groups) {
     adam_.emplace_back(g.raw.size(), g.lr, settings_.adam);
     adam_.back().shared_second_moment = g.kind == ParamKind::Environment && settings_.env_shared_moment;
@@ -239,16 +242,25 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
         ++nonfinite_;
       }
   const double lr_scale = lr_factor(iteration_);
+  std::array<float, 3> balance_step = {0.0f, 0.0f, 0.0f};
   for (size_t i = 0; i < params_.groups.size(); ++i) {
     if (params_.groups[i].kind == ParamKind::Exposure) raw[i] = exposure_grads_.raw_gradient();  // exposure.h
+    if (params_.groups[i].kind == ParamKind::LightBalance)
+      for (int c = 0; c < 3; ++c) raw[i][c] = float(balance_grad_[c]);
     const ParamKind kind = params_.groups[i].kind;
     const bool albedo = kind == ParamKind::GaussianAlbedo || kind == ParamKind::MeshColour;
     const bool fine_env = kind == ParamKind::Environment && params_.find(ParamKind::EnvironmentCoarse);
+    if (kind == ParamKind::LightBalance && double(iteration_) < double(settings_.balance_start) * settings_.iterations) continue;
     adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0) *
                         (fine_env ? warmup_factor(settings_.env_fine_warmup, iteration_) : 1.0));
+    const std::vector<float> before = kind == ParamKind::LightBalance ? params_.groups[i].raw : std::vector<float>();
     adam_[i].step(params_.groups[i].raw, raw[i]);
     if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);
+    if (kind == ParamKind::LightBalance) balance_step = {params_.groups[i].raw[0] - before[0], params_.groups[i].raw[1] - before[1],
+                                                         params_.groups[i].raw[2] - before[2]};
   }
+  // The balance's step moves the albedos against the light (after their own steps).
+  if (balance_step != std::array<float, 3>{0.0f, 0.0f, 0.0f}) light_balance_shift(params_, balance_step);
   apply();
   log.update_s = seconds_since(t0);
   log.seconds = seconds_since(t_start);
@@ -431,6 +443,7 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
   log.iteration = it + 1;
   log.prior_weight = prior_weight(it);
   grads_.set_zero();
+  balance_grad_ = {0.0, 0.0, 0.0};
   exposure_grads_.reset(dataset_->size());
   RenderControl control;
   control.cancel = cancel;
@@ -440,11 +453,22 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
     const ViewWork w = view_work(it, v, picks[v]);
     if (!log.views.empty()) log.views += "+";
     log.views += w.view->camera.name;
+    // The balance's derivative (light_balance.h) counts the image term only: by
+    // linearity, its change across image_term on this rank's gradients.
+    const bool balance = with_gradients && params_.find(ParamKind::LightBalance);
+    const auto d0 = balance ? light_balance_derivative(params_, *scene_, grads_) : std::array<double, 3>{};
     image_term(w, inv_k, with_gradients, control, log);
+    if (balance) {
+      const auto d1 = light_balance_derivative(params_, *scene_, grads_);
+      for (int c = 0; c < 3; ++c) balance_grad_[c] += d1[c] - d0[c];
+    }
     regulariser_terms(w, inv_k, with_gradients, control, log);
     if (cancel && cancel->load()) throw Cancelled();
   }
-  if (with_gradients) allreduce_gradients(*comm_, grads_);  // data-parallel: the ranks' bands summed in rank order
+  if (with_gradients) {
+    allreduce_gradients(*comm_, grads_);  // data-parallel: the ranks' bands summed in rank order
+    comm_->allreduce_sum(balance_grad_.data(), balance_grad_.size());
+  }
   environment_smoothness_term(with_gradients, log);
   log.loss = log.image + log.tv + log.prior;
   log.seconds = seconds_since(t_start);

@@ -125,6 +125,14 @@ struct OptimizerSettings {
   // to full over the first env_fine_warmup x iterations while the coarse level
   // (EnvironmentCoarse) learns at full rate from the start (0: off).
   float env_fine_warmup = 0.0f;
+  // Learn the light-albedo balance (light_balance.h): one log scale per channel
+  // moving all albedos against the lat-long environment, driven by the
+  // interreflections and highlights that the per-parameter steps cannot resolve.
+  bool light_balance = false;
+  // The balance learns from balance_start x iterations on: before, the image's
+  // overall misfit drives it (it brightens the highlights through the light,
+  // which the albedo cannot), not the evidence of the level.
+  float balance_start = 0.0f;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
   // The primal pass keeps every sample's radiance and shadow-ray outcomes (20 bytes
   // per pixel and sample) so the replay need not recompute them, while that fits this budget; beyond it
@@ -232,6 +240,7 @@ class Optimizer {
   std::vector<IterationLog> log_;
   int iteration_ = 0;
   size_t nonfinite_ = 0;
+  std::array<double, 3> balance_grad_{};  // dL/d balance of the image terms (light_balance.h)
   ExposureGradients exposure_grads_;  // --learn-exposure (exposure.h)
   mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
   const Communicator* comm_ = &single_process();      // data-parallel runs (set_communicator)

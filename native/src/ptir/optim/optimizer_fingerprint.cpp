@@ -100,6 +100,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"env_coarse", std::to_string(ps.env_coarse_width)},
       {"warmup", num(settings_.albedo_warmup) + " tv " + num(settings_.tv_warmup)},
       {"environment prior", "smooth " + num(settings_.lambda_env_smooth) + " chroma " + num(settings_.lambda_env_chroma) + " fine warmup " + num(settings_.env_fine_warmup)},
+      {"light balance", settings_.light_balance ? "on " + num(ps.lr_balance) + " from " + num(settings_.balance_start) : std::string("off")},
       {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},
       {"orient_normals", settings_.orient_normals ? "1" : "0"},
   };

@@ -72,6 +72,10 @@ void Optimizer::write_outputs(const std::string& dir) const {
     for (size_t v = 0; v < e->raw.size(); ++v) ex[dataset_->views[v].camera.name] = std::exp(double(e->raw[v]));
     io::write_text_atomic((out / "exposure.json").string(), ex.dump(1) + "\n");
   }
+  if (const ParameterGroup* b = params_.find(ParamKind::LightBalance)) {  // light_balance.h: the albedos' total move
+    ojson lb = {{"albedo_scale", {std::exp(double(b->raw[0])), std::exp(double(b->raw[1])), std::exp(double(b->raw[2]))}}};
+    io::write_text_atomic((out / "light_balance.json").string(), lb.dump(1) + "\n");
+  }
   if (params_.find(ParamKind::MeshColour))
     io::write_text_atomic((out / "mesh_materials.json").string(), mesh_materials_json(scene_->meshes));
 }

@@ -34,6 +34,11 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.lr_env = o.lr_env;
   if (!(o.init_albedo > 0.0f && o.init_albedo < 1.0f)) throw Error(names("init_albedo") + " must be in (0, 1)");
   s.params.init_albedo = o.init_albedo;
+  if (!(o.lr_balance > 0.0f)) throw Error(names("lr_balance") + " must be > 0");
+  s.light_balance = o.light_balance;
+  s.params.lr_balance = o.lr_balance;
+  if (!(o.balance_start >= 0.0f && o.balance_start < 1.0f)) throw Error(names("balance_start") + " must be in [0, 1)");
+  s.balance_start = o.balance_start;
   if (o.env_adam != "shared" && o.env_adam != "texel")
     throw Error(names("env_adam") + " must be 'shared' or 'texel', got '" + o.env_adam + "'");
   s.env_shared_moment = o.env_adam == "shared";

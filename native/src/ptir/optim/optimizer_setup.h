@@ -33,6 +33,9 @@ struct OptimizeOptions {
   float lr_final = OptimizerSettings{}.lr_final;
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
   float init_albedo = ParameterSettings{}.init_albedo;
+  bool light_balance = OptimizerSettings{}.light_balance;
+  float lr_balance = ParameterSettings{}.lr_balance;
+  float balance_start = OptimizerSettings{}.balance_start;
   float lr_env = ParameterSettings{}.lr_env;  // the environment's Adam rate (both levels)
   std::string env_adam = OptimizerSettings{}.env_shared_moment ? "shared" : "texel";
   int env_coarse = ParameterSettings{}.env_coarse_width;

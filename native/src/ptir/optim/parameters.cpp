@@ -35,6 +35,7 @@ const char* param_kind_name(ParamKind k) {
     case ParamKind::GaussianNormal: return "normal";
     case ParamKind::FitStatistics: return "fit_statistics";
     case ParamKind::FitLogRows: return "fit_log";
+    case ParamKind::LightBalance: return "light_balance";
   }
   return "?";
 }

@@ -1,0 +1,43 @@
+// The light-albedo balance: one learnt log scale per colour channel that moves
+// every albedo up by e^delta and the lat-long environment down by e^-delta at once.
+//
+// Why: under direct diffuse light the image is unchanged by that move (the
+// ambiguity the evaluation's per-channel scale alignment forgives), so per-texel
+// and per-Gaussian Adam steps never travel along it -- the recovered albedo's
+// overall level stays where it started (0.3; the textured set's truth is ~0.5,
+// measured albedo scale 1.7). But the move is not free: interreflections scale
+// with albedo^2 and dielectric highlights not at all, so a wrong level makes the
+// light between parts and the highlights wrong, and the optimiser bends the
+// environment to compensate (the ground's light: the recovered lower hemisphere
+// too bright, fed by too little bounce light off a too-dark pedestal). Starting
+// the albedo at 0.5 measured +0.9 dB albedo on that set (README, method notes).
+// The balance's gradient is the derivative of the loss along the move,
+//     dL/d delta_c = sum_i a_ic dL/da_ic  -  sum_t E_tc dL/dE_tc,
+// in which the direct diffuse terms cancel exactly (the same path contributes C
+// to both sums), so what is left is the interreflection and highlight evidence;
+// its own Adam normalises that small signal into steps. The image term only: the
+// edge-aware TV on the albedo shrinks with the albedo and would pull the level
+// down with it.
+#pragma once
+
+#include <array>
+
+#include "ptir/optim/parameters.h"
+#include "ptir/scene/scene.h"
+#include "ptir/transport/gradients.h"
+
+namespace ptir {
+
+// Whether the balance applies: albedos learnt and a learnt lat-long environment.
+bool light_balance_applies(const Parameters& p, const Scene& scene);
+
+// dL/d delta_c for the gradients `g` of the scene's current values (Gaussian
+// albedos, mesh base colours when their group is learnt, lat-long texels).
+std::array<double, 3> light_balance_derivative(const Parameters& p, const Scene& scene, const SceneGradients& g);
+
+// Moves the raw parameters by delta (log, per channel): albedos (Gaussians', and
+// meshes' when learnt) times e^delta, clamped inside the sigmoid's range; the
+// environment's fine texels' log radiance minus delta.
+void light_balance_shift(Parameters& p, const std::array<float, 3>& delta);
+
+}  // namespace ptir
