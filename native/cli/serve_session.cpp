@@ -125,6 +125,12 @@ std::vector<uint32_t> read_indices(const std::string& path) {
   return v;
 }
 
+// build_s split as the accel layer measured it (accel/scene_accel.h: AccelBuildTimes).
+json build_parts(const PathTracer& tracer) {
+  const AccelBuildTimes& t = tracer.accel().build_times();
+  return {{"trace_data_s", t.trace_data}, {"boxes_s", t.boxes}, {"bvh_s", t.bvh}};
+}
+
 }  // namespace
 
 const PathTracer& ServeSession::tracer() const {
@@ -184,6 +190,7 @@ json ServeSession::load(const json& request) {
   json reply = status();
   reply["load_s"] = load_s;
   reply["build_s"] = seconds_since(t1);
+  reply["build_parts"] = build_parts(*tracer_);
   return reply;
 }
 
@@ -309,7 +316,7 @@ json ServeSession::transform_splats(const json& request) {
   const auto t0 = Clock::now();
   tracer_ = std::make_unique<PathTracer>(*scene_);
   ++builds_;
-  return {{"builds", builds_}, {"build_s", seconds_since(t0)}};
+  return {{"builds", builds_}, {"build_s", seconds_since(t0)}, {"build_parts", build_parts(*tracer_)}};
 }
 
 // Path-traced colour, exactly as `ptir render` computes it for the same camera

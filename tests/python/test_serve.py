@@ -164,6 +164,8 @@ def test_transform_splats_equals_the_scene_file_transform(served, tmp_path):
     m[:3, 3] = (0.3, -0.2, 0.5)
     r = engine.call({"cmd": "transform_splats", "offset": 0, "count": 81, "matrix": m.reshape(-1).tolist()})
     assert r["builds"] == 2
+    parts = r["build_parts"]  # where the rebuild went (docs/engine_protocol.md)
+    assert set(parts) == {"trace_data_s", "boxes_s", "bvh_s"} and 0 < sum(parts.values()) <= r["build_s"]
     moved = render(engine, tmp_path / "moved.raw")
     other = dict(scene, gaussians=[dict(scene["gaussians"][0], transform=m.tolist())])
     path = tmp_path / "moved.json"

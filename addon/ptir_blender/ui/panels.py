@@ -149,8 +149,7 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             if total is not None:
                 box = layout.box()
                 box.label(text="Estimated: %s" % optimize_estimate.duration_text(total), icon="TIME")
-                box.label(text="%d iterations x %.2f s + %.0f s setup" % (s.iterations, s.estimate_s_per_iter,
-                                                                          s.estimate_setup_s))
+                box.label(text="%d × %.2f s + %.0f s setup" % (s.iterations, s.estimate_s_per_iter, s.estimate_setup_s))
             elif not problem:
                 layout.operator("ptir.optimize_estimate", icon="TIME")
             if s.status:
