@@ -94,6 +94,7 @@ def main():
     s.iterations, s.spp, s.bounces = a.iters, a.spp, a.bounces
     s.env, s.env_width, s.env_height = "latlong", 128, 64
     os.makedirs(os.path.dirname(out), exist_ok=True)
+    bpy.context.preferences.filepaths.save_version = 0  # no .blend1 beside it
     # Saved first: the dataset path is relative to the .blend, and the estimate resolves it; the
     # environment image's path is made relative too.
     bpy.ops.wm.save_as_mainfile(filepath=out)
