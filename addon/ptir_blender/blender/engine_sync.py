@@ -132,10 +132,12 @@ class EngineSession:
         reading the attributes back; None: an unknown change (all three channels are sent)."""
         self._material_only.setdefault(name, []).append(edit)
 
-    def push_material_edit(self, name, edit):
+    def push_material_edit(self, name, edit, update_follows=True):
         """Sends a material edit of object `name` to the engine now (the operator calls this, so the engine
         works while Blender evaluates its depsgraph); returns False when it cannot (no scene loaded, the
-        object not in it, an unknown edit): the edit is then noted for the next sync."""
+        object not in it, an unknown edit): the edit is then noted for the next sync. update_follows: the
+        operator tags the mesh for a depsgraph update, whose sync must then neither send the edit again
+        nor hash the object's geometry (a mark that only that next sync consumes)."""
         with self.lock:
             st = self.state
             if edit is None or st is None or not self.alive() or name not in st["splats"]:
@@ -146,7 +148,8 @@ class EngineSession:
             except engine_process.EngineDied:
                 self.note_material_edit(name, edit)
                 return False
-            self._material_only.setdefault(name, [])  # the depsgraph's update of it: material only, already sent
+            if update_follows:
+                self._material_only.setdefault(name, [])  # the coming update of it: material only, already sent
             return True
 
     def file(self, name):

@@ -144,10 +144,14 @@ class PTIR_OT_edit_material(bpy.types.Operator):
             if was_edit:
                 bpy.ops.object.mode_set(mode="EDIT")
         if not was_edit:  # (leaving edit mode may also have written moved vertices)
-            if engine_sync.session().push_material_edit(obj.name, done):
+            # Every object showing this mesh (linked duplicates share its attributes) gets the edit.
+            users = [o for o in context.scene.objects if o.data is obj.data]
+            pushed = [engine_sync.session().push_material_edit(o.name, done, update_follows=done.needs_update)
+                      for o in users]
+            if any(pushed):
                 viewport_render.kick_all()
-            elif not done.needs_update:
-                obj.data.update()  # no live viewport took it: the depsgraph update tells the render engine
+            if not all(pushed) and not done.needs_update:
+                obj.data.update()  # a live viewport did not take it: the depsgraph update tells the engine
         self.report({"INFO"}, "%s of %d splats: %s" % (self.channel.capitalize(), len(done), self.operation.lower()))
         return {"FINISHED"}
 
