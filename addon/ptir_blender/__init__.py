@@ -71,8 +71,21 @@ def native():
     return ptir
 
 
+def _upgrade_file_data(*_):
+    """Data of files saved by older versions brought up to date (the splat display's node group)."""
+    from .blender import splat_object
+    splat_object.upgrade_display()
+    return None  # (also a one-shot timer)
+
+
+if bpy is not None:
+    _upgrade_file_data = bpy.app.handlers.persistent(_upgrade_file_data)
+
+
 def register():
     import bpy
+    bpy.app.handlers.load_post.append(_upgrade_file_data)
+    bpy.app.timers.register(_upgrade_file_data, first_interval=0.0)  # the file open when the add-on is enabled
     for cls in classes:
         bpy.utils.register_class(cls)
     properties.register_pointers()
@@ -92,3 +105,5 @@ def unregister():
     properties.unregister_pointers()
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)
+    if _upgrade_file_data in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_upgrade_file_data)

@@ -114,6 +114,10 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
     output_dir: StringProperty(
         name="Output", subtype="DIR_PATH",
         description="Folder for the optimiser's outputs (empty: a temporary folder, removed afterwards)")
+    # The measured duration estimate (blender/optimize_estimate.py), saved with the file.
+    estimate_key: StringProperty(default="", options={"HIDDEN"})
+    estimate_setup_s: FloatProperty(default=0.0, min=0.0, options={"HIDDEN"})
+    estimate_s_per_iter: FloatProperty(default=0.0, min=0.0, options={"HIDDEN"})
     # Live state of a running optimisation (shown by the panel).
     running: BoolProperty(default=False, options={"SKIP_SAVE"})
     progress: FloatProperty(default=0.0, min=0.0, max=1.0, subtype="FACTOR", options={"SKIP_SAVE"})

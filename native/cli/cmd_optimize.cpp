@@ -7,7 +7,7 @@
 //       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
-//       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [-q]
+//       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [--estimate] [-q]
 //
 // Writes OUT/gaussians.ply (every input property + albedo_0..2, roughness,
 // metallic, nx,ny,nz), OUT/env.exr (lat-long, Blender orientation like the
@@ -17,6 +17,13 @@
 // --iters may differ from the interrupted run. One progress line per iteration
 // on stderr. Ctrl-C stops after the last completed iteration, writes the
 // checkpoint and the outputs, and exits 130 (a second Ctrl-C kills at once).
+//
+// --estimate loads everything, times the probe of optim/iteration_estimate.h and
+// prints one JSON line on stdout instead of optimising (nothing is written):
+//   {"estimate": {"setup_s": S, "s_per_iter": T, "iterations": N, "total_s": S + N*T, ...}}
+// setup_s is what a real run spends before its first iteration (loading the
+// dataset and Gaussians, building the BVH, the probe itself, which a real run
+// also does): the add-on's Optimise panel shows total_s before starting.
 //
 // --scene adds the scene file's meshes and lights (its Gaussians must be given
 // with --gaussians instead; its environment is replaced by the recovered one; its
@@ -71,6 +78,7 @@ struct OptimizeCommand {
   int checkpoint_every = 50;
   int threads = 0;
   bool quiet = false;
+  bool estimate = false;  // --estimate: print the estimated duration, do not optimise
   OptimizeOptions opt;
   FilterFlags filter;
   bool force = false;
@@ -140,7 +148,22 @@ std::string stop_message(const std::string& ckpt, int done, int saved) {
          " or later: continue with --resume (any number of ranks)";
 }
 
+// --estimate: the inputs are loaded (setup timed from t_start), then the probe; one JSON line on stdout.
+int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start) {
+  const IterationEstimate est = estimate_iteration(opt);
+  const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const int iters = opt.settings().iterations - opt.iteration();
+  std::printf("{\"estimate\": {\"setup_s\": %.4f, \"s_per_iter\": %.6f, \"iterations\": %d, \"total_s\": %.3f, "
+              "\"gaussians\": %zu, \"views\": %zu, \"width\": %d, \"height\": %d, \"probe_pixels\": %d, "
+              "\"probe_spp\": %d}}\n",
+              setup, est.seconds, iters, setup + iters * est.seconds, opt.scene().gaussians->size(),
+              opt.dataset().size(), opt.dataset().width, opt.dataset().height, est.probe_pixels, est.probe_spp);
+  std::fflush(stdout);
+  return 0;
+}
+
 int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
+  const auto t_start = std::chrono::steady_clock::now();
   // Data-parallel runs (world.h): rank 0 alone reports and writes.
   const Communicator& comm = world();
   OptimizeCommand o = options;
@@ -150,10 +173,11 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
   guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
-  if (comm.rank() == 0) remove_stale_outputs({o.out}, o.quiet);
+  if (comm.rank() == 0 && !o.estimate) remove_stale_outputs({o.out}, o.quiet);
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
+  if (o.estimate) return comm.rank() == 0 ? print_estimate(opt, t_start) : 0;
   opt.set_communicator(comm);
   const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (!o.quiet)
@@ -302,6 +326,8 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_flag("--learn-exposure", o->opt.learn_exposure,
                 "learn one exposure scale per training image (photos without EXIF exposure); OUT/exposure.json");
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
+  cmd->add_flag("--estimate", o->estimate,
+                "print the estimated duration (one JSON line: setup_s, s_per_iter, total_s) and exit without optimising");
   add_force_flag(cmd, o->force);
   add_capture_flags(cmd, &o->capture);
   add_filter_flags(cmd, &o->filter);

@@ -112,6 +112,25 @@ std::vector<float> read_floats(const std::string& path, size_t count) {
   return v;
 }
 
+// A whole file of uint32 little-endian values (splat indices).
+std::vector<uint32_t> read_indices(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) throw Error(path, "cannot open");
+  const std::streamoff size = in.tellg();
+  if (size % 4 != 0) throw Error(path, "holds " + std::to_string(size) + " bytes, not a whole number of uint32 indices");
+  std::vector<uint32_t> v(size_t(size / 4));
+  in.seekg(0);
+  in.read(reinterpret_cast<char*>(v.data()), size);
+  if (in.gcount() != size) throw Error(path, "cannot read " + std::to_string(size) + " bytes");
+  return v;
+}
+
+// build_s split as the accel layer measured it (accel/scene_accel.h: AccelBuildTimes).
+json build_parts(const PathTracer& tracer) {
+  const AccelBuildTimes& t = tracer.accel().build_times();
+  return {{"trace_data_s", t.trace_data}, {"boxes_s", t.boxes}, {"bvh_s", t.bvh}};
+}
+
 }  // namespace
 
 const PathTracer& ServeSession::tracer() const {
@@ -171,6 +190,7 @@ json ServeSession::load(const json& request) {
   json reply = status();
   reply["load_s"] = load_s;
   reply["build_s"] = seconds_since(t1);
+  reply["build_parts"] = build_parts(*tracer_);
   return reply;
 }
 
@@ -217,23 +237,52 @@ json ServeSession::mesh_material(const json& request) {
   throw Error("request: the loaded scene has no mesh named '" + name + "'");
 }
 
-// Per-splat material values of Gaussians [offset, offset + count): the file holds
-// float32 albedo (count x 3), then roughness (count), then metallic (count).
+// Per-splat material values of Gaussians [offset, offset + count): the file holds,
+// for each of "channels" in the order given (default albedo, roughness, metallic),
+// the values of the addressed Gaussians (albedo 3 floats each, the others 1):
+// all `count` of them, or with "indices" (a file of uint32, relative to offset)
+// only those. An edit of a few splats, or of the albedo alone, sends only that.
 json ServeSession::splat_materials(const json& request, uint64_t* bytes_in) {
   tracer();
   GaussianField& f = *scene_->gaussians;
   const int64_t offset = integer_of(request, "offset", 0, 0, int64_t(f.size()));
   const int64_t count = integer_of(request, "count", int64_t(f.size()) - offset, 0, int64_t(f.size()) - offset);
-  const size_t n = size_t(count);
-  std::vector<float> v = read_floats(string_of(request, "file"), n * 5);
-  *bytes_in = v.size() * sizeof(float);
-  for (size_t i = 0; i < n; ++i) {
-    const size_t g = size_t(offset) + i;
-    f.albedo[g] = Vec3(v[i * 3], v[i * 3 + 1], v[i * 3 + 2]);
-    f.roughness[g] = v[n * 3 + i];
-    f.metallic[g] = v[n * 4 + i];
+  std::vector<std::string> channels = {"albedo", "roughness", "metallic"};
+  if (request.contains("channels")) {
+    const json& c = request.at("channels");
+    if (!c.is_array() || c.empty()) throw Error("request: \"channels\" must be a non-empty array of channel names");
+    channels.clear();
+    for (const json& name : c) {
+      if (!name.is_string() || (name != "albedo" && name != "roughness" && name != "metallic"))
+        throw Error("request: unknown channel " + name.dump() + " (albedo, roughness, metallic)");
+      channels.push_back(name.get<std::string>());
+    }
   }
-  return {{"builds", builds_}};
+  std::vector<uint32_t> indices;
+  if (request.contains("indices")) {
+    const std::string path = string_of(request, "indices");
+    indices = read_indices(path);
+    for (uint32_t i : indices)
+      if (int64_t(i) >= count)
+        throw Error(path, "index " + std::to_string(i) + " outside the range of " + std::to_string(count) + " Gaussians");
+    *bytes_in += indices.size() * sizeof(uint32_t);
+  }
+  const size_t n = request.contains("indices") ? indices.size() : size_t(count);
+  size_t width = 0;
+  for (const std::string& c : channels) width += c == "albedo" ? 3 : 1;
+  std::vector<float> v = read_floats(string_of(request, "file"), n * width);
+  *bytes_in += v.size() * sizeof(float);
+  auto target = [&](size_t i) { return size_t(offset) + (indices.empty() ? i : size_t(indices[i])); };
+  const float* p = v.data();
+  for (const std::string& c : channels) {  // (all values are read and checked before any is written)
+    if (c == "albedo")
+      for (size_t i = 0; i < n; ++i, p += 3) f.albedo[target(i)] = Vec3(p[0], p[1], p[2]);
+    else {
+      std::vector<float>& dst = c == "roughness" ? f.roughness : f.metallic;
+      for (size_t i = 0; i < n; ++i, ++p) dst[target(i)] = *p;
+    }
+  }
+  return {{"builds", builds_}, {"splats", n}};
 }
 
 // Gaussians [offset, offset + count) moved by a row-major 4x4 similarity (the
@@ -267,7 +316,7 @@ json ServeSession::transform_splats(const json& request) {
   const auto t0 = Clock::now();
   tracer_ = std::make_unique<PathTracer>(*scene_);
   ++builds_;
-  return {{"builds", builds_}, {"build_s", seconds_since(t0)}};
+  return {{"builds", builds_}, {"build_s", seconds_since(t0)}, {"build_parts", build_parts(*tracer_)}};
 }
 
 // Path-traced colour, exactly as `ptir render` computes it for the same camera

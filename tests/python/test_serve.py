@@ -84,6 +84,46 @@ def test_deltas(served, tmp_path):
     assert engine.call({"cmd": "status"})["builds"] == 1
 
 
+def test_partial_splat_materials_equal_the_full_upload(served, tmp_path):
+    """One channel, and a subset of the splats by index, change exactly those values: the image equals
+    the one after a full upload of the same materials (max difference 0)."""
+    engine, _, _ = served
+    rng = np.random.default_rng(3)
+    albedo, rough, metal = rng.uniform(0.1, 0.9, (81, 3)), rng.uniform(0.2, 0.9, 81), np.zeros(81)
+    full = tmp_path / "full.f32"
+
+    def upload(a, r, m):
+        np.concatenate([a.reshape(-1), r, m]).astype(np.float32).tofile(full)
+        assert engine.call({"cmd": "splat_materials", "offset": 0, "count": 81, "file": str(full)})["ok"]
+
+    upload(albedo, rough, metal)
+    before = render(engine, tmp_path / "before.raw")
+    sel = np.array([3, 10, 40, 41, 80], np.uint32)
+    albedo2, rough2 = albedo.copy(), rough.copy()
+    albedo2[sel] = [0.9, 0.05, 0.05]
+    rough2[:] = 0.3
+    upload(albedo2, rough2, metal)
+    expected = render(engine, tmp_path / "expected.raw")
+    assert np.abs(expected - before).max() > 0  # the edit shows
+    upload(albedo, rough, metal)
+    idx, vals = tmp_path / "idx.u32", tmp_path / "vals.f32"
+    sel.tofile(idx)
+    albedo2[sel].astype(np.float32).tofile(vals)
+    r = engine.call({"cmd": "splat_materials", "offset": 0, "count": 81, "channels": ["albedo"], "indices": str(idx),
+                     "file": str(vals)})
+    assert r["ok"] and r["splats"] == 5 and r["bulk_bytes_in"] == 5 * 4 + 5 * 12, r
+    rough2.astype(np.float32).tofile(vals)
+    r = engine.call({"cmd": "splat_materials", "offset": 0, "count": 81, "channels": ["roughness"], "file": str(vals)})
+    assert r["ok"] and r["bulk_bytes_in"] == 81 * 4 and r["builds"] == 1, r
+    assert np.abs(render(engine, tmp_path / "delta.raw") - expected).max() == 0.0
+    bad_idx = tmp_path / "bad.u32"
+    np.array([81], np.uint32).tofile(bad_idx)
+    for request, needle in (({"channels": ["sheen"]}, "unknown channel"), ({"indices": str(bad_idx)}, "bad.u32")):
+        r = engine.wait(engine.send(dict({"cmd": "splat_materials", "offset": 0, "count": 81, "file": str(vals)},
+                                         **request)))
+        assert not r["ok"] and needle in r["error"], r
+
+
 def test_errors_name_the_problem_and_keep_serving(served, tmp_path):
     engine, _, _ = served
     short = tmp_path / "short.f32"
@@ -124,6 +164,8 @@ def test_transform_splats_equals_the_scene_file_transform(served, tmp_path):
     m[:3, 3] = (0.3, -0.2, 0.5)
     r = engine.call({"cmd": "transform_splats", "offset": 0, "count": 81, "matrix": m.reshape(-1).tolist()})
     assert r["builds"] == 2
+    parts = r["build_parts"]  # where the rebuild went (docs/engine_protocol.md)
+    assert set(parts) == {"trace_data_s", "boxes_s", "bvh_s"} and 0 < sum(parts.values()) <= r["build_s"]
     moved = render(engine, tmp_path / "moved.raw")
     other = dict(scene, gaussians=[dict(scene["gaussians"][0], transform=m.tolist())])
     path = tmp_path / "moved.json"

@@ -12,7 +12,9 @@ process (io/engine_process.py) and what it holds, as fingerprints:
   rebuilds its acceleration structure, no file is read); F12 (exact=True)
   reloads moved splats so its image is the CLI's to the last bit
 - per splat object a hash of its material attributes -> "splat_materials" with
-  that object's range of Gaussians (a float32 file in /dev/shm)
+  that object's range of Gaussians (a float32 file in /dev/shm); an edit of the
+  material editor (note_material_edit) sends only what it changed: its channel,
+  and the indices of the edited splats when fewer than all (no read-back, no hash)
 - lights, world, integrator settings -> "update" with those scene-file parts
 - mesh materials (material_params of each slot) -> "mesh_material" per mesh
 
@@ -92,7 +94,8 @@ class EngineSession:
         self.loads = 0            # "load" requests sent (full exports)
         self.warnings = []
         self._seq = 0
-        self._material_only = set()  # objects whose last change was a PTIR material edit (note_material_edit)
+        self._material_only = {}  # object name -> its PTIR material edits since the last sync (note_material_edit)
+        self._bulk = []  # (request id, files written for it): removed once the engine has answered
 
     # ------------------------------------------------------------ process
 
@@ -120,15 +123,65 @@ class EngineSession:
                 shutil.rmtree(self.folder, ignore_errors=True)
             self.folder = None
             self.state = None
+            self._bulk = []
 
-    def note_material_edit(self, name):
+    def note_material_edit(self, name, edit=None):
         """The material editor changed only material attributes of object `name`: the next sync skips
-        its geometry check (hashing a 1M-splat object's geometry costs ~0.4 s)."""
-        self._material_only.add(name)
+        its geometry check (hashing a 1M-splat object's geometry costs ~0.4 s) and sends the edit
+        (material_ops.MaterialEdit: channel, indices or None for all, new values) as it is, without
+        reading the attributes back; None: an unknown change (all three channels are sent)."""
+        self._material_only.setdefault(name, []).append(edit)
+
+    def push_material_edit(self, name, edit, update_follows=True):
+        """Sends a material edit of object `name` to the engine now (the operator calls this, so the engine
+        works while Blender evaluates its depsgraph); returns False when it cannot (no scene loaded, the
+        object not in it, an unknown edit): the edit is then noted for the next sync. update_follows: the
+        operator tags the mesh for a depsgraph update, whose sync must then neither send the edit again
+        nor hash the object's geometry (a mark that only that next sync consumes)."""
+        with self.lock:
+            st = self.state
+            if edit is None or st is None or not self.alive() or name not in st["splats"]:
+                self.note_material_edit(name, edit)
+                return False
+            try:
+                self._send_edit(st, name, edit)
+            except engine_process.EngineDied:
+                self.note_material_edit(name, edit)
+                return False
+            if update_follows:
+                self._material_only.setdefault(name, [])  # the coming update of it: material only, already sent
+            return True
 
     def file(self, name):
         self._seq += 1
         return os.path.join(self.folder, "%06d_%s" % (self._seq, name))
+
+    def _send_bulk(self, request, files):
+        """Sends a request that reads `files`; they are removed when its reply has come (_reap)."""
+        rid = self.engine.send(request, bulk_bytes=sum(os.path.getsize(f) for f in files))
+        self._bulk.append((rid, files))
+        return rid
+
+    def _reap(self):
+        """Removes the bulk files of answered requests (a 1M-splat albedo edit is 12 MB of /dev/shm); a
+        failed delta's error becomes a warning."""
+        keep = []
+        for rid, files in self._bulk:
+            try:
+                reply = self.engine.reply(rid) if self.engine is not None else {}
+            except engine_process.EngineDied:
+                reply = {}
+            if reply is None:
+                keep.append((rid, files))
+                continue
+            if reply and not reply.get("ok") and not reply.get("cancelled"):
+                self.warnings.append("PTIR engine: %s" % reply.get("error", "request failed"))
+            for f in files:
+                try:
+                    os.remove(f)
+                except OSError:
+                    pass
+        self._bulk = keep
 
     # ------------------------------------------------------------ sync
 
@@ -183,6 +236,7 @@ class EngineSession:
         exact: the engine must hold exactly what a fresh export gives (F12: the CLI's image); splats
         moved by "transform_splats" deltas (float rounding of the relative matrix) are then reloaded."""
         with self.lock:
+            self._reap()
             key, splats, meshes, lights, refs = self._membership(depsgraph)
             geo, mats = self._fingerprints(depsgraph, splats, meshes, refs, changed, data_changed)
             st = self.state
@@ -221,21 +275,43 @@ class EngineSession:
                     sent.append("mesh_material")
             data = changed if data_changed is None else data_changed
             for o in splats:
-                if data is not None and o.name not in data:
+                edits = self._material_only.get(o.name)
+                if edits is not None and not edits:
+                    continue  # pushed by the operator (push_material_edit)
+                if edits and all(e is not None for e in edits):
+                    for e in edits:  # what the material editor changed, as it changed it
+                        self._send_edit(st, o.name, e)
+                        sent.append("splat_materials")
+                    continue
+                if data is not None and o.name not in data and not edits:
                     continue
                 values = splat_materials(o)
-                noted = o.name in self._material_only
-                h = None if noted else _hash_arrays(values)  # a noted edit is sent without comparing
+                h = None if edits else _hash_arrays(values)  # a noted edit is sent without comparing
                 offset, count, old = st["splats"][o.name]
-                if noted or h != old:
+                if edits or h != old:
                     path = self.file("splat_materials.f32")
                     values.tofile(path)
-                    self.engine.send({"cmd": "splat_materials", "offset": offset, "count": count, "file": path},
-                                     bulk_bytes=values.nbytes)
+                    self._send_bulk({"cmd": "splat_materials", "offset": offset, "count": count, "file": path}, [path])
                     st["splats"][o.name] = (offset, count, h)
                     sent.append("splat_materials")
             self._material_only.clear()
             return {"load": False, "sent": sent}
+
+    def _send_edit(self, st, name, edit):
+        """One material edit as a partial "splat_materials": its channel, for the edited splats (by index
+        when fewer than all; at most 4 bytes more per edited splat than the whole channel)."""
+        offset, count, _ = st["splats"][name]
+        values = np.ascontiguousarray(edit.values, np.float32)
+        request = {"cmd": "splat_materials", "offset": offset, "count": count, "channels": [edit.channel],
+                   "file": self.file("splat_materials.f32")}
+        values.tofile(request["file"])
+        files = [request["file"]]
+        if edit.indices is not None:
+            request["indices"] = self.file("splat_indices.u32")
+            np.ascontiguousarray(edit.indices, np.uint32).tofile(request["indices"])
+            files.append(request["indices"])
+        self._send_bulk(request, files)
+        st["splats"][name] = (offset, count, None)  # the next unnoted sync compares afresh
 
     def _load(self, depsgraph, integrator, key, geo, mats, splats):
         folder = os.path.join(self.folder, "scene_%d" % self.loads)

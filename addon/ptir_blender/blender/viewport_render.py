@@ -81,6 +81,7 @@ class ViewportRender:
         self.first_pixels_at = None  # time.monotonic() of that moment
         self.message = ""
         self.session = None
+        self.view_cams = None   # (full, first-pass) engine cameras of the last draw (kick() reuses them)
         _active.add(self)
 
     # ---------------------------------------------------------------- state
@@ -123,23 +124,41 @@ class ViewportRender:
         region, rv3d = context.region, context.region_data
         full = view_camera(region, rv3d, pixel_size)
         if full is None:
+            self.view_cams = None
             return "PTIR: orthographic views are not supported in the viewport (use a perspective view)"
-        key = (tuple(full["c2w"]), full["fx"], full["fy"], full["cx"], full["cy"], full["width"], full["height"],
-               self.generation)
+        self.view_cams = (full, view_camera(region, rv3d, pixel_size * FIRST_PASS_DIVIDER))
+        key = self._key(full)
         if key != self.key:
             self.restart()
             self.key = key
         self._collect()
         if self.pending is None and self.samples < target_samples:
-            first = self.passes == 0
-            cam = view_camera(region, rv3d, pixel_size * FIRST_PASS_DIVIDER) if first else full
-            out = session.file("view.raw")
-            rid = session.engine.send({"cmd": "render", "view": cam, "spp": 1,
-                                       "first_sample": 0 if first else self.samples, "output": out})
-            self.pending = (rid, self.passes, key, out, cam["width"], cam["height"])
-            _ensure_timer()
+            self._send_pass(self.view_cams[1] if self.passes == 0 else full)
         self._draw_texture(region)
         return self._status(target_samples)
+
+    def _key(self, full):
+        return (tuple(full["c2w"]), full["fx"], full["fy"], full["cx"], full["cy"], full["width"], full["height"],
+                self.generation)
+
+    def _send_pass(self, cam):
+        out = self.session.file("view.raw")
+        rid = self.session.engine.send({"cmd": "render", "view": cam, "spp": 1,
+                                        "first_sample": 0 if self.passes == 0 else self.samples, "output": out})
+        self.pending = (rid, self.passes, self.key, out, cam["width"], cam["height"])
+        _ensure_timer()
+
+    def kick(self):
+        """The scene changed and its delta is already sent (a material edit, straight from the operator):
+        the first pass of the new state is requested now, so the engine renders it while Blender does its
+        own update, undo step and redraw; the next draw finds it pending under the same key."""
+        if self.view_cams is None or self.session is None or not self.session.alive():
+            self.scene_changed()
+            return
+        self.scene_changed()
+        self.restart()
+        self.key = self._key(self.view_cams[0])
+        self._send_pass(self.view_cams[1])
 
     def _collect(self):
         if self.pending is None:
@@ -197,6 +216,13 @@ class ViewportRender:
         if self.samples == 0:
             return "PTIR: preview, %.1f s" % t
         return "PTIR: %d/%d samples, %.1f s" % (self.samples, target, t)
+
+
+def kick_all():
+    """kick() on every live viewport."""
+    for vr in list(_active):
+        vr.kick()
+        vr.tag()
 
 
 def schedule_redraw(vr, seconds):

@@ -17,7 +17,7 @@ import tempfile
 
 import bpy
 
-from ..blender import optimize_job
+from ..blender import optimize_estimate, optimize_job
 from ..errors import PtirError
 from ..io import cli
 from . import render_engine
@@ -214,4 +214,28 @@ class PTIR_OT_optimize_cancel(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (PTIR_OT_optimize, PTIR_OT_optimize_cancel)
+class PTIR_OT_optimize_estimate(bpy.types.Operator):
+    """Measure how long Optimise will take with these settings (exports the inputs, loads them in the engine and
+    times a probe of the first view; blender/optimize_estimate.py)"""
+    bl_idname = "ptir.optimize_estimate"
+    bl_label = "Estimate Duration"
+
+    @classmethod
+    def poll(cls, context):
+        return _state.get("job") is None
+
+    def execute(self, context):
+        settings = context.scene.ptir_optimize
+        try:
+            optimize_estimate.measure(context, settings, render_engine.cli_path())
+        except PtirError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        total = optimize_estimate.seconds(context, settings)
+        self.report({"INFO"}, "Optimise: about %s (%.2f s/iteration)" % (optimize_estimate.duration_text(total),
+                                                                          settings.estimate_s_per_iter))
+        _redraw(context)
+        return {"FINISHED"}
+
+
+classes = (PTIR_OT_optimize, PTIR_OT_optimize_cancel, PTIR_OT_optimize_estimate)

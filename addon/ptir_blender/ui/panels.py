@@ -3,7 +3,7 @@
 
 import bpy
 
-from ..blender import splat_object
+from ..blender import optimize_estimate, splat_object
 
 
 class _RenderPropertiesPanel:
@@ -141,7 +141,17 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
                 box.label(text=part)
             layout.operator("ptir.optimize_cancel", text="Cancel (Esc)", icon="CANCEL")
         else:
+            problem = optimize_estimate.dataset_problem(s)
+            if problem:
+                layout.label(text=problem, icon="ERROR")
             layout.operator("ptir.optimize", text="Optimise", icon="PLAY")
+            total = optimize_estimate.seconds(context, s)
+            if total is not None:
+                box = layout.box()
+                box.label(text="Estimated: %s" % optimize_estimate.duration_text(total), icon="TIME")
+                box.label(text="%d × %.2f s + %.0f s setup" % (s.iterations, s.estimate_s_per_iter, s.estimate_setup_s))
+            elif not problem:
+                layout.operator("ptir.optimize_estimate", icon="TIME")
             if s.status:
                 layout.label(text=s.status, icon="INFO")
         meshes = [o for o in context.visible_objects if o.type == "MESH" and not splat_object.is_splat_object(o)]

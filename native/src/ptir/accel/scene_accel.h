@@ -59,6 +59,13 @@ struct WalkEnd {
   MeshHit mesh;          // the mesh that ended the walk (valid only when reached)
 };
 
+// Where the time of building a SceneAccel went (seconds): the per-Gaussian trace
+// data (Morton order, unit-space transforms), the proxy boxes, and Embree's BVH
+// build (Gaussians and meshes; the mesh-only scene included).
+struct AccelBuildTimes {
+  double trace_data = 0.0, boxes = 0.0, bvh = 0.0;
+};
+
 struct AccelSettings {
   CullSettings cull;
   int k = 32;  // hits collected per traversal round (1..64); 32: one round for most camera rays
@@ -101,6 +108,7 @@ class SceneAccel {
 
   const std::vector<GaussianTraceData>& trace_data() const { return data_; }
   const AccelSettings& settings() const { return settings_; }
+  const AccelBuildTimes& build_times() const { return build_times_; }
   const std::vector<TriangleMesh>& meshes() const { return *meshes_; }
   const GaussianField& field() const { return *field_; }
 
@@ -135,6 +143,7 @@ class SceneAccel {
   const std::vector<TriangleMesh>* meshes_;
   AccelSettings settings_;
   std::vector<GaussianTraceData> data_;
+  AccelBuildTimes build_times_;
 };
 
 template <class Visit>
