@@ -18,6 +18,7 @@
 #include <functional>
 #include <random>
 
+#include "ptir/optim/light_balance.h"
 #include "ptir/render/render_path.h"
 #include "test_scenes.h"
 
@@ -179,6 +180,37 @@ TEST(Gradients, EnvironmentTexelsMatchFiniteDifferences) {
     s.environment.as<Environment>()->texels()[3 * bright + 2] += h;
   });
   EXPECT_NEAR(g.environment[3 * bright + 2], fd_one, 5e-3 * std::fabs(fd_one) + 1e-5);
+}
+
+TEST(Gradients, LightBalanceIsTheDerivativeAlongItsMove) {
+  // optim/light_balance.h: dL/d delta for "albedos x e^delta, environment x e^-delta"
+  // against central differences of that move, per channel; and the move on the raw
+  // parameters does exactly that to the activated values.
+  GradientScene gs = make_scene(false);
+  IntegratorSettings settings = settings_with(4);
+  SceneGradients g = prb(gs.scene, gs.camera, settings, gs.weights);
+  ParameterSettings ps;
+  Parameters p = make_parameters(gs.scene, ps);
+  ASSERT_TRUE(light_balance_applies(p, gs.scene));
+  const std::array<double, 3> d = light_balance_derivative(p, gs.scene, g);
+  for (int c = 0; c < 3; ++c) {
+    double fd = central_difference(gs, settings, 1e-2, [c](Scene& s, float h) {
+      for (Vec3& a : s.gaussians->albedo) a[c] *= std::exp(h);
+      std::vector<float>& t = s.environment.as<Environment>()->texels();
+      for (size_t i = size_t(c); i < t.size(); i += 3) t[i] *= std::exp(-h);
+    });
+    EXPECT_NEAR(d[c], fd, 5e-3 * std::fabs(fd) + 1e-4) << "channel " << c;
+  }
+  Scene moved = gs.scene;
+  moved.gaussians = std::make_shared<GaussianField>(*gs.scene.gaussians);
+  apply_parameters(p, ps, moved);
+  const Vec3 a0 = moved.gaussians->albedo[7];
+  const float e0 = moved.environment.as<Environment>()->texels()[5];
+  light_balance_shift(p, {0.2f, -0.1f, 0.05f});
+  apply_parameters(p, ps, moved);
+  EXPECT_NEAR(moved.gaussians->albedo[7].x, a0.x * std::exp(0.2f), 1e-5f);
+  EXPECT_NEAR(moved.gaussians->albedo[7].y, a0.y * std::exp(-0.1f), 1e-5f);
+  EXPECT_NEAR(moved.environment.as<Environment>()->texels()[5], e0 * std::exp(-0.05f), 1e-5f);  // texel 1, blue
 }
 
 TEST(Gradients, RoughnessAndMetallicMatchFiniteDifferencesInExpectation) {
