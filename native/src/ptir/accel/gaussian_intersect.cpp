@@ -3,6 +3,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 
@@ -32,6 +33,7 @@ PTIR_INLINE void intersect_one(RoundContext* rc, RTCRayHit* rh, const GaussianTr
   // Cull on the squared distance at the peak; exp only for accepted hits.
   float alpha = hit_alpha(d2, g.opacity, g.accept_d2, rc->cull);
   if (alpha <= 0.0f) return;
+  if (rc->skip && (*rc->skip)(GaussianHit{t, alpha, g.id})) return;
   rc->buffer[0].offer(t, alpha, g.id, ray.tfar, rh->hit.geomID);
 }
 
@@ -198,6 +200,25 @@ void gaussian_intersect(const RTCIntersectFunctionNArguments* args) {
   rc->queue[rc->queued] = args->primID;
   rc->queue_lanes[rc->queued++] = lanes;
   if (rc->queued == RoundContext::kQueue) evaluate_queue(rc, args->rayhit);
+}
+
+void gaussian_occluded(const RTCOccludedFunctionNArguments* args) {
+  auto* oc = reinterpret_cast<OcclusionContext*>(args->context);
+  const GaussianTraceData& g = oc->data[args->primID];
+  // rtcOccluded1 asks for one ray; the loop serves any width all the same.
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (!args->valid[i]) continue;
+    float& tfar = RTCRayN_tfar(args->ray, args->N, i);
+    float t, d2;
+    peak_t_d2(g, RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+              RTCRayN_org_z(args->ray, args->N, i), RTCRayN_dir_x(args->ray, args->N, i),
+              RTCRayN_dir_y(args->ray, args->N, i), RTCRayN_dir_z(args->ray, args->N, i), t, d2);
+    // The range of walk()'s first round: t_peak in [t_min, tfar] (NaN never).
+    if (!(t >= oc->t_min) || !(t <= tfar)) continue;
+    const float alpha = hit_alpha(d2, g.opacity, g.accept_d2, oc->cull);
+    if (alpha <= 0.0f) continue;
+    if ((*oc->occludes)(GaussianHit{t, alpha, g.id})) tfar = -INFINITY;
+  }
 }
 
 }  // namespace ptir

@@ -40,13 +40,13 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
   uint64_t pick_key = hash_combine(hash_combine(path_key, bounce), kStreamPick);
   InteractionBuilder builder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record);
 
-  // Composite the Gaussians front to back, skipping the surface the ray leaves.
-  WalkEnd end;
-  if (from.kind == SpawnContext::Gaussian) {
-    end = accel_.walk(ray, [&](const GaussianHit& h) { return is_self_hit(from, ray.d, h) ? true : builder.add(h); });
-  } else {
-    end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true);
-  }
+  // Composite the Gaussians front to back, skipping the surface the ray leaves
+  // (dropped inside the traversal, so that the walk can stop where the ray turns
+  // opaque and prune the BVH behind it: the same hits reach the builder).
+  const auto self_hit = [&](const GaussianHit& h) { return is_self_hit(from, ray.d, h); };
+  const HitTest skip = hit_test(self_hit);
+  WalkEnd end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true,
+                            from.kind == SpawnContext::Gaussian ? &skip : nullptr);
   SurfaceInteraction si = builder.finish(ray);
 
   NextEvent ev;
@@ -122,17 +122,13 @@ bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, ui
   float max_t = std::isfinite(distance) ? distance * (1.0f - 1e-4f) : distance;
   Ray r = spawn_ray(from, wi, max_t);
   const uint64_t key = hash_combine(hash_combine(hash_combine(path_key, bounce), kStreamShadow), light);
-  bool blocked = false;
-  // Each Gaussian occludes with probability alpha, decided by a hash of its id.
-  WalkEnd end = accel_.walk(r, [&](const GaussianHit& h) {
-    if (is_self_hit(from, wi, h)) return true;
-    if (to_unit_float(hash_combine(key, h.id)) < h.alpha) {
-      blocked = true;
-      return false;
-    }
-    return true;
-  });
-  return !blocked && !end.mesh.valid;
+  // Each Gaussian occludes with probability alpha, decided by a hash of its id, so
+  // the answer does not depend on the order of the hits: an occlusion query, which
+  // stops at the first occluder Embree meets.
+  const auto occludes = [&](const GaussianHit& h) {
+    return !is_self_hit(from, wi, h) && to_unit_float(hash_combine(key, h.id)) < h.alpha;
+  };
+  return !accel_.occluded(r, hit_test(occludes));
 }
 
 namespace {
