@@ -27,10 +27,10 @@ Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const Integrat
 
 bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const {
   if (from.kind != SpawnContext::Gaussian) return false;
-  float d_dot_n = dot(d, field_.normal[h.id]);
+  // The range test first: most hits lie beyond it, and need no normal fetched.
   if (settings_.self_intersection == SelfIntersection::BackfaceAware)
-    return h.t > 0.0f && d_dot_n > 0.0f && h.t <= from.self_range;
-  return h.t <= settings_.fixed_range && d_dot_n > kFixedBackfaceCos;
+    return h.t > 0.0f && h.t <= from.self_range && dot(d, field_.normal[h.id]) > 0.0f;
+  return h.t <= settings_.fixed_range && dot(d, field_.normal[h.id]) > kFixedBackfaceCos;
 }
 
 NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
@@ -126,7 +126,7 @@ bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, ui
   // the answer does not depend on the order of the hits: an occlusion query, which
   // stops at the first occluder Embree meets.
   const auto occludes = [&](const GaussianHit& h) {
-    return !is_self_hit(from, wi, h) && to_unit_float(hash_combine(key, h.id)) < h.alpha;
+    return to_unit_float(hash_combine(key, h.id)) < h.alpha && !is_self_hit(from, wi, h);
   };
   return !accel_.occluded(r, hit_test(occludes));
 }
@@ -137,11 +137,10 @@ namespace {
 template <class Trace>
 bool shadow_outcome(ShadowLog* log, Trace&& trace) {
   if (!log) return trace();
-  const int k = log->count++;
-  if (k >= 64) return trace();
-  if (log->replay) return (log->bits >> k) & 1u;
-  const bool visible = trace();
-  if (visible) log->bits |= uint64_t(1) << k;
+  bool visible;
+  if (log->replay) return log->recall(&visible) ? visible : trace();
+  visible = trace();
+  log->record(visible);
   return visible;
 }
 
