@@ -27,8 +27,11 @@ PTIR_INLINE void intersect_one(RoundContext* rc, RTCRayHit* rh, const GaussianTr
   RTCRay& ray = rh->ray;
   rc->candidates++;
   // Peak along the ray: after the round's start, not behind tfar.
-  float t, d2;
-  peak_t_d2(g, ray.org_x, ray.org_y, ray.org_z, ray.dir_x, ray.dir_y, ray.dir_z, t, d2);
+  float oux, ouy, ouz, dd, od, cc, t, d2;
+  unit_origin(g, ray.org_x, ray.org_y, ray.org_z, oux, ouy, ouz);
+  peak_parts(g, oux, ouy, ouz, ray.dir_x, ray.dir_y, ray.dir_z, dd, od, cc);
+  if (surely_outside(dd, cc, g.accept_d2)) return;
+  peak_from_parts(dd, od, cc, t, d2);
   if (!after_start(t, g.id, rc->t_start[0], rc->id_start[0]) || !(t <= ray.tfar)) return;
   // Cull on the squared distance at the peak; exp only for accepted hits.
   float alpha = hit_alpha(d2, g.opacity, g.accept_d2, rc->cull);
@@ -209,10 +212,13 @@ void gaussian_occluded(const RTCOccludedFunctionNArguments* args) {
   for (unsigned i = 0; i < args->N; ++i) {
     if (!args->valid[i]) continue;
     float& tfar = RTCRayN_tfar(args->ray, args->N, i);
-    float t, d2;
-    peak_t_d2(g, RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
-              RTCRayN_org_z(args->ray, args->N, i), RTCRayN_dir_x(args->ray, args->N, i),
-              RTCRayN_dir_y(args->ray, args->N, i), RTCRayN_dir_z(args->ray, args->N, i), t, d2);
+    float oux, ouy, ouz, dd, od, cc, t, d2;
+    unit_origin(g, RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+                RTCRayN_org_z(args->ray, args->N, i), oux, ouy, ouz);
+    peak_parts(g, oux, ouy, ouz, RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+               RTCRayN_dir_z(args->ray, args->N, i), dd, od, cc);
+    if (surely_outside(dd, cc, g.accept_d2)) continue;
+    peak_from_parts(dd, od, cc, t, d2);
     // The range of walk()'s first round: t_peak in [t_min, tfar] (NaN never).
     if (!(t >= oc->t_min) || !(t <= tfar)) continue;
     const float alpha = hit_alpha(d2, g.opacity, g.accept_d2, oc->cull);
