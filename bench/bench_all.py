@@ -71,7 +71,9 @@ def main():
         rows += [
             ("inversion M path samples/s (primal + replay), hetero sample, %s thread(s) / %s" % (one[0], last[0]),
              "%s / %s" % (one[4], last[4])),
-            ("replay / primal, 1 thread (replay reading the primal's shadow-ray outcomes)", one[5]),
+            ("the same in CPU time / threads (what the passes cost on idle cores; the machine may be shared)",
+             "%s / %s" % (one[14], last[14]) if len(last) > 14 else "n/a"),
+            ("replay / primal, 1 thread (replay reading the primal's ray outcomes)", one[5]),
             ("replay reading shadow outcomes / replay tracing them, 1 thread", "%.2f" % (float(one[2]) / float(one[3]))),
             ("thread scaling of primal + replay, %s vs 1 thread (wall)" % last[0],
              "%.2f" % ((float(one[1]) + float(one[2])) / (float(last[1]) + float(last[2])))),

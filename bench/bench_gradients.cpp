@@ -12,11 +12,14 @@
 // zeroed and summed serially) against the tiles (kTokensPerThread buffers per thread x the
 // largest tile buffer; the in-order stage bounds the speed-up at
 // (primal-free replay CPU time) / (stage time)).
+// The last three columns are process CPU time / threads (primal, replay) and the
+// samples/s they give: on a shared machine, what the passes cost on idle cores.
 // A benchmark, not a test: compare within one run.
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -33,6 +36,8 @@ using namespace ptir;
 namespace {
 
 double wall() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+// Process CPU time: what the work costs when the machine is shared (wall time counts the waits).
+double cpu() { return double(std::clock()) / CLOCKS_PER_SEC; }
 
 bool same_floats(const SceneGradients& a, const SceneGradients& b) {
   auto eq = [](const auto& x, const auto& y) {
@@ -68,8 +73,8 @@ int run(const Options& o) {
   std::printf("bench_gradients: %s, %zu Gaussians, %zu meshes, %dx%d, %d spp, %d bounces, env %zu parameters\n",
               o.scene.c_str(), n, scene.meshes.size(), cam.width, cam.height, o.spp, o.bounces,
               scene.environment.parameter_count());
-  std::printf("%7s %9s %9s %16s %8s %13s %7s %9s %11s %7s %9s %s\n", "threads", "primal s", "replay s", "replay traced s",
-              "Msps", "replay/primal", "tiles", "entries", "tile KB max", "buffers", "stage s", "gradients");
+  std::printf("%7s %9s %9s %16s %8s %13s %7s %9s %11s %7s %9s %9s %9s %9s %8s\n", "threads", "primal s", "replay s", "replay traced s",
+              "Msps", "replay/primal", "tiles", "entries", "tile KB max", "buffers", "stage s", "gradients", "cpu/t pr", "cpu/t re", "cpu Msps");
   SceneGradients reference;
   double stage_s = 0.0, replay_cpu_s = 0.0;
   size_t peak_tile = 0;
@@ -77,22 +82,23 @@ int run(const Options& o) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(t));
     std::vector<Vec3> radiance;
     std::vector<uint64_t> shadows;
-    double t0 = wall();
+    double t0 = wall(), c0 = cpu();
     render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows);
-    double primal = wall() - t0;
+    double primal = wall() - t0, primal_cpu = cpu() - c0;
     SceneGradients g = SceneGradients::zeros_like(scene), traced = g;
     TileReduceStats st;
-    t0 = wall();
+    t0 = wall(), c0 = cpu();
     render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, &st, &shadows);
-    double replay = wall() - t0;
+    double replay = wall() - t0, replay_cpu = cpu() - c0;
     t0 = wall();
     render_path_backward(tracer, cam, is, d_image, traced, {}, &radiance);
     double replay_traced = wall() - t0;
     bool same = same_floats(g, traced) && (reference.gaussian_albedo.empty() || same_floats(g, reference));
     if (reference.gaussian_albedo.empty()) reference = g;
-    std::printf("%7d %9.3f %9.3f %16.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %s\n", t, primal, replay, replay_traced,
-                double(pixels) * o.spp / (primal + replay) * 1e-6, replay / primal, st.tiles, st.entries,
-                st.peak_tile_bytes / 1024.0, st.buffers, st.stage_seconds, same ? "identical" : "DIFFERENT");
+    std::printf("%7d %9.3f %9.3f %16.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %9s %9.3f %9.3f %8.3f\n", t, primal,
+                replay, replay_traced, double(pixels) * o.spp / (primal + replay) * 1e-6, replay / primal, st.tiles,
+                st.entries, st.peak_tile_bytes / 1024.0, st.buffers, st.stage_seconds, same ? "identical" : "DIFFERENT",
+                primal_cpu / t, replay_cpu / t, double(pixels) * o.spp / ((primal_cpu + replay_cpu) / t) * 1e-6);
     if (t == 1) replay_cpu_s = replay, stage_s = st.stage_seconds;
     peak_tile = std::max(peak_tile, st.peak_tile_bytes);
   }

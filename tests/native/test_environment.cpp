@@ -4,9 +4,12 @@
 // (lobe sampling, mixture pdf, analytic integrals, derivatives).
 #include <gtest/gtest.h>
 
+
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -193,6 +196,42 @@ TEST(Distribution1D, SamplesMatchPmfAndSkipZeroBins) {
   }
   // Continuous samples are uniform inside the bin: u in [0.25, 1) -> x in [0.6, 0.8).
   EXPECT_NEAR(d.sample_continuous(0.625f), 0.7f, 1e-6);
+}
+
+TEST(Distribution1D, BinSearchMatchesBinarySearchOfTheCdf) {
+  // The drawn bin against std::upper_bound over the CDF (rebuilt here as the
+  // constructor builds it): peaked, sparse and odd-sized functions, with u on and
+  // next to every CDF step and at random.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+  for (int n : {1, 2, 3, 5, 64, 100, 128, 257}) {
+    for (int shape = 0; shape < 3; ++shape) {
+      std::vector<float> f(static_cast<size_t>(n), 0.0f);
+      for (int i = 0; i < n; ++i) {
+        const float r = uni(rng);
+        f[i] = shape == 0 ? r : shape == 1 ? (r < 0.7f ? 0.0f : r) : (i == n / 3 ? 1000.0f : 1e-3f * r);
+      }
+      std::vector<double> cdf(size_t(n) + 1, 0.0);
+      for (int i = 0; i < n; ++i) cdf[i + 1] = cdf[i] + f[i];
+      const double sum = cdf[n];
+      if (!(sum > 0.0)) continue;
+      for (int i = 1; i <= n; ++i) cdf[i] /= sum;
+      cdf[n] = 1.0;
+      std::vector<float> us;
+      for (int i = 0; i <= n; ++i) {
+        const float c = float(cdf[i]);
+        us.insert(us.end(), {c, std::nextafter(c, 0.0f), std::nextafter(c, 1.0f)});
+      }
+      for (int k = 0; k < 2000; ++k) us.push_back(uni(rng));
+      Distribution1D d(f);
+      for (float u : us) {
+        const float uc = std::clamp(u, 0.0f, 0.99999994f);
+        const int expected =
+            std::clamp(int(std::upper_bound(cdf.begin(), cdf.begin() + n, double(uc)) - cdf.begin()) - 1, 0, n - 1);
+        ASSERT_EQ(d.sample_discrete(u), expected) << "n " << n << " shape " << shape << " u " << u;
+      }
+    }
+  }
 }
 
 TEST(Distribution1D, AllZeroFallsBackToUniform) {

@@ -28,6 +28,25 @@ TEST(PathSampler, UnscrambledSobolIsAZeroNet) {
   }
 }
 
+TEST(PathSampler, ByteTablesGiveTheSobolSum) {
+  // The table lookup against the definition: the XOR of the direction numbers of
+  // the index's set bits, over full 32-bit (scrambled) indices and small ones.
+  uint64_t state = 12345;
+  for (int n = 0; n < 20000; ++n) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    const uint32_t index = n < 300 ? uint32_t(n) : uint32_t(state >> 32);
+    for (int d = 0; d < 4; ++d) {
+      uint32_t x = 0;
+      for (int k = 0; k < 32; ++k)
+        if ((index >> k) & 1u) x ^= sobol_detail::kDirections.v[d][k];
+      ASSERT_EQ(sobol_detail::sobol(index, d), x) << "index " << index << " dim " << d;
+    }
+  }
+  // Dimension 0 is the van der Corput sequence: the index's bits reversed.
+  EXPECT_EQ(sobol_detail::sobol(1u, 0), 0x80000000u);
+  EXPECT_EQ(sobol_detail::sobol(0x12345678u, 0), sobol_detail::reverse_bits(0x12345678u));
+}
+
 TEST(PathSampler, PixelSamplesAreStratified) {
   for (uint64_t pixel : {0ull, 17ull, 123456ull})
     for (uint64_t bounce : {0ull, 3ull})

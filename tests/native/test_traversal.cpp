@@ -259,3 +259,93 @@ TEST(Traversal, OpaqueWalkMatchesNaiveOnDenseField) {
     EXPECT_GT(mesh_rays, 5) << "k=" << k;
   }
 }
+
+namespace {
+
+// A test of a hit that depends on its id and t only (as the self-hit rule and the
+// stochastic shadow test do): drops / occludes about a third of the hits.
+bool odd_hit(const GaussianHit& h) { return (h.id * 2654435761u >> 7) % 3 == 0 || (h.t < 0.4f && h.id % 5 == 1); }
+const auto odd_hit_test = [](const GaussianHit& h) { return odd_hit(h); };
+// Rarer: about one hit in twelve occludes.
+bool rare_hit(const GaussianHit& h) { return (h.id * 2654435761u >> 9) % 12 == 0; }
+const auto rare_hit_test = [](const GaussianHit& h) { return rare_hit(h); };
+
+}  // namespace
+
+TEST(Traversal, SkippedHitsLeaveTheOpaqueWalkAsIfAbsent) {
+  // The walk with a skip test, stopping where the ray turns opaque, against the
+  // naive hits with the skipped ones removed before the transmittance cut.
+  GaussianField field = test::random_field(3000, 43, 0.03f, 0.15f);
+  std::vector<TriangleMesh> meshes = {test::quad_z(0.3f, 0.5f)};
+  const HitTest skip = hit_test(odd_hit_test);
+  for (int k : {2, 32}) {
+    AccelSettings settings;
+    settings.k = k;
+    SceneAccel accel(field, meshes, settings);
+    CullSettings no_cut = settings.cull;
+    no_cut.min_transmittance = 0.0f;
+    std::mt19937 rng(19);
+    int opaque_rays = 0, skipped = 0;
+    for (int i = 0; i < 300; ++i) {
+      Ray r = random_ray(rng, i % 4 == 0);
+      double t_mesh = naive_mesh_t(r, meshes);
+      std::vector<GaussianHit> expected;
+      float T = 1;
+      for (const GaussianHit& h : naive_hits(accel.trace_data(), r, float(t_mesh), no_cut)) {
+        if (odd_hit(h)) {
+          skipped++;
+          continue;
+        }
+        expected.push_back(h);
+        T *= 1 - h.alpha;
+        if (T < settings.cull.min_transmittance) break;
+      }
+      std::vector<GaussianHit> got;
+      float T_walk = 1;
+      WalkEnd end = accel.walk(
+          r,
+          [&](const GaussianHit& h) {
+            got.push_back(h);
+            T_walk *= 1 - h.alpha;
+            return T_walk >= settings.cull.min_transmittance;
+          },
+          nullptr, /*stop_when_opaque=*/true, &skip);
+      if (std::isfinite(t_mesh) && !end.stopped && !end.mesh.valid) continue;  // grazing a wall edge
+      opaque_rays += end.stopped;
+      expect_same_hits(got, expected, i);
+    }
+    EXPECT_GT(opaque_rays, 100) << "k=" << k;
+    EXPECT_GT(skipped, 1000) << "k=" << k;
+  }
+}
+
+TEST(Traversal, OcclusionQueryMatchesTheWalk) {
+  // occluded() against walking every hit in order until one occludes, or a wall:
+  // rays from outside and inside, to infinity and to a finite end.
+  GaussianField field = test::random_field(600, 47, 0.02f, 0.12f);
+  std::vector<TriangleMesh> meshes = {test::quad_z(0.1f, 0.6f), test::quad_z(-0.5f, 0.4f)};
+  AccelSettings settings;
+  SceneAccel accel(field, meshes, settings);
+  const HitTest occludes = hit_test(rare_hit_test);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  int blocked = 0, open = 0, by_gaussian = 0;
+  for (int i = 0; i < 2000; ++i) {
+    Ray r = random_ray(rng, i % 2 == 0);
+    if (i % 4 != 0) r.tmax = 0.1f + 1.5f * u(rng);
+    bool hit_found = false;
+    WalkEnd end = accel.walk(r, [&](const GaussianHit& h) { return !(hit_found = rare_hit(h)); });
+    const bool expected = hit_found || end.mesh.valid;
+    // Skip rays grazing a mesh edge where the two triangle tests could round apart.
+    Ray whole = r;
+    whole.tmax = INFINITY;
+    const double t_mesh = naive_mesh_t(whole, meshes);
+    if (std::isfinite(t_mesh) && std::abs(t_mesh - r.tmax) < 1e-3) continue;
+    EXPECT_EQ(accel.occluded(r, occludes), expected) << "ray " << i;
+    (expected ? blocked : open)++;
+    by_gaussian += hit_found;
+  }
+  EXPECT_GT(blocked, 300);
+  EXPECT_GT(open, 300);
+  EXPECT_GT(by_gaussian, 200) << blocked << " blocked, " << open << " open";
+}

@@ -3,6 +3,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 
@@ -26,12 +27,16 @@ PTIR_INLINE void intersect_one(RoundContext* rc, RTCRayHit* rh, const GaussianTr
   RTCRay& ray = rh->ray;
   rc->candidates++;
   // Peak along the ray: after the round's start, not behind tfar.
-  float t, d2;
-  peak_t_d2(g, ray.org_x, ray.org_y, ray.org_z, ray.dir_x, ray.dir_y, ray.dir_z, t, d2);
+  float oux, ouy, ouz, dd, od, cc, t, d2;
+  unit_origin(g, ray.org_x, ray.org_y, ray.org_z, oux, ouy, ouz);
+  peak_parts(g, oux, ouy, ouz, ray.dir_x, ray.dir_y, ray.dir_z, dd, od, cc);
+  if (surely_outside(dd, cc, g.accept_d2)) return;
+  peak_from_parts(dd, od, cc, t, d2);
   if (!after_start(t, g.id, rc->t_start[0], rc->id_start[0]) || !(t <= ray.tfar)) return;
   // Cull on the squared distance at the peak; exp only for accepted hits.
   float alpha = hit_alpha(d2, g.opacity, g.accept_d2, rc->cull);
   if (alpha <= 0.0f) return;
+  if (rc->skip && (*rc->skip)(GaussianHit{t, alpha, g.id})) return;
   rc->buffer[0].offer(t, alpha, g.id, ray.tfar, rh->hit.geomID);
 }
 
@@ -198,6 +203,28 @@ void gaussian_intersect(const RTCIntersectFunctionNArguments* args) {
   rc->queue[rc->queued] = args->primID;
   rc->queue_lanes[rc->queued++] = lanes;
   if (rc->queued == RoundContext::kQueue) evaluate_queue(rc, args->rayhit);
+}
+
+void gaussian_occluded(const RTCOccludedFunctionNArguments* args) {
+  auto* oc = reinterpret_cast<OcclusionContext*>(args->context);
+  const GaussianTraceData& g = oc->data[args->primID];
+  // rtcOccluded1 asks for one ray; the loop serves any width all the same.
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (!args->valid[i]) continue;
+    float& tfar = RTCRayN_tfar(args->ray, args->N, i);
+    float oux, ouy, ouz, dd, od, cc, t, d2;
+    unit_origin(g, RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+                RTCRayN_org_z(args->ray, args->N, i), oux, ouy, ouz);
+    peak_parts(g, oux, ouy, ouz, RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+               RTCRayN_dir_z(args->ray, args->N, i), dd, od, cc);
+    if (surely_outside(dd, cc, g.accept_d2)) continue;
+    peak_from_parts(dd, od, cc, t, d2);
+    // The range of walk()'s first round: t_peak in [t_min, tfar] (NaN never).
+    if (!(t >= oc->t_min) || !(t <= tfar)) continue;
+    const float alpha = hit_alpha(d2, g.opacity, g.accept_d2, oc->cull);
+    if (alpha <= 0.0f) continue;
+    if ((*oc->occludes)(GaussianHit{t, alpha, g.id})) tfar = -INFINITY;
+  }
 }
 
 }  // namespace ptir

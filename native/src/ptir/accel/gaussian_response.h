@@ -55,19 +55,41 @@ inline void unit_origin(const GaussianTraceData& g, F ox, F oy, F oz, F& oux, F&
   ouz = m[2][0] * px + m[2][1] * py + m[2][2] * pz;
 }
 
+// The parts of the peak before the division: |d'|^2, o'.d' and |d' x o'|^2.
 template <class F, class O>
-inline void peak_from_unit_origin(const GaussianTraceData& g, O oux, O ouy, O ouz, F dx, F dy, F dz, F& t, F& d2) {
+inline void peak_parts(const GaussianTraceData& g, O oux, O ouy, O ouz, F dx, F dy, F dz, F& dd, F& od, F& cc) {
   const auto& m = g.to_unit.m;
   // d' = S^-1 R^T d.
   F dux = m[0][0] * dx + m[0][1] * dy + m[0][2] * dz;
   F duy = m[1][0] * dx + m[1][1] * dy + m[1][2] * dz;
   F duz = m[2][0] * dx + m[2][1] * dy + m[2][2] * dz;
-  // t_peak = -o'.d' / |d'|^2; D^2 = |d' x o'|^2 / |d'|^2 (one division).
-  F inv_dd = 1.0f / (dux * dux + duy * duy + duz * duz);
-  t = -(dux * oux + duy * ouy + duz * ouz) * inv_dd;
+  dd = dux * dux + duy * duy + duz * duz;
+  od = dux * oux + duy * ouy + duz * ouz;
   F cx = duy * ouz - duz * ouy, cy = duz * oux - dux * ouz, cz = dux * ouy - duy * oux;
-  d2 = (cx * cx + cy * cy + cz * cz) * inv_dd;
+  cc = cx * cx + cy * cy + cz * cz;
 }
+
+// t_peak = -o'.d' / |d'|^2; D^2 = |d' x o'|^2 / |d'|^2 (one division).
+template <class F>
+inline void peak_from_parts(F dd, F od, F cc, F& t, F& d2) {
+  F inv_dd = 1.0f / dd;
+  t = -od * inv_dd;
+  d2 = cc * inv_dd;
+}
+
+template <class F, class O>
+inline void peak_from_unit_origin(const GaussianTraceData& g, O oux, O ouy, O ouz, F dx, F dy, F dz, F& t, F& d2) {
+  F dd, od, cc;
+  peak_parts(g, oux, ouy, ouz, dx, dy, dz, dd, od, cc);
+  peak_from_parts(dd, od, cc, t, d2);
+}
+
+// Whether D^2 = cc / dd surely exceeds the accepted accept_d2, decided without the
+// division: the division's rounding moves D^2 by under 2^-23 of itself, far less
+// than the 1e-5 margin, so whatever this rejects the exact test rejects too (and
+// NaN, zero or overflowing parts are left to the exact test). For single rays,
+// whose candidates are half outside the accepted region.
+inline bool surely_outside(float dd, float cc, float accept_d2) { return cc > accept_d2 * dd * 1.00001f; }
 
 template <class F>
 inline void peak_t_d2(const GaussianTraceData& g, F ox, F oy, F oz, F dx, F dy, F dz, F& t, F& d2) {

@@ -30,6 +30,7 @@ struct RoundContext {
   RTCIntersectContext context;
   const GaussianTraceData* data;
   CullSettings cull;
+  const HitTest* skip;  // single rays: hits it returns true for are dropped (null: none)
   int lanes;            // 1: rtcIntersect1 (RTCRayHit); 4, 8, 16: rtcIntersectN
   uint32_t active;      // lanes traced this round (bit i: lane i)
   bool shared_origin;   // every active lane starts at `origin`
@@ -48,6 +49,7 @@ struct RoundContext {
     rtcInitIntersectContext(&context);
     data = trace.data();
     cull = cull_;
+    skip = nullptr;
     lanes = lanes_;
     active = active_;
     shared_origin = false;
@@ -60,6 +62,21 @@ struct RoundContext {
 // The intersect function of the Gaussians' user geometry: evaluates the Gaussian
 // against one ray, or queues it for a packet. It never reports a hit to Embree.
 void gaussian_intersect(const RTCIntersectFunctionNArguments* args);
+
+// What the occluded callback sees during SceneAccel::occluded (the intersect
+// context must stay the first member).
+struct OcclusionContext {
+  RTCIntersectContext context;
+  const GaussianTraceData* data;
+  CullSettings cull;
+  float t_min;             // accepted peaks lie in [t_min, tfar]
+  const HitTest* occludes;
+};
+
+// The occluded function of the Gaussians' user geometry: reports the ray
+// occluded (tfar = -inf, which ends Embree's traversal) when the Gaussian is an
+// accepted hit that `occludes` accepts.
+void gaussian_occluded(const RTCOccludedFunctionNArguments* args);
 
 // Evaluates the queued Gaussians against the packet `rayhit`: fills the k-buffers
 // and shrinks tfar. Call it once more after the traversal.

@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <string>
 
@@ -135,6 +136,7 @@ SceneAccel::SceneAccel(const GaussianField& field, const std::vector<TriangleMes
     rtcSetGeometryUserData(geom, &impl_->boxes);
     rtcSetGeometryBoundsFunction(geom, gaussian_bounds, nullptr);
     rtcSetGeometryIntersectFunction(geom, gaussian_intersect);
+    rtcSetGeometryOccludedFunction(geom, gaussian_occluded);
     rtcCommitGeometry(geom);
     rtcAttachGeometryByID(impl_->scene, geom, next_id++);
     rtcReleaseGeometry(geom);
@@ -159,9 +161,10 @@ SceneAccel::SceneAccel(const GaussianField& field, const std::vector<TriangleMes
 SceneAccel::~SceneAccel() = default;
 
 int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more,
-                      uint64_t* candidates, float T0, float min_transmittance) const {
+                      uint64_t* candidates, float T0, float min_transmittance, const HitTest* skip) const {
   RoundContext rc;
   rc.init(data_, settings_.cull, 1, 1u);
+  rc.skip = skip;
   rc.t_start[0] = t_start;
   rc.id_start[0] = id_start;
   KBuffer& kb = rc.buffer[0];
@@ -183,6 +186,19 @@ int SceneAccel::round(const Ray& ray, float t_start, int64_t id_start, GaussianH
     mesh->v = rh.hit.v;
   }
   return kb.count;
+}
+
+bool SceneAccel::occluded(const Ray& ray, const HitTest& occludes) const {
+  OcclusionContext oc;
+  rtcInitIntersectContext(&oc.context);
+  oc.data = data_.data();
+  oc.cull = settings_.cull;
+  oc.t_min = ray.tmin;
+  oc.occludes = &occludes;
+  RTCRay r = embree_ray(ray, ray.tmin).ray;
+  rtcOccluded1(impl_->scene, &oc.context, &r);
+  // Embree sets tfar to -inf when it found an occluder (a triangle or a Gaussian above).
+  return r.tfar == -INFINITY;
 }
 
 MeshHit SceneAccel::closest_mesh(const Ray& ray) const {

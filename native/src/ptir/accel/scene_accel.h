@@ -66,6 +66,20 @@ struct AccelBuildTimes {
   double trace_data = 0.0, boxes = 0.0, bvh = 0.0;
 };
 
+// A test of one accepted hit, made inside the traversal (a plain function and its
+// data: Embree's callbacks are C). Make one from a callable with hit_test().
+struct HitTest {
+  bool (*test)(const void* user, const GaussianHit& hit) = nullptr;
+  const void* user = nullptr;
+  bool operator()(const GaussianHit& hit) const { return test(user, hit); }
+};
+
+// The HitTest calling f (which must outlive it).
+template <class F>
+HitTest hit_test(const F& f) {
+  return HitTest{[](const void* user, const GaussianHit& hit) { return bool((*static_cast<const F*>(user))(hit)); }, &f};
+}
+
 struct AccelSettings {
   CullSettings cull;
   int k = 32;  // hits collected per traversal round (1..64); 32: one round for most camera rays
@@ -90,8 +104,21 @@ class SceneAccel {
   // cull.min_transmittance, and it prunes the BVH behind that hit while collecting
   // (opacity-aware k-buffer). Only for visitors that consume every hit in order
   // and would stop there anyway (compositing); not for visitors that skip hits.
+  //
+  // skip: hits for which it returns true are dropped inside the traversal, as if
+  // they were not there (they take no k-buffer slot and no transmittance), so a
+  // visitor that would pass over them (the surface a ray leaves) can still use
+  // stop_when_opaque.
   template <class Visit>
-  WalkEnd walk(const Ray& ray, Visit&& visit, TraceStats* stats = nullptr, bool stop_when_opaque = false) const;
+  WalkEnd walk(const Ray& ray, Visit&& visit, TraceStats* stats = nullptr, bool stop_when_opaque = false,
+               const HitTest* skip = nullptr) const;
+
+  // Whether anything occludes the ray in [ray.tmin, ray.tmax]: a triangle, or an
+  // accepted Gaussian hit for which `occludes` returns true. The same answer as
+  // walking the hits in order until one occludes (it does not depend on the order),
+  // with Embree's occlusion query: it stops at the first occluder met, in any order,
+  // and keeps no k-buffer.
+  bool occluded(const Ray& ray, const HitTest& occludes) const;
 
   // walk() for n <= kMaxPacket rays at once: calls visit(int lane, const GaussianHit&)
   // with, for each lane, exactly the hits and order walk(rays[lane], ...) gives
@@ -118,8 +145,10 @@ class SceneAccel {
   // *more = true when hits may remain after the last one returned. With
   // min_transmittance > 0 the buffer is cut after the first hit at which T0 times
   // the buffered prefix's transmittance falls below it (then *more = false).
+  // skip: as in walk().
   int round(const Ray& ray, float t_start, int64_t id_start, GaussianHit* buffer, MeshHit* mesh, bool* more,
-            uint64_t* candidates = nullptr, float T0 = 1.0f, float min_transmittance = 0.0f) const;
+            uint64_t* candidates = nullptr, float T0 = 1.0f, float min_transmittance = 0.0f,
+            const HitTest* skip = nullptr) const;
 
   // One lane of a packet round: its start and, after the round, its sorted hits.
   struct PacketLane {
@@ -147,7 +176,8 @@ class SceneAccel {
 };
 
 template <class Visit>
-WalkEnd SceneAccel::walk(const Ray& ray, Visit&& visit, TraceStats* stats, bool stop_when_opaque) const {
+WalkEnd SceneAccel::walk(const Ray& ray, Visit&& visit, TraceStats* stats, bool stop_when_opaque,
+                         const HitTest* skip) const {
   GaussianHit buffer[kMaxK];
   float t_start = ray.tmin;
   int64_t id_start = -1;
@@ -157,7 +187,7 @@ WalkEnd SceneAccel::walk(const Ray& ray, Visit&& visit, TraceStats* stats, bool 
   for (;;) {
     MeshHit mesh;
     bool more = false;
-    int n = round(ray, t_start, id_start, buffer, &mesh, &more, stats ? &stats->candidates : nullptr, T, min_T);
+    int n = round(ray, t_start, id_start, buffer, &mesh, &more, stats ? &stats->candidates : nullptr, T, min_T, skip);
     if (stats) stats->rounds++;
     // Hand this round's hits to the visitor in order.
     for (int i = 0; i < n; ++i) {

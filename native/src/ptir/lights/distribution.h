@@ -40,6 +40,9 @@ class Distribution1D {
   int find_bin(float u) const;
   std::vector<float> func_;
   std::vector<double> cdf_;  // n + 1 entries, cdf_[0] = 0, cdf_[n] = 1
+  // Guide table (cutpoint method): guide_[g] = how many of cdf_[0..n) are <= g / G,
+  // G = guide_.size() - 1 a power of two >= n, so find_bin starts its search there.
+  std::vector<int> guide_;
   double integral_ = 0.0;
   bool uniform_ = true;      // all-zero function: uniform fallback
 };

@@ -57,6 +57,7 @@ class PixelFilterSampler {
   PixelFilter filter_;
   float radius_ = 0.5f;
   std::vector<float> cdf_;  // half-profile CDF over [0, radius], cdf_.front() = 0, cdf_.back() = 1
+  std::vector<int> guide_;  // guide_[g]: how many cdf_ entries are <= g / cells (where sample() starts its search)
 };
 
 }  // namespace ptir

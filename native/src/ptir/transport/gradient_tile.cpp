@@ -26,13 +26,13 @@ GradientTile::GradientTile(const SceneGradients& like, const SceneEnvironment& e
     env_ = &env;
     if (like.environment.size() <= kDenseEnvironmentFloats) env_dense_.assign(like.environment.size(), 0.0f);
   }
-  slots_.assign(size_t(1) << kInitialSlotsLog2, 0u);
+  table_.assign(size_t(1) << kInitialSlotsLog2, Entry{kEmpty, Vec3(0.0f), 0.0f, 0.0f});
   shift_ = 32 - kInitialSlotsLog2;
 }
 
 void GradientTile::clear() {
-  if (!entries_.empty()) std::fill(slots_.begin(), slots_.end(), 0u);
-  entries_.clear();
+  if (count_ > 0) std::fill(table_.begin(), table_.end(), Entry{kEmpty, Vec3(0.0f), 0.0f, 0.0f});
+  count_ = 0;
   if (mesh_touched_) {
     std::fill(mesh_base_colour_.begin(), mesh_base_colour_.end(), Vec3(0.0f));
     std::fill(mesh_roughness_.begin(), mesh_roughness_.end(), 0.0f);
@@ -45,33 +45,34 @@ void GradientTile::clear() {
 }
 
 void GradientTile::grow() {
-  slots_.assign(slots_.size() * 2, 0u);
+  std::vector<Entry> old(table_.size() * 2, Entry{kEmpty, Vec3(0.0f), 0.0f, 0.0f});
+  old.swap(table_);
   --shift_;
-  const uint32_t mask = uint32_t(slots_.size() - 1);
-  for (uint32_t e = 0; e < entries_.size(); ++e) {
-    uint32_t s = slot_of(entries_[e].id, shift_);
-    while (slots_[s] != 0u) s = (s + 1) & mask;
-    slots_[s] = e + 1;
+  const uint32_t mask = uint32_t(table_.size() - 1);
+  for (const Entry& e : old) {
+    if (e.id == kEmpty) continue;
+    uint32_t s = slot_of(e.id, shift_);
+    while (table_[s].id != kEmpty) s = (s + 1) & mask;
+    table_[s] = e;
   }
 }
 
 void GradientTile::add_gaussian(uint32_t id, Vec3 d_albedo, float d_roughness, float d_metallic) {
-  const uint32_t mask = uint32_t(slots_.size() - 1);
-  uint32_t s = slot_of(id, shift_);
-  for (;; s = (s + 1) & mask) {
-    const uint32_t e = slots_[s];
-    if (e == 0u) break;
-    Entry& x = entries_[e - 1];
+  const uint32_t mask = uint32_t(table_.size() - 1);
+  for (uint32_t s = slot_of(id, shift_);; s = (s + 1) & mask) {
+    Entry& x = table_[s];
     if (x.id == id) {
       x.albedo += d_albedo;
       x.roughness += d_roughness;
       x.metallic += d_metallic;
       return;
     }
+    if (x.id == kEmpty) {
+      x = Entry{id, d_albedo, d_roughness, d_metallic};
+      if (2 * ++count_ > table_.size()) grow();  // load factor <= 1/2
+      return;
+    }
   }
-  entries_.push_back({id, d_albedo, d_roughness, d_metallic});
-  slots_[s] = uint32_t(entries_.size());
-  if (2 * entries_.size() > slots_.size()) grow();  // load factor <= 1/2
 }
 
 void GradientTile::add_mesh(uint32_t mesh, Vec3 d_base_colour, float d_roughness, float d_metallic) {
@@ -89,12 +90,17 @@ void GradientTile::add_environment(Vec3 d, Vec3 d_Le) {
 }
 
 void GradientTile::finish() {
-  // The hash slots now point at other entries: a finished tile takes no more adds until clear().
-  std::sort(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) { return a.id < b.id; });
+  // The entries move to the front of the table, by id: a finished tile takes no
+  // more adds until clear(), which empties every slot.
+  size_t n = 0;
+  for (size_t i = 0; i < table_.size(); ++i)
+    if (table_[i].id != kEmpty) table_[n++] = table_[i];
+  std::sort(table_.begin(), table_.begin() + n, [](const Entry& a, const Entry& b) { return a.id < b.id; });
 }
 
 void GradientTile::add_to(SceneGradients& g) const {
-  for (const Entry& e : entries_) {
+  for (size_t i = 0; i < count_; ++i) {
+    const Entry& e = table_[i];
     g.gaussian_albedo[e.id] += e.albedo;
     g.gaussian_roughness[e.id] += e.roughness;
     g.gaussian_metallic[e.id] += e.metallic;
@@ -112,7 +118,7 @@ void GradientTile::add_to(SceneGradients& g) const {
 }
 
 size_t GradientTile::bytes() const {
-  return slots_.capacity() * sizeof(uint32_t) + entries_.capacity() * sizeof(Entry) +
+  return table_.capacity() * sizeof(Entry) +
          env_dense_.capacity() * sizeof(float) + env_log_.capacity() * sizeof(EnvRecord) +
          mesh_base_colour_.capacity() * sizeof(Vec3) + 2 * mesh_roughness_.capacity() * sizeof(float);
 }

@@ -29,31 +29,34 @@ class GradientTile {
   void add_environment(Vec3 d, Vec3 d_Le);
 
   // Orders the Gaussian entries by id (so the reduction walks the dense arrays
-  // forward); call once, after the last add.
+  // forward), at the front of the table; call once, after the last add.
   void finish();
   // grads += this tile. Each parameter receives at most one addition per tile
   // (environment: its adjoint calls replayed in the order they were made), so
   // adding tiles in a fixed order gives the same floats on any thread count.
   void add_to(SceneGradients& grads) const;
 
-  size_t gaussian_entries() const { return entries_.size(); }
+  size_t gaussian_entries() const { return count_; }
   size_t bytes() const;  // heap held by the tile
 
  private:
   struct Entry {  // 24 bytes
-    uint32_t id;
+    uint32_t id;   // kEmpty: a free slot of the table
     Vec3 albedo;
     float roughness, metallic;
   };
+  static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
   struct EnvRecord {
     Vec3 d, d_Le;
   };
   void grow();
 
   const SceneEnvironment* env_ = nullptr;
-  std::vector<uint32_t> slots_;  // open addressing: entry index + 1, 0 = empty
-  uint32_t shift_ = 0;           // 32 - log2(slots_.size())
-  std::vector<Entry> entries_;
+  // Open addressing with the entries in the table itself (one cache line per add,
+  // not a slot and then an entry), load factor <= 1/2.
+  std::vector<Entry> table_;
+  size_t count_ = 0;             // entries in the table
+  uint32_t shift_ = 0;           // 32 - log2(table_.size())
   std::vector<Vec3> mesh_base_colour_;
   std::vector<float> mesh_roughness_, mesh_metallic_;
   bool mesh_touched_ = false;

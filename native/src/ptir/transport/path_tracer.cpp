@@ -98,7 +98,8 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     else L += contribution;
   };
   thread_local std::vector<WeightedHit> vertex_hits;  // the current vertex's Gaussians (replay only)
-  // Shadow rays: recorded by the primal pass, read back by the replay (same rays, same order).
+  // Ray outcomes (shadow rays, escapes): recorded by the primal pass, read back by
+  // the replay (same rays, same order).
   ShadowLog shadow_log;
   ShadowLog* shadows = nullptr;
   if (adj && adj->shadow_bits) {
@@ -115,21 +116,38 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
   if (coverage) *coverage = 0.0f;
   if (stats) stats->paths++;
 
+  // Escape: the environment, MIS-weighted against its own sampling.
+  auto escape = [&]() {
+    Vec3 Le = environment_radiance(scene.environment, ray.d);
+    float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, environment_pdf(scene.environment, ray.d)) : 1.0f;
+    add(beta * Le * w);
+    if (adj && adj->grads) adj->grads->add_environment(ray.d, adj->dL * beta * w);
+  };
+
   for (int bounce = 0;; ++bounce) {
+    // The primal records whether each ray escaped. A replay that knows it walks
+    // only the rays that lead to a vertex: an escaped ray needs its direction
+    // alone, and whatever the last ray meets otherwise (after the last vertex)
+    // only takes radiance off L_rem, which nothing reads afterwards.
+    bool escaped;
+    if (shadows && shadows->replay && shadows->recall(&escaped)) {
+      if (escaped) {
+        escape();
+        break;
+      }
+      if (bounce > settings.max_bounces) break;
+    }
     // Next event along the ray: a Gaussian interaction, a mesh, or an escape.
     vertex_hits.clear();
     NextEvent ev = scatterer.next_event(ray, spawn, path_key, uint32_t(bounce), adj ? &vertex_hits : nullptr);
+    if (shadows && !shadows->replay) shadows->record(ev.kind == NextEvent::Escape);
     if (bounce == 0 && coverage) *coverage = (ev.kind == NextEvent::Gaussian || ev.kind == NextEvent::Mesh) ? 1.0f : 0.0f;
 
     // Lights the ray crosses before the event (it goes on through them).
     add(beta * lights_crossed(scene, ray, ev.t, prev_brdf_pdf));
     if (ev.kind == NextEvent::Absorbed) break;
-    // Escape: the environment, MIS-weighted against its own sampling.
     if (ev.kind == NextEvent::Escape) {
-      Vec3 Le = environment_radiance(scene.environment, ray.d);
-      float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, environment_pdf(scene.environment, ray.d)) : 1.0f;
-      add(beta * Le * w);
-      if (adj && adj->grads) adj->grads->add_environment(ray.d, adj->dL * beta * w);
+      escape();
       break;
     }
     // Emissive meshes are reached by BRDF sampling only (no MIS partner).

@@ -27,10 +27,10 @@ Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const Integrat
 
 bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const {
   if (from.kind != SpawnContext::Gaussian) return false;
-  float d_dot_n = dot(d, field_.normal[h.id]);
+  // The range test first: most hits lie beyond it, and need no normal fetched.
   if (settings_.self_intersection == SelfIntersection::BackfaceAware)
-    return h.t > 0.0f && d_dot_n > 0.0f && h.t <= from.self_range;
-  return h.t <= settings_.fixed_range && d_dot_n > kFixedBackfaceCos;
+    return h.t > 0.0f && h.t <= from.self_range && dot(d, field_.normal[h.id]) > 0.0f;
+  return h.t <= settings_.fixed_range && dot(d, field_.normal[h.id]) > kFixedBackfaceCos;
 }
 
 NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
@@ -40,13 +40,13 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
   uint64_t pick_key = hash_combine(hash_combine(path_key, bounce), kStreamPick);
   InteractionBuilder builder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record);
 
-  // Composite the Gaussians front to back, skipping the surface the ray leaves.
-  WalkEnd end;
-  if (from.kind == SpawnContext::Gaussian) {
-    end = accel_.walk(ray, [&](const GaussianHit& h) { return is_self_hit(from, ray.d, h) ? true : builder.add(h); });
-  } else {
-    end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true);
-  }
+  // Composite the Gaussians front to back, skipping the surface the ray leaves
+  // (dropped inside the traversal, so that the walk can stop where the ray turns
+  // opaque and prune the BVH behind it: the same hits reach the builder).
+  const auto self_hit = [&](const GaussianHit& h) { return is_self_hit(from, ray.d, h); };
+  const HitTest skip = hit_test(self_hit);
+  WalkEnd end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true,
+                            from.kind == SpawnContext::Gaussian ? &skip : nullptr);
   SurfaceInteraction si = builder.finish(ray);
 
   NextEvent ev;
@@ -122,17 +122,13 @@ bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, ui
   float max_t = std::isfinite(distance) ? distance * (1.0f - 1e-4f) : distance;
   Ray r = spawn_ray(from, wi, max_t);
   const uint64_t key = hash_combine(hash_combine(hash_combine(path_key, bounce), kStreamShadow), light);
-  bool blocked = false;
-  // Each Gaussian occludes with probability alpha, decided by a hash of its id.
-  WalkEnd end = accel_.walk(r, [&](const GaussianHit& h) {
-    if (is_self_hit(from, wi, h)) return true;
-    if (to_unit_float(hash_combine(key, h.id)) < h.alpha) {
-      blocked = true;
-      return false;
-    }
-    return true;
-  });
-  return !blocked && !end.mesh.valid;
+  // Each Gaussian occludes with probability alpha, decided by a hash of its id, so
+  // the answer does not depend on the order of the hits: an occlusion query, which
+  // stops at the first occluder Embree meets.
+  const auto occludes = [&](const GaussianHit& h) {
+    return to_unit_float(hash_combine(key, h.id)) < h.alpha && !is_self_hit(from, wi, h);
+  };
+  return !accel_.occluded(r, hit_test(occludes));
 }
 
 namespace {
@@ -141,11 +137,10 @@ namespace {
 template <class Trace>
 bool shadow_outcome(ShadowLog* log, Trace&& trace) {
   if (!log) return trace();
-  const int k = log->count++;
-  if (k >= 64) return trace();
-  if (log->replay) return (log->bits >> k) & 1u;
-  const bool visible = trace();
-  if (visible) log->bits |= uint64_t(1) << k;
+  bool visible;
+  if (log->replay) return log->recall(&visible) ? visible : trace();
+  visible = trace();
+  log->record(visible);
   return visible;
 }
 

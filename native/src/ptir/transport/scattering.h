@@ -32,15 +32,29 @@ struct DirectAdjoint {
   GradientTile* grads = nullptr;     // += adjoint of environment texels / SG amplitudes
 };
 
-// The shadow-ray outcomes of one path, in the order the path tests them: the
-// primal pass records them (bit k: the k-th shadow ray was unoccluded) and the
-// replay, which tests the same rays in the same order with the same random
-// numbers, reads them back instead of tracing again. Rays after the 64th are
-// traced in both passes.
+// The ray outcomes of one path, in the order the path meets them: the primal
+// pass records them (bit k: the k-th outcome was true) and the replay, which
+// traces the same rays in the same order with the same random numbers, reads
+// them back instead of tracing again. Two kinds, interleaved: whether a shadow
+// ray was unoccluded, and whether a continuation ray escaped (path_tracer.cpp).
+// Outcomes after the 64th are traced in both passes.
 struct ShadowLog {
   uint64_t bits = 0;
   int count = 0;
   bool replay = false;  // read bits (replay) instead of recording them (primal)
+
+  // Primal: records the next outcome.
+  void record(bool value) {
+    const int k = count++;
+    if (k < 64 && value) bits |= uint64_t(1) << k;
+  }
+  // Replay: the next outcome into *value when it was recorded (else false: trace it).
+  bool recall(bool* value) {
+    const int k = count++;
+    if (k >= 64) return false;
+    *value = (bits >> k) & 1u;
+    return true;
+  }
 };
 
 // Random streams of one bounce.
