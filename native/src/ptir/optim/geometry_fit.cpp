@@ -120,7 +120,7 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   const bool normals = it >= settings_.normal_from && settings_.lambda_normal > 0.0f;
   if (normals)
     log.normal = normal_consistency(fwd.normal, pseudo_normals(cam, settings_.median_depth ? fwd.median_depth : fwd.depth, fwd.opacity, settings_.normal_radius), settings_.lambda_normal,
-                                    &d_normal);
+                                    &d_normal, settings_.normal_per_hit);
   log.loss = log.image + settings_.lambda_mask * log.mask + settings_.lambda_normal * log.normal;
 
   log.forward_s = since(t1);
@@ -146,10 +146,30 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
       iteration_ < settings_.densify_until)
     densify(iteration_, log);
   apply();
+  if (settings_.reorient_every > 0 &&
+      (iteration_ % settings_.reorient_every == 0 || iteration_ == settings_.iterations))
+    reorient_normals(log);
   log.gaussians = field_.size();
   log.seconds = since(t0);
   log_.push_back(log);
   return log;
+}
+
+void GeometryFit::reorient_normals(FitLog& log) {
+  GaussianField& f = field_;
+  const std::vector<Vec3> before = f.normal;
+  const bool from_file = f.normals_from_file;
+  f.normals_from_file = false;  // the learnt normals are re-voted whatever their origin
+  SceneAccel accel(f, {}, settings_.accel);
+  orient_normals_to_cameras(f, accel, dataset_->cameras(), 256 * 256, /*keep_unseen=*/true);
+  f.normals_from_file = from_file;
+  std::vector<float>& raw = groups_[kFitNormal].raw;
+  Adam& adam = adam_[kFitNormal];
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (dot(before[i], f.normal[i]) >= 0.0f) continue;
+    log.flipped++;
+    for (int c = 0; c < 3; ++c) raw[3 * i + c] = -raw[3 * i + c], adam.m[3 * i + c] = -adam.m[3 * i + c];
+  }
 }
 
 }  // namespace ptir

@@ -60,6 +60,7 @@ struct GeometryFitSettings {
   int normal_radius = 2;  // stencil radius of the pseudo-normals (pixels)
   bool median_depth = true;  // pseudo-normals from the median depth (else the mean, Dsum / O)
   bool normal_to_weights = false;  // the normal term moves the splats too (else only the normals)
+  bool normal_per_hit = false;  // per-hit weighted loss (pseudo_normals.h) instead of the blend's
   // Adam learning rates (3DGS's; position scaled by the cameras' extent).
   float lr_position = 1.6e-4f, lr_scale = 5e-3f, lr_rotation = 1e-3f, lr_opacity = 0.05f;
   float lr_sh_dc = 2.5e-3f, lr_sh_rest = 1.25e-4f, lr_normal = 1e-3f;
@@ -71,6 +72,12 @@ struct GeometryFitSettings {
   float prune_opacity = 0.005f;
   float split_scale = 0.01f;       // split (else clone) above this share of the extent
   size_t max_gaussians = 0;        // 0: 1.5 x the initial count
+  // Every this many iterations and after the last (0: never), the free normals are re-oriented
+  // toward the training cameras that see them on the current field (sign only; unseen ones
+  // keep theirs): the initial orientation was voted on the input's visibility, and a Gaussian
+  // hidden then (jittered inward, or a floater) that the fit brings to the surface would
+  // otherwise keep a normal facing into it and cancel its neighbours' in every blend.
+  int reorient_every = 100;
   AccelSettings accel;
 };
 
@@ -80,6 +87,7 @@ struct FitLog {
   double loss = 0, image = 0, mask = 0, normal = 0;
   size_t gaussians = 0;
   int pruned = 0, cloned = 0, split = 0;  // densification at this iteration
+  int flipped = 0;  // normals re-oriented at this iteration (progress only; not in log.csv)
   double seconds = 0;  // wall time of the iteration, of which:
   double build_s = 0, forward_s = 0, backward_s = 0;  // BVH build, render + loss, replay + update
   size_t view = 0;
@@ -113,6 +121,7 @@ class GeometryFit {
   friend struct FitDensify;
   void apply();                       // raw -> field_
   void densify(int it, FitLog& log);  // geometry_fit_densify.cpp
+  void reorient_normals(FitLog& log);
   size_t view_of(int it) const;
 
   GeometryFitSettings settings_;
