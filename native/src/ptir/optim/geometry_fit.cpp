@@ -94,6 +94,12 @@ double mask_term(const Image& opacity, const Image& alpha, float weight, Image* 
 
 }  // namespace
 
+Image GeometryFit::normal_target(const Camera& cam, const SplatImage& fwd) const {
+  const Image& depth = settings_.median_depth ? fwd.median_depth : fwd.depth;
+  if (settings_.normal_target == "smooth") return smoothed_normals(fwd.normal, depth, fwd.opacity, settings_.normal_radius);
+  return pseudo_normals(cam, depth, fwd.opacity, settings_.normal_radius);
+}
+
 FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   const auto t0 = std::chrono::steady_clock::now();
   const int it = iteration_;
@@ -119,7 +125,7 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   if (masked) log.mask = mask_term(fwd.opacity, target->alpha, settings_.lambda_mask, &d_opacity);
   const bool normals = it >= settings_.normal_from && settings_.lambda_normal > 0.0f;
   if (normals)
-    log.normal = normal_consistency(fwd.normal, pseudo_normals(cam, settings_.median_depth ? fwd.median_depth : fwd.depth, fwd.opacity, settings_.normal_radius), settings_.lambda_normal,
+    log.normal = normal_consistency(fwd.normal, normal_target(cam, fwd), settings_.lambda_normal,
                                     &d_normal, settings_.normal_per_hit);
   log.loss = log.image + settings_.lambda_mask * log.mask + settings_.lambda_normal * log.normal;
 
