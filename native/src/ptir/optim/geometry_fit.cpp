@@ -96,7 +96,6 @@ double mask_term(const Image& opacity, const Image& alpha, float weight, Image* 
 
 Image GeometryFit::normal_target(const Camera& cam, const SplatImage& fwd) const {
   const Image& depth = settings_.median_depth ? fwd.median_depth : fwd.depth;
-  if (settings_.normal_target == "smooth") return smoothed_normals(fwd.normal, depth, fwd.opacity, settings_.normal_radius);
   return pseudo_normals(cam, depth, fwd.opacity, settings_.normal_radius);
 }
 

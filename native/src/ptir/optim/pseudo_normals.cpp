@@ -1,6 +1,5 @@
 #include "ptir/optim/pseudo_normals.h"
 
-#include <algorithm>
 #include <cmath>
 
 namespace ptir {
@@ -27,28 +26,6 @@ Image pseudo_normals(const Camera& cam, const Image& depth, const Image& opacity
       n = n / len;
       if (dot(n, cam.generate_ray(float(x) + 0.5f, float(y) + 0.5f).d) > 0.0f) n = -n;
       for (int c = 0; c < 3; ++c) out.at(x, y, c) = n[c];
-      out.at(x, y, 3) = 1.0f;
-    }
-  return out;
-}
-
-Image smoothed_normals(const Image& nsum, const Image& depth, const Image& opacity, int r, float min_opacity,
-                       float max_relative_step) {
-  Image out(nsum.width, nsum.height, {"X", "Y", "Z", "A"});
-  for (int y = 0; y < nsum.height; ++y)
-    for (int x = 0; x < nsum.width; ++x) {
-      if (!(opacity.at(x, y, 0) > min_opacity)) continue;
-      const float dc = depth.at(x, y, 0);
-      Vec3 n(0.0f);
-      for (int v = std::max(0, y - r); v <= std::min(nsum.height - 1, y + r); ++v)
-        for (int u = std::max(0, x - r); u <= std::min(nsum.width - 1, x + r); ++u) {
-          if (!(opacity.at(u, v, 0) > min_opacity) || std::fabs(depth.at(u, v, 0) - dc) > max_relative_step * dc)
-            continue;
-          n += Vec3(nsum.at(u, v, 0), nsum.at(u, v, 1), nsum.at(u, v, 2));
-        }
-      const float len = length(n);
-      if (!(len > 0.0f)) continue;
-      for (int c = 0; c < 3; ++c) out.at(x, y, c) = n[c] / len;
       out.at(x, y, 3) = 1.0f;
     }
   return out;

@@ -17,16 +17,6 @@ namespace ptir {
 Image pseudo_normals(const Camera& camera, const Image& depth, const Image& opacity, int radius = 2,
                      float min_opacity = 0.5f, float max_relative_step = 0.1f);
 
-// The rendered normal map smoothed: per pixel, the normalised sum of the normal sums
-// (Nsum, front hits) of the pixels within `radius` (a box) that are solid (opacity >
-// min_opacity) and on the same surface (depth within max_relative_step of the
-// centre's). Channels X, Y, Z, A like pseudo_normals. As a target of the per-hit loss
-// it pulls each Gaussian's normal toward the blend of its neighbours' on the surface
-// it is seen on: a smoothing across overlapping splats, from the normals themselves
-// rather than from the depth (see GeometryFitSettings::normal_target for why).
-Image smoothed_normals(const Image& normal_sum, const Image& depth, const Image& opacity, int radius = 1,
-                       float min_opacity = 0.5f, float max_relative_step = 0.1f);
-
 // mean over pixels with a pseudo-normal of (1 - N . N_pseudo), N = normal_sum
 // normalised; d_normal_sum (3 channels) gets its gradient times `weight`.
 // Returns the unweighted mean (0 without such pixels).
