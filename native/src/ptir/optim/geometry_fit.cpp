@@ -151,27 +151,32 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
       iteration_ < settings_.densify_until)
     densify(iteration_, log);
   apply();
-  if (settings_.reorient_every > 0 &&
-      (iteration_ % settings_.reorient_every == 0 || iteration_ == settings_.iterations))
-    reorient_normals(log);
+  if (settings_.reorient_every > 0 && iteration_ % settings_.reorient_every == 0) reorient_normals(log);
   log.gaussians = field_.size();
   log.seconds = since(t0);
   log_.push_back(log);
   return log;
 }
 
-void GeometryFit::reorient_normals(FitLog& log) {
-  GaussianField& f = field_;
+std::vector<size_t> reorient_fit_normals(GaussianField& f, const std::vector<Camera>& cameras,
+                                         const AccelSettings& settings) {
   const std::vector<Vec3> before = f.normal;
   const bool from_file = f.normals_from_file;
   f.normals_from_file = false;  // the learnt normals are re-voted whatever their origin
-  SceneAccel accel(f, {}, settings_.accel);
-  orient_normals_to_cameras(f, accel, dataset_->cameras(), 256 * 256, /*keep_unseen=*/true);
+  SceneAccel accel(f, {}, settings);
+  orient_normals_to_cameras(f, accel, cameras, 256 * 256, /*keep_unseen=*/true);
   f.normals_from_file = from_file;
+  std::vector<size_t> flipped;
+  for (size_t i = 0; i < f.size(); ++i)
+    if (dot(before[i], f.normal[i]) < 0.0f) flipped.push_back(i);
+  return flipped;
+}
+
+void GeometryFit::reorient_normals(FitLog& log) {
+  const std::vector<size_t> flipped = reorient_fit_normals(field_, dataset_->cameras(), settings_.accel);
   std::vector<float>& raw = groups_[kFitNormal].raw;
   Adam& adam = adam_[kFitNormal];
-  for (size_t i = 0; i < f.size(); ++i) {
-    if (dot(before[i], f.normal[i]) >= 0.0f) continue;
+  for (size_t i : flipped) {
     log.flipped++;
     for (int c = 0; c < 3; ++c) raw[3 * i + c] = -raw[3 * i + c], adam.m[3 * i + c] = -adam.m[3 * i + c];
   }

@@ -74,11 +74,12 @@ struct GeometryFitSettings {
   float prune_opacity = 0.005f;
   float split_scale = 0.01f;       // split (else clone) above this share of the extent
   size_t max_gaussians = 0;        // 0: 1.5 x the initial count
-  // Every this many iterations and after the last (0: never), the free normals are re-oriented
-  // toward the training cameras that see them on the current field (sign only; unseen ones
-  // keep theirs): the initial orientation was voted on the input's visibility, and a Gaussian
-  // hidden then (jittered inward, or a floater) that the fit brings to the surface would
-  // otherwise keep a normal facing into it and cancel its neighbours' in every blend.
+  // Every this many iterations, and in the written PLY (0: never), the free normals are
+  // re-oriented toward the training cameras that see them on the current field (sign only;
+  // unseen ones keep theirs): the initial orientation was voted on the input's visibility,
+  // and a Gaussian hidden then (jittered inward, or a floater) that the fit brings to the
+  // surface would otherwise keep a normal facing into it and cancel its neighbours' in every
+  // blend. (The output's pass works on a copy: a resumed run stays bit-identical.)
   int reorient_every = 100;
   AccelSettings accel;
 };
@@ -138,6 +139,11 @@ class GeometryFit {
   float extent_ = 1.0f;
   int iteration_ = 0;
 };
+
+// reorient_fit_normals: flips the field's normals toward the cameras' votes (unseen keep
+// their sign), whatever their origin; returns the flipped indices.
+std::vector<size_t> reorient_fit_normals(GaussianField& field, const std::vector<Camera>& cameras,
+                                         const AccelSettings& settings);
 
 struct FitRunOptions {
   std::string out_dir;
