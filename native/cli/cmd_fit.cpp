@@ -130,6 +130,9 @@ Runner add_fit_command(CLI::App& app) {
   cmd->add_option("--normal-radius", o->s.normal_radius, "stencil radius (pixels) of the depth pseudo-normals")
       ->capture_default_str();
   cmd->add_flag("!--mean-depth", o->s.median_depth, "pseudo-normals from the mean depth (default: the median depth)");
+  cmd->add_option("--normal-outlier-deg", o->s.normal_outlier_deg,
+                  "supervise only pixels whose normal is this far (degrees) from the pseudo-normal (0: all)")
+      ->capture_default_str();
   cmd->add_flag("--normal-per-hit", o->s.normal_per_hit, "per-hit normal loss weighted by the compositing weights");
   cmd->add_flag("--normal-to-weights", o->s.normal_to_weights, "let the normal term move the splats too");
   cmd->add_option("--lr-normal", o->s.lr_normal, "shading-normal learning rate")->capture_default_str();

@@ -125,7 +125,10 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   const bool normals = it >= settings_.normal_from && settings_.lambda_normal > 0.0f;
   if (normals)
     log.normal = normal_consistency(fwd.normal, normal_target(cam, fwd), settings_.lambda_normal,
-                                    &d_normal, settings_.normal_per_hit);
+                                    &d_normal, settings_.normal_per_hit,
+                                    settings_.normal_outlier_deg > 0.0f
+                                        ? std::cos(settings_.normal_outlier_deg * 3.14159265f / 180.0f)
+                                        : 2.0f);
   log.loss = log.image + settings_.lambda_mask * log.mask + settings_.lambda_normal * log.normal;
 
   log.forward_s = since(t1);

@@ -63,6 +63,7 @@ struct GeometryFitSettings {
   bool median_depth = true;  // pseudo-normals from the median depth (else the mean, Dsum / O)
   bool normal_to_weights = false;  // the normal term moves the splats too (else only the normals)
   bool normal_per_hit = false;  // per-hit weighted loss (pseudo_normals.h) instead of the blend's
+  float normal_outlier_deg = 0.0f;  // > 0: only pixels this far from their pseudo-normal are supervised
   // Adam learning rates (3DGS's; position scaled by the cameras' extent).
   float lr_position = 1.6e-4f, lr_scale = 5e-3f, lr_rotation = 1e-3f, lr_opacity = 0.05f;
   float lr_sh_dc = 2.5e-3f, lr_sh_rest = 1.25e-4f, lr_normal = 1e-3f;

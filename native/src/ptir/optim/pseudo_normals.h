@@ -29,7 +29,11 @@ Image pseudo_normals(const Camera& camera, const Image& depth, const Image& opac
 // normalised blend's gradient (p - (N.p) N) / |Nsum| vanishes once the blend agrees
 // -- also for a hidden, flipped or low-weight normal inside it, which then stays
 // wrong and shows from other views. The returned value is the same mean.
+//
+// max_cos < 1: only pixels whose normal is further than acos(max_cos) from the
+// pseudo-normal get a gradient (outliers: a normal facing elsewhere, not the
+// pseudo-normals' own noise).
 double normal_consistency(const Image& normal_sum, const Image& pseudo, float weight, Image* d_normal_sum,
-                          bool per_hit = false);
+                          bool per_hit = false, float max_cos = 2.0f);
 
 }  // namespace ptir
