@@ -4,7 +4,8 @@
 //
 //   ptir fit --dataset DIR --gaussians IN.ply --out OUT [--iters N] [--seed S] [--resume]
 //       [--checkpoint-every N] [--threads N] [--lambda-normal X] [--lambda-mask X]
-//       [--normal-from N] [--max-gaussians N] [--no-densify] [--k K] [-q] [capture flags]
+//       [--normal-from N] [--normal-per-hit] [--normal-outlier-deg D] [--reorient-every N]
+//       [--max-gaussians N] [--no-densify] [--k K] [-q] [capture flags]
 //
 // Writes OUT/gaussians.ply (standard 3DGS layout with the fitted values, SH
 // radiance, nx,ny,nz; material columns as the writer adds them), OUT/log.csv and

@@ -18,7 +18,9 @@
 //   4. the replay backward, the chain rule into the raw parameters (quaternions and
 //      normals are normalised on use: their gradients are projected), one Adam
 //      step per group.
-//   5. every densify_every iterations in [densify_from, densify_until): prune
+//   5. every reorient_every iterations (and in the written PLY): the free normals'
+//      signs re-voted by the training cameras that see them (reorient_fit_normals).
+//   6. every densify_every iterations in [densify_from, densify_until): prune
 //      Gaussians with opacity < prune_opacity; clone (small) or split in two (large,
 //      scales / 1.6, positions drawn from the Gaussian) those whose mean positional
 //      gradient, in 3DGS's screen units, exceeds densify_grad; the count stays
@@ -53,10 +55,10 @@ struct GeometryFitSettings {
   uint64_t seed = 0;
   ImageLossSettings loss{0.2f, false};
   float lambda_mask = 0.1f;
-  // Off by default: measured on the dataset maker's Cycles sets at 100^2, depth
-  // pseudo-normals (28 degrees from the truth after fitting) pull the shortest-axis
-  // normals away (normal MAE 11.8 degrees without the term, 15.4 with 0.05 from
-  // iteration 750 at lr 1e-3, 23.0 at lr 1e-2 from the mean depth). README, geometry stage.
+  // Off by default: measured on the dataset maker's Cycles sets at 100^2, the fitted
+  // field's depth pseudo-normals (22 degrees from the truth) pull the normals away
+  // (normal MAE 9.2 degrees without the term, 13.2 per-hit, 17.5 per-hit on pixels
+  // > 45 degrees off; 15.4 / 23.0 in the first measurements). README, geometry stage.
   float lambda_normal = 0.0f;
   int normal_from = 0;  // iteration from which the pseudo-normal term applies
   int normal_radius = 2;  // stencil radius of the pseudo-normals (pixels)
