@@ -3,11 +3,13 @@
     bpy.ops.ptir.optimize()          settings in scene.ptir_optimize (the PTIR sidebar panel)
 
 Runs `ptir optimize` as a child process (a native crash cannot take Blender
-down), after `ptir fit` when the geometry stage is on (Fit Geometry; blender/optimize_job.py
-says when): the stages run one after the other, the progress bar covers both, Esc or Cancel
-stops whichever runs, and a failed or cancelled stage ends the whole run with nothing changed. In the UI (INVOKE) it is modal: a timer polls the job, the panel, the
-status bar and the window's progress indicator show iteration, loss and ETA;
-Esc (or the panel's Cancel button) stops it. From a script / blender -b
+down), after `ptir fit` when the geometry stage is on (Fit Geometry;
+blender/optimize_job.py says when): the stages run one after the other, the
+progress bar covers both, Esc or Cancel stops whichever runs, and a failed or
+cancelled stage ends the whole run with nothing changed. In the UI (INVOKE) it
+is modal: a timer polls the job, the panel, the status bar and the window's
+progress indicator show iteration, loss and ETA; Esc (or the panel's Cancel
+button) stops it. From a script / blender -b
 (EXEC) it blocks until the end and prints the optimiser's progress lines.
 Only a run that finishes writes anything back (blender/optimize_job.py); a
 failed or cancelled run leaves the scene as it was.
