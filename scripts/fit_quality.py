@@ -6,13 +6,16 @@ ones (after).
 
     /usr/bin/python3 scripts/fit_quality.py --dataset DIR --out WORK [--iters 3000]
         [--build build] [--threads N] [--jitter 0.5] [--seed 0] [--fit-args "..."]
-        [--json FILE]
+        [--normal-spp 16] [--json FILE]
 
 DIR: a TensoIR-layout dataset from scripts/make_dataset.py (test_XXX/rgba.png and
 normal.png, gaussians.ply). Perturbation: scripts/perturb_splats.py. Protocol as
 `ptir eval` (METHOD §7): PSNR of sRGB display values composited over white,
 whole image; normal MAE over the ground truth's foreground (alpha > 0.5). The
-render is one ray per pixel centre (`ptir render --aov preview/normal --spp 1`).
+colour render is one ray per pixel centre (`ptir render --aov preview --spp 1`);
+the normals are rendered as `ptir eval` renders them (16 jittered samples through
+the dataset's pixel filter, dataset.json; Cycles' normal pass is a pixel average),
+or with --normal-spp 1 at the pixel centres (the protocol of the first numbers).
 Prints a table and (with --json) writes the numbers.
 """
 
@@ -38,14 +41,26 @@ def srgb(x):
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
 
 
-def render(cli, gaussians, cameras, frame, aov, out):
-    subprocess.run([str(cli), "render", "--gaussians", str(gaussians), "--cameras", str(cameras), "--frame", str(frame),
-                    "--aov", aov, "--spp", "1", "-o", str(out)], check=True, stdout=subprocess.DEVNULL)
+def render(cli, gaussians, cameras, frame, aov, out, spp=1, pixel_filter=None):
+    cmd = [str(cli), "render", "--gaussians", str(gaussians), "--cameras", str(cameras), "--frame", str(frame),
+           "--aov", aov, "--spp", str(spp), "-o", str(out)]
+    if spp > 1 and pixel_filter:
+        cmd += ["--pixel-filter", pixel_filter["type"], "--filter-width", str(pixel_filter["width"])]
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
-def score(ptir, cli, dataset, gaussians, work):
+def dataset_filter(dataset):
+    """The pixel filter the dataset was rendered with (dataset.json), else None (the renderer's default)."""
+    try:
+        return json.loads((dataset / "dataset.json").read_text())["cycles"]["pixel_filter"]
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def score(ptir, cli, dataset, gaussians, work, normal_spp=16):
     """Mean NVS PSNR (dB) and normal MAE (degrees) over the test views."""
     cameras = dataset / "transforms_test.json"
+    pixel_filter = dataset_filter(dataset)
     frames = json.loads(cameras.read_text())["frames"]
     psnrs, maes = [], []
     for i, fr in enumerate(frames):
@@ -54,7 +69,7 @@ def score(ptir, cli, dataset, gaussians, work):
         a = gt[..., 3:4]
         gt_disp = srgb(gt[..., :3]) * a + (1 - a)
         render(cli, gaussians, cameras, i, "preview", work / "p.exr")
-        render(cli, gaussians, cameras, i, "normal", work / "n.exr")
+        render(cli, gaussians, cameras, i, "normal", work / "n.exr", normal_spp, pixel_filter)
         p = ptir.read_image(str(work / "p.exr"), True)
         # preview: linear of the display composite on black (A = coverage); over white.
         pred_disp = srgb(p[..., :3]) + (1 - np.clip(p[..., 3:4], 0, 1))
@@ -82,6 +97,7 @@ def main():
     p.add_argument("--jitter", type=float, default=0.5)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--fit-args", default="")
+    p.add_argument("--normal-spp", type=int, default=16)
     p.add_argument("--json")
     a = p.parse_args()
     build = Path(a.build)
@@ -105,7 +121,7 @@ def main():
     rows = {}
     for name, g in (("reference (dataset splats)", dataset / "gaussians.ply"), ("before (perturbed)", perturbed),
                     ("after (fitted)", work / "fit" / "gaussians.ply")):
-        rows[name] = score(ptir, cli, dataset, g, work)
+        rows[name] = score(ptir, cli, dataset, g, work, a.normal_spp)
     print(f"geometry fit: {a.iters} iterations in {fit_s:.1f} s on {dataset}")
     print("| splats | NVS PSNR (dB) | normal MAE (deg) |\n|---|---:|---:|")
     for name, (psnr, mae) in rows.items():

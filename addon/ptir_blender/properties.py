@@ -103,6 +103,20 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
     write_environment: BoolProperty(
         name="Set World", default=True,
         description="Put the recovered environment into the world as an Environment Texture")
+    # The geometry stage (`ptir fit`, issue 12) before the materials: on by default for real
+    # captures (a dataset folder in COLMAP, nerfstudio or 3DGS-output layout: splats trained by a
+    # rasteriser, which composite differently when ray-traced and carry noisy normals), off for
+    # NeRF-layout folders (the synthetic sets, whose splats come with them) and Scene Cameras.
+    fit_geometry: EnumProperty(
+        name="Fit Geometry", description="First fit the splats' geometry, opacity, radiance and shading normals "
+        "to the photos by ray tracing (ptir fit); the object's splats are replaced by the fitted ones",
+        items=[("AUTO", "Auto", "On for capture folders (COLMAP, nerfstudio, 3DGS output), off for NeRF-layout "
+                                "folders and Scene Cameras"),
+               ("ON", "On", "Always fit the geometry first"),
+               ("OFF", "Off", "Keep the splats' geometry as it is")],
+        default="AUTO")
+    fit_iterations: IntProperty(name="Fit Iterations", description="Iterations of the geometry fit", default=1500,
+                                min=1, soft_max=30000)
     iterations: IntProperty(name="Iterations", default=800, min=1, soft_max=5000)
     spp: IntProperty(name="Samples", description="Samples per pixel per iteration", default=32, min=1)
     bounces: IntProperty(name="Bounces", default=2, min=0, soft_max=8)

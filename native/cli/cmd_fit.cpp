@@ -4,7 +4,8 @@
 //
 //   ptir fit --dataset DIR --gaussians IN.ply --out OUT [--iters N] [--seed S] [--resume]
 //       [--checkpoint-every N] [--threads N] [--lambda-normal X] [--lambda-mask X]
-//       [--normal-from N] [--max-gaussians N] [--no-densify] [--k K] [-q] [capture flags]
+//       [--normal-from N] [--normal-per-hit] [--normal-outlier-deg D] [--reorient-every N]
+//       [--max-gaussians N] [--no-densify] [--k K] [-q] [capture flags]
 //
 // Writes OUT/gaussians.ply (standard 3DGS layout with the fitted values, SH
 // radiance, nx,ny,nz; material columns as the writer adds them), OUT/log.csv and
@@ -84,6 +85,7 @@ int run_fit(FitCommand& o) {
     std::fprintf(stderr, "iter %d/%d  loss %.5f (image %.5f mask %.5f normal %.5f)  %zu Gaussians", l.iteration,
                  fit.settings().iterations, l.loss, l.image, l.mask, l.normal, l.gaussians);
     if (l.pruned || l.cloned || l.split) std::fprintf(stderr, " (-%d +%d clones +%d splits)", l.pruned, l.cloned, l.split);
+    if (l.flipped) std::fprintf(stderr, " (%d normals re-oriented)", l.flipped);
     std::fprintf(stderr, "  %.2f s/iter  ETA %s\n", l.seconds, duration_text(eta).c_str());
     return true;
   };
@@ -129,6 +131,10 @@ Runner add_fit_command(CLI::App& app) {
   cmd->add_option("--normal-radius", o->s.normal_radius, "stencil radius (pixels) of the depth pseudo-normals")
       ->capture_default_str();
   cmd->add_flag("!--mean-depth", o->s.median_depth, "pseudo-normals from the mean depth (default: the median depth)");
+  cmd->add_option("--normal-outlier-deg", o->s.normal_outlier_deg,
+                  "supervise only pixels whose normal is this far (degrees) from the pseudo-normal (0: all)")
+      ->capture_default_str();
+  cmd->add_flag("--normal-per-hit", o->s.normal_per_hit, "per-hit normal loss weighted by the compositing weights");
   cmd->add_flag("--normal-to-weights", o->s.normal_to_weights, "let the normal term move the splats too");
   cmd->add_option("--lr-normal", o->s.lr_normal, "shading-normal learning rate")->capture_default_str();
   cmd->add_option("--lambda-mask", o->s.lambda_mask, "weight of |opacity - mask| where the images have alpha")
@@ -143,6 +149,9 @@ Runner add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--max-gaussians", o->max_gaussians, "upper bound on the count (0: 1.5 x the input's)");
   cmd->add_flag("--no-densify", o->no_densify, "keep the count (no pruning, cloning or splitting)");
+  cmd->add_option("--reorient-every", o->s.reorient_every,
+                  "re-orient the normals toward the cameras every N iterations and after the last (0: never)")
+      ->capture_default_str();
   cmd->add_option("--k", o->s.accel.k, "k-buffer size of the tracer")->capture_default_str();
   cmd->add_flag("-q,--quiet", o->quiet, "no progress output");
   add_force_flag(cmd, o->force);

@@ -73,6 +73,9 @@ def optimise(spec, work, splats, name):
     s.iterations, s.spp, s.bounces = 15, 2, 1
     s.env, s.env_width, s.env_height = "latlong", 16, 8
     s.learn_exposure = True
+    # Per-splat albedo compared across runs: the geometry stage (on by default for a COLMAP folder)
+    # would change the splats; addon_fit_check.py tests it.
+    s.fit_geometry = "OFF"
     s.output_dir = os.path.join(work, name)
     # A sentinel albedo the optimiser never starts from (it starts at 0.3): a result that lands
     # in the object differs from it everywhere.

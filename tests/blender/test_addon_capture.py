@@ -48,3 +48,19 @@ def test_import_capture_cameras_and_optimise_from_colmap(capture_dir, tmp_path):
     print("capture: %s" % stats)
     assert stats["cameras"] == 6
     assert stats["max_projection_error_px"] < 0.02
+
+
+def test_optimise_fits_the_geometry_of_a_capture(capture_dir, tmp_path):
+    """The geometry stage in the optimise flow (addon_fit_check.py): on by default for the COLMAP
+    capture, cancellable, the fitted splats replace the object's (also when it is moved)."""
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({k: str(v) if not isinstance(v, (int, float, list)) else v
+                                for k, v in capture_dir.items()}))
+    r = ac.run_blender("addon_fit_check.py", spec, tmp_path, timeout=600)
+    assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
+    line = next(l for l in r.stdout.splitlines() if l.startswith("FIT_STATS: "))
+    stats = json.loads(line[len("FIT_STATS: "):])
+    print("fit in the optimise flow: %s" % stats)
+    for name in ("identity", "moved"):
+        assert stats[name]["loss_last_epoch"] < 0.9 * stats[name]["loss_first_epoch"]
+        assert stats[name]["position_error"] < 1e-4

@@ -7,13 +7,15 @@ rotation about the normal, opacities 0.5).
 
 Scores (scripts/fit_quality.py, the `ptir eval` protocol): NVS PSNR of the
 ray-traced SH render over white on the test views, normal MAE over the
-foreground. Measured at 600 iterations, seed 0 (23 s on 2 cores): PSNR 20.5 ->
-26.3 dB (the dataset's own splats, whose SH is the albedo and not the radiance:
-21.7 dB); normal MAE 19.2 -> 18.8 degrees (own splats: 9.4; the normals are the
-shortest axes, which the perturbation keeps: what improves is which splats a ray
-sees; the pseudo-normal term is off by default, see the README's geometry-stage
-notes for why and for the 1500-iteration numbers). The bounds: PSNR up by >= 4 dB,
-normals no more than 1.5 degrees worse than before.
+foreground (normals rendered with 16 samples through the dataset's box filter,
+as `ptir eval`). Measured at 600 iterations, seed 0 (about 25 s on 2 cores):
+PSNR 20.5 -> 26.5 dB (the dataset's own splats, whose SH is the albedo and not
+the radiance: 21.7 dB); normal MAE 17.6 -> 16.3 degrees (16.4 without the
+normals' re-orientation, which pays later: 10.3 -> 9.2 at 1500 iterations on the
+100^2 sample; the normals are the shortest axes, which the perturbation keeps:
+what improves is which splats a ray sees and which way their normals face; the
+pseudo-normal term is off by default, see the README's geometry-stage notes).
+The bounds: PSNR up by >= 4 dB, normals >= 1 degree better than before.
 
 Also: `--resume` from a checkpoint written mid-run gives the same PLY, byte for
 byte, as an uninterrupted run (same thread count), through a densification step.
@@ -38,7 +40,7 @@ import perturb_splats  # noqa: E402
 pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
 
 PSNR_GAIN_MIN = 4.0
-NORMAL_WORSENING_MAX = 1.5
+NORMAL_GAIN_MIN = 1.0
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +70,7 @@ def test_fit_improves_perturbed_splats(ptir, dataset, tmp_path):
     after = fit_quality.score(ptir, CLI, dataset, out / "gaussians.ply", tmp_path)
     print(f"NVS PSNR {before[0]:.2f} -> {after[0]:.2f} dB, normal MAE {before[1]:.2f} -> {after[1]:.2f} deg")
     assert after[0] >= before[0] + PSNR_GAIN_MIN
-    assert after[1] <= before[1] + NORMAL_WORSENING_MAX
+    assert after[1] <= before[1] - NORMAL_GAIN_MIN
     # The output is a standard 3DGS PLY with normals that the loader reads back.
     g = ptir.load_gaussians(str(out / "gaussians.ply"))
     log = (out / "log.csv").read_text().splitlines()

@@ -7,12 +7,15 @@ prepare(context, settings, job_dir) writes
     job_dir/views/transforms_<split>.json   the training views in world space (scene cameras with
                                   images, or the dataset's views moved with the splat object; the
                                   dataset folder itself when the object has the identity transform)
-and returns an OptimizeJob with the command line. The dataset's cameras are in the frame of the
-splat PLY the object was imported from, i.e. the object's local frame.
+and returns an OptimizeJob with the command lines: with the geometry stage (settings.fit_geometry,
+wants_fit) first `ptir fit` into OUT/fit/ (OUT/fit/gaussians.ply: the fitted splats, kept beside the
+output), then `ptir optimize` on the fitted splats; else `ptir optimize` alone. The dataset's cameras
+are in the frame of the splat PLY the object was imported from, i.e. the object's local frame.
 
 load_results(job) reads and checks everything the optimiser wrote (nothing in Blender changes);
 apply_results(results) then writes it into the scene in one go: the splat attributes
-(ptir_albedo, ptir_roughness, ptir_metallic, ptir_normal), the Principled BSDF values of the ticked
+(ptir_albedo, ptir_roughness, ptir_metallic, ptir_normal) -- after a fit, the object's whole splat
+mesh (the fitted count, positions, scales, rotations, opacities, radiance, in its local frame) -- the Principled BSDF values of the ticked
 mesh materials, and the world's Environment Texture. A failed or cancelled run never reaches
 apply_results, so it leaves the scene unchanged.
 """
@@ -42,6 +45,8 @@ class OptimizeJob:
         self.materials = []         # names of the materials to write back
         self.write_environment = True
         self.warnings = []
+        self.fit_args = []          # the geometry stage's command line (empty: no fit)
+        self.fit_dir = ""
 
 
 def _camera_image(cam_obj):
@@ -118,6 +123,17 @@ def _check_views_can_follow(obj, matrix):
                             % (obj.name, ", ".join("%.4g" % s for s in splat_transform.axis_scales(matrix))))
 
 
+def wants_fit(settings, dataset_dir=None, split="train"):
+    """Whether the optimise flow fits the geometry first: ON/OFF as set; AUTO: for a dataset folder in a
+    capture layout (COLMAP, nerfstudio, 3DGS output: real photos whose splats a rasteriser trained), not
+    for a NeRF-layout folder (the synthetic sets, whose splats were made for them) nor Scene Cameras."""
+    if settings.fit_geometry != "AUTO":
+        return settings.fit_geometry == "ON"
+    if settings.source != "DATASET" or not dataset_dir:
+        return False
+    return not capture_cameras.is_nerf_folder(dataset_dir, split)
+
+
 def prepare(context, settings, job_dir, cli_exe, out_dir=None):
     """Writes the inputs and returns an OptimizeJob (raises OptimizeError and the io errors)."""
     job = OptimizeJob()
@@ -185,7 +201,16 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
         if scene_json is None:
             raise OptimizeError("Mesh Materials is on but the scene has no meshes")
 
-    args = [cli_exe, "optimize", "--dataset", dataset_dir, "--split", split, "--gaussians", splats,
+    gaussians = splats
+    if wants_fit(settings, bpy.path.abspath(settings.dataset_dir) if settings.source == "DATASET" else None, split):
+        job.fit_dir = os.path.join(job.out_dir, "fit")
+        gaussians = os.path.join(job.fit_dir, "gaussians.ply")
+        job.fit_args = [cli_exe, "fit", "--dataset", dataset_dir, "--split", split, "--gaussians", splats,
+                        "--out", job.fit_dir, "--iters", settings.fit_iterations, "--seed", settings.seed]
+        if settings.threads > 0:
+            job.fit_args += ["--threads", settings.threads]
+        job.fit_args = [str(a) for a in job.fit_args]
+    args = [cli_exe, "optimize", "--dataset", dataset_dir, "--split", split, "--gaussians", gaussians,
             "--out", job.out_dir, "--iters", settings.iterations, "--spp", settings.spp,
             "--bounces", settings.bounces, "--env", settings.env,
             "--env-size", "%dx%d" % (settings.env_width, settings.env_height), "--seed", settings.seed,
@@ -208,6 +233,8 @@ class Results:
     def __init__(self):
         self.object_name = ""
         self.albedo = self.roughness = self.metallic = self.normal = None
+        self.splats = None    # after a fit: the fitted splats (SplatData, object space) that replace the object's
+        self.count = 0        # the object's splat count when the job was prepared
         self.materials = {}   # material name -> {base_color, roughness, metallic}
         self.environment = None  # path of env.exr
         self.pack_environment = False
@@ -232,7 +259,15 @@ def load_results(job, pack_environment):
     if not os.path.isfile(ply):
         raise OptimizeError("the optimiser wrote no %s" % ply)
     d = splat_ply.read_splat_ply(ply)
-    if len(d) != job.count:
+    r.count = job.count
+    if job.fit_args:
+        # The optimiser ran on the fitted splats (world space): they become the object's, in its frame.
+        fitted = os.path.join(job.fit_dir, "gaussians.ply")
+        n_fit = len(splat_ply.read_splat_ply(fitted)) if os.path.isfile(fitted) else -1
+        if len(d) != n_fit:
+            raise OptimizeError("the optimiser returned %d splats for the %d of the fit (%s)" % (len(d), n_fit, fitted))
+        r.splats = splat_transform.transform_splats(d, np.linalg.inv(job.matrix), what="the inverse object transform")
+    elif len(d) != job.count:
         raise OptimizeError("the optimiser returned %d splats for the object's %d" % (len(d), job.count))
     r.albedo = np.clip(d.albedo, 0.0, 1.0)
     r.roughness = np.clip(d.roughness, 0.0, 1.0)
@@ -309,20 +344,39 @@ def set_world_environment(scene, image_path, pack):
     return image
 
 
+def _replace_splats(obj, r):
+    """The object's mesh becomes a new one holding the fitted splats (another count: vertex groups and
+    selections of the old splats do not carry over); its materials and the display modifier stay."""
+    old = obj.data
+    name = old.name
+    mesh = bpy.data.meshes.new(name)
+    splat_object.write_data_to_mesh(mesh, r.splats)
+    for m in old.materials:
+        mesh.materials.append(m)
+    obj.data = mesh
+    for g in list(obj.vertex_groups):
+        obj.vertex_groups.remove(g)
+    if old.users == 0:
+        bpy.data.meshes.remove(old)
+        mesh.name = name
+
+
 def apply_results(context, r):
     """Writes the results into the scene; returns a one-line summary."""
     obj = bpy.data.objects.get(r.object_name)
-    if obj is None or not splat_object.is_splat_object(obj) or len(obj.data.vertices) != len(r.albedo):
+    if obj is None or not splat_object.is_splat_object(obj) or len(obj.data.vertices) != r.count:
         raise OptimizeError("the splat object '%s' changed during the optimisation; results not applied"
                             % r.object_name)
     was_edit = obj.mode == "EDIT"
     if was_edit:
         bpy.ops.object.mode_set(mode="OBJECT")
+    if r.splats is not None:
+        _replace_splats(obj, r)
     splat_object.write_material_attributes(obj.data, r.albedo, r.roughness, r.metallic, r.normal)
     obj.data.update()
     if was_edit:
         bpy.ops.object.mode_set(mode="EDIT")
-    parts = ["%d splats" % len(r.albedo)]
+    parts = ["%d splats" % len(r.albedo) + (" (fitted from %d)" % r.count if r.splats is not None else "")]
     for name, p in r.materials.items():
         mat = bpy.data.materials.get(name)
         if mat is None:

@@ -3,9 +3,13 @@
     bpy.ops.ptir.optimize()          settings in scene.ptir_optimize (the PTIR sidebar panel)
 
 Runs `ptir optimize` as a child process (a native crash cannot take Blender
-down). In the UI (INVOKE) it is modal: a timer polls the job, the panel, the
-status bar and the window's progress indicator show iteration, loss and ETA;
-Esc (or the panel's Cancel button) stops it. From a script / blender -b
+down), after `ptir fit` when the geometry stage is on (Fit Geometry;
+blender/optimize_job.py says when): the stages run one after the other, the
+progress bar covers both, Esc or Cancel stops whichever runs, and a failed or
+cancelled stage ends the whole run with nothing changed. In the UI (INVOKE) it
+is modal: a timer polls the job, the panel, the status bar and the window's
+progress indicator show iteration, loss and ETA; Esc (or the panel's Cancel
+button) stops it. From a script / blender -b
 (EXEC) it blocks until the end and prints the optimiser's progress lines.
 Only a run that finishes writes anything back (blender/optimize_job.py); a
 failed or cancelled run leaves the scene as it was.
@@ -55,6 +59,9 @@ class PTIR_OT_optimize(bpy.types.Operator):
     _child = None
     _prepared = None
     _job_dir = None
+    _stages = ()
+    _stage = 0
+    _echo = False
 
     @classmethod
     def poll(cls, context):
@@ -71,15 +78,40 @@ class PTIR_OT_optimize(bpy.types.Operator):
         self._prepared = optimize_job.prepare(context, settings, self._job_dir, exe, out_dir)
         for w in self._prepared.warnings:
             self.report({"WARNING"}, w)
-        if echo:
-            print("ptir optimize: " + " ".join(self._prepared.args), flush=True)
-        self._child = cli.ChildJob(self._prepared.args, parse=cli.parse_optimize_progress, echo=echo,
-                                   log_path=os.path.join(self._job_dir, "optimize.log"))
-        _state["job"] = self._child
+        self._echo = echo
+        self._stages = ([("fit", self._prepared.fit_args)] if self._prepared.fit_args else []) + \
+            [("optimize", self._prepared.args)]
+        self._stage = 0
         _state["cancel"] = False
         settings.running = True
         settings.progress = 0.0
         settings.status = "starting"
+        self._launch()
+
+    def _launch(self):
+        """Starts stage self._stage as the child job."""
+        name, args = self._stages[self._stage]
+        if self._echo:
+            print("ptir %s: %s" % (name, " ".join(args)), flush=True)
+        self._child = cli.ChildJob(args, parse=cli.parse_optimize_progress, echo=self._echo,
+                                   log_path=os.path.join(self._job_dir, "%s.log" % name))
+        _state["job"] = self._child
+
+    def _next_stage(self, rc):
+        """After a stage ended with rc: starts the next one and returns True, else False (the run ends)."""
+        if rc != 0 or self._child.cancelled or _state["cancel"] or self._stage + 1 >= len(self._stages):
+            return False
+        self._stage += 1
+        self._launch()
+        return True
+
+    def _show_progress(self, settings, p):
+        """The run's progress over all stages; the status names the stage when there are several."""
+        n = len(self._stages)
+        settings.progress = (self._stage + p.fraction) / n
+        text = p.text or "starting"
+        settings.status = text if n == 1 else "%s %d/%d: %s" % (
+            "fit" if self._stages[self._stage][0] == "fit" else "optimise", self._stage + 1, n, text)
 
     def _finish(self, context, rc):
         """Applies the results after a successful run; returns the operator result."""
@@ -92,6 +124,8 @@ class PTIR_OT_optimize(bpy.types.Operator):
                 return {"CANCELLED"}
             if rc != 0:
                 msg = child.error_message()
+                if self._stages[self._stage][0] == "fit":
+                    msg = "geometry fit: " + msg
                 self.report({"ERROR"}, "Optimisation failed: %s" % msg)
                 settings.status = "failed: %s" % msg
                 return {"CANCELLED"}
@@ -133,15 +167,16 @@ class PTIR_OT_optimize(bpy.types.Operator):
         settings = context.scene.ptir_optimize
 
         def on_progress(p):
-            settings.progress = p.fraction
-            settings.status = p.text
+            self._show_progress(settings, p)
 
-        try:
-            rc = self._child.run_blocking(on_progress=on_progress, interval=0.25,
-                                          should_cancel=lambda: _state["cancel"])
-        except KeyboardInterrupt:
-            rc = self._child.cancel()
-        return self._finish(context, rc)
+        while True:
+            try:
+                rc = self._child.run_blocking(on_progress=on_progress, interval=0.25,
+                                              should_cancel=lambda: _state["cancel"])
+            except KeyboardInterrupt:
+                rc = self._child.cancel()
+            if not self._next_stage(rc):
+                return self._finish(context, rc)
 
     # -------------------------------------------------------------- modal (UI)
 
@@ -178,10 +213,10 @@ class PTIR_OT_optimize(bpy.types.Operator):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         rc = self._child.poll()
-        p = self._child.progress
-        settings.progress = p.fraction
-        settings.status = p.text or "starting"
-        context.window_manager.progress_update(p.fraction)
+        if rc is not None and self._next_stage(rc):
+            rc = None
+        self._show_progress(settings, self._child.progress)
+        context.window_manager.progress_update(settings.progress)
         if context.workspace is not None:
             context.workspace.status_text_set("PTIR optimise: %s  (Esc: cancel)" % settings.status)
         _redraw(context)

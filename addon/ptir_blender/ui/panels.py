@@ -187,6 +187,9 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             for m in mats:
                 box.prop(m.ptir, "optimize", text=m.name)
         col.separator()
+        col.prop(s, "fit_geometry")
+        if s.fit_geometry != "OFF":
+            col.prop(s, "fit_iterations")
         col.prop(s, "iterations")
         col.prop(s, "spp")
         col.prop(s, "bounces")

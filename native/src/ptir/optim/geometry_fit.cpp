@@ -94,6 +94,11 @@ double mask_term(const Image& opacity, const Image& alpha, float weight, Image* 
 
 }  // namespace
 
+Image GeometryFit::normal_target(const Camera& cam, const SplatImage& fwd) const {
+  const Image& depth = settings_.median_depth ? fwd.median_depth : fwd.depth;
+  return pseudo_normals(cam, depth, fwd.opacity, settings_.normal_radius);
+}
+
 FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   const auto t0 = std::chrono::steady_clock::now();
   const int it = iteration_;
@@ -119,8 +124,11 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   if (masked) log.mask = mask_term(fwd.opacity, target->alpha, settings_.lambda_mask, &d_opacity);
   const bool normals = it >= settings_.normal_from && settings_.lambda_normal > 0.0f;
   if (normals)
-    log.normal = normal_consistency(fwd.normal, pseudo_normals(cam, settings_.median_depth ? fwd.median_depth : fwd.depth, fwd.opacity, settings_.normal_radius), settings_.lambda_normal,
-                                    &d_normal);
+    log.normal = normal_consistency(fwd.normal, normal_target(cam, fwd), settings_.lambda_normal,
+                                    &d_normal, settings_.normal_per_hit,
+                                    settings_.normal_outlier_deg > 0.0f
+                                        ? std::cos(settings_.normal_outlier_deg * 3.14159265f / 180.0f)
+                                        : 2.0f);
   log.loss = log.image + settings_.lambda_mask * log.mask + settings_.lambda_normal * log.normal;
 
   log.forward_s = since(t1);
@@ -146,10 +154,35 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
       iteration_ < settings_.densify_until)
     densify(iteration_, log);
   apply();
+  if (settings_.reorient_every > 0 && iteration_ % settings_.reorient_every == 0) reorient_normals(log);
   log.gaussians = field_.size();
   log.seconds = since(t0);
   log_.push_back(log);
   return log;
+}
+
+std::vector<size_t> reorient_fit_normals(GaussianField& f, const std::vector<Camera>& cameras,
+                                         const AccelSettings& settings) {
+  const std::vector<Vec3> before = f.normal;
+  const bool from_file = f.normals_from_file;
+  f.normals_from_file = false;  // the learnt normals are re-voted whatever their origin
+  SceneAccel accel(f, {}, settings);
+  orient_normals_to_cameras(f, accel, cameras, 256 * 256, /*keep_unseen=*/true);
+  f.normals_from_file = from_file;
+  std::vector<size_t> flipped;
+  for (size_t i = 0; i < f.size(); ++i)
+    if (dot(before[i], f.normal[i]) < 0.0f) flipped.push_back(i);
+  return flipped;
+}
+
+void GeometryFit::reorient_normals(FitLog& log) {
+  const std::vector<size_t> flipped = reorient_fit_normals(field_, dataset_->cameras(), settings_.accel);
+  std::vector<float>& raw = groups_[kFitNormal].raw;
+  Adam& adam = adam_[kFitNormal];
+  for (size_t i : flipped) {
+    log.flipped++;
+    for (int c = 0; c < 3; ++c) raw[3 * i + c] = -raw[3 * i + c], adam.m[3 * i + c] = -adam.m[3 * i + c];
+  }
 }
 
 }  // namespace ptir

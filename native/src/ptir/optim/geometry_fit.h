@@ -18,7 +18,9 @@
 //   4. the replay backward, the chain rule into the raw parameters (quaternions and
 //      normals are normalised on use: their gradients are projected), one Adam
 //      step per group.
-//   5. every densify_every iterations in [densify_from, densify_until): prune
+//   5. every reorient_every iterations (and in the written PLY): the free normals'
+//      signs re-voted by the training cameras that see them (reorient_fit_normals).
+//   6. every densify_every iterations in [densify_from, densify_until): prune
 //      Gaussians with opacity < prune_opacity; clone (small) or split in two (large,
 //      scales / 1.6, positions drawn from the Gaussian) those whose mean positional
 //      gradient, in 3DGS's screen units, exceeds densify_grad; the count stays
@@ -46,20 +48,24 @@
 
 namespace ptir {
 
+struct SplatImage;  // render/splat_composite.h
+
 struct GeometryFitSettings {
   int iterations = 3000;
   uint64_t seed = 0;
   ImageLossSettings loss{0.2f, false};
   float lambda_mask = 0.1f;
-  // Off by default: measured on the dataset maker's Cycles sets at 100^2, depth
-  // pseudo-normals (28 degrees from the truth after fitting) pull the shortest-axis
-  // normals away (normal MAE 11.8 degrees without the term, 15.4 with 0.05 from
-  // iteration 750 at lr 1e-3, 23.0 at lr 1e-2 from the mean depth). README, geometry stage.
+  // Off by default: measured on the dataset maker's Cycles sets at 100^2, the fitted
+  // field's depth pseudo-normals (22 degrees from the truth) pull the normals away
+  // (normal MAE 9.2 degrees without the term, 13.2 per-hit, 17.5 per-hit on pixels
+  // > 45 degrees off; 15.4 / 23.0 in the first measurements). README, geometry stage.
   float lambda_normal = 0.0f;
   int normal_from = 0;  // iteration from which the pseudo-normal term applies
   int normal_radius = 2;  // stencil radius of the pseudo-normals (pixels)
   bool median_depth = true;  // pseudo-normals from the median depth (else the mean, Dsum / O)
   bool normal_to_weights = false;  // the normal term moves the splats too (else only the normals)
+  bool normal_per_hit = false;  // per-hit weighted loss (pseudo_normals.h) instead of the blend's
+  float normal_outlier_deg = 0.0f;  // > 0: only pixels this far from their pseudo-normal are supervised
   // Adam learning rates (3DGS's; position scaled by the cameras' extent).
   float lr_position = 1.6e-4f, lr_scale = 5e-3f, lr_rotation = 1e-3f, lr_opacity = 0.05f;
   float lr_sh_dc = 2.5e-3f, lr_sh_rest = 1.25e-4f, lr_normal = 1e-3f;
@@ -71,6 +77,13 @@ struct GeometryFitSettings {
   float prune_opacity = 0.005f;
   float split_scale = 0.01f;       // split (else clone) above this share of the extent
   size_t max_gaussians = 0;        // 0: 1.5 x the initial count
+  // Every this many iterations, and in the written PLY (0: never), the free normals are
+  // re-oriented toward the training cameras that see them on the current field (sign only;
+  // unseen ones keep theirs): the initial orientation was voted on the input's visibility,
+  // and a Gaussian hidden then (jittered inward, or a floater) that the fit brings to the
+  // surface would otherwise keep a normal facing into it and cancel its neighbours' in every
+  // blend. (The output's pass works on a copy: a resumed run stays bit-identical.)
+  int reorient_every = 100;
   AccelSettings accel;
 };
 
@@ -80,6 +93,7 @@ struct FitLog {
   double loss = 0, image = 0, mask = 0, normal = 0;
   size_t gaussians = 0;
   int pruned = 0, cloned = 0, split = 0;  // densification at this iteration
+  int flipped = 0;  // normals re-oriented at this iteration (progress only; not in log.csv)
   double seconds = 0;  // wall time of the iteration, of which:
   double build_s = 0, forward_s = 0, backward_s = 0;  // BVH build, render + loss, replay + update
   size_t view = 0;
@@ -113,6 +127,8 @@ class GeometryFit {
   friend struct FitDensify;
   void apply();                       // raw -> field_
   void densify(int it, FitLog& log);  // geometry_fit_densify.cpp
+  void reorient_normals(FitLog& log);
+  Image normal_target(const Camera& cam, const SplatImage& fwd) const;
   size_t view_of(int it) const;
 
   GeometryFitSettings settings_;
@@ -126,6 +142,11 @@ class GeometryFit {
   float extent_ = 1.0f;
   int iteration_ = 0;
 };
+
+// reorient_fit_normals: flips the field's normals toward the cameras' votes (unseen keep
+// their sign), whatever their origin; returns the flipped indices.
+std::vector<size_t> reorient_fit_normals(GaussianField& field, const std::vector<Camera>& cameras,
+                                         const AccelSettings& settings);
 
 struct FitRunOptions {
   std::string out_dir;

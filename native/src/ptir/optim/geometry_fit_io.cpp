@@ -132,6 +132,7 @@ std::string GeometryFit::log_csv() const {
 
 void GeometryFit::write_outputs(const std::string& dir) const {
   GaussianField out = field_;
+  if (settings_.reorient_every > 0) reorient_fit_normals(out, dataset_->cameras(), settings_.accel);
   out.normals_from_file = true;
   save_gaussians((fs::path(dir) / "gaussians.ply").string(), out);
   io::write_text_atomic((fs::path(dir) / "log.csv").string(), log_csv());

@@ -31,7 +31,8 @@ Image pseudo_normals(const Camera& cam, const Image& depth, const Image& opacity
   return out;
 }
 
-double normal_consistency(const Image& nsum, const Image& pseudo, float weight, Image* d_nsum) {
+double normal_consistency(const Image& nsum, const Image& pseudo, float weight, Image* d_nsum, bool per_hit,
+                          float max_cos) {
   if (d_nsum) *d_nsum = Image(nsum.width, nsum.height, {"X", "Y", "Z"});
   double total = 0;
   size_t count = 0;
@@ -46,6 +47,8 @@ double normal_consistency(const Image& nsum, const Image& pseudo, float weight, 
       const Vec3 s(nsum.at(x, y, 0), nsum.at(x, y, 1), nsum.at(x, y, 2));
       const Vec3 p(pseudo.at(x, y, 0), pseudo.at(x, y, 1), pseudo.at(x, y, 2));
       const float len = length(s);
+      if (per_hit && d_nsum && !(len > 1e-12f && dot(s, p) / len >= max_cos))
+        for (int k = 0; k < 3; ++k) d_nsum->at(x, y, k) = -scale * p[k];
       if (!(len > 1e-12f)) {
         total += 1.0;
         continue;
@@ -53,7 +56,7 @@ double normal_consistency(const Image& nsum, const Image& pseudo, float weight, 
       const Vec3 n = s / len;
       const float c = dot(n, p);
       total += 1.0 - c;
-      if (d_nsum) {
+      if (d_nsum && !per_hit && c < max_cos) {
         // d(1 - n.p)/ds = -(p - (n.p) n) / |s|
         const Vec3 g = (-scale / len) * (p - c * n);
         for (int k = 0; k < 3; ++k) d_nsum->at(x, y, k) = g[k];

@@ -20,6 +20,20 @@ Image pseudo_normals(const Camera& camera, const Image& depth, const Image& opac
 // mean over pixels with a pseudo-normal of (1 - N . N_pseudo), N = normal_sum
 // normalised; d_normal_sum (3 channels) gets its gradient times `weight`.
 // Returns the unweighted mean (0 without such pixels).
-double normal_consistency(const Image& normal_sum, const Image& pseudo, float weight, Image* d_normal_sum);
+//
+// per_hit: the gradient is instead that of the per-hit loss the paper weights by
+// the compositing weight, mean over pixels of sum_i w_i (1 - n_i . N_pseudo)
+// (front hits, the normal sum's), i.e. dL/dNsum = -N_pseudo: with the weights held
+// (the geometry stage's default), every front Gaussian's own normal is pulled
+// toward the pixel's pseudo-normal in proportion to its weight, where the
+// normalised blend's gradient (p - (N.p) N) / |Nsum| vanishes once the blend agrees
+// -- also for a hidden, flipped or low-weight normal inside it, which then stays
+// wrong and shows from other views. The returned value is the same mean.
+//
+// max_cos < 1: only pixels whose normal is further than acos(max_cos) from the
+// pseudo-normal get a gradient (outliers: a normal facing elsewhere, not the
+// pseudo-normals' own noise).
+double normal_consistency(const Image& normal_sum, const Image& pseudo, float weight, Image* d_normal_sum,
+                          bool per_hit = false, float max_cos = 2.0f);
 
 }  // namespace ptir

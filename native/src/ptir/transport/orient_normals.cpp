@@ -13,7 +13,7 @@ constexpr float kVisibleTransmittance = 0.5f;
 }  // namespace
 
 OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& accel, const std::vector<Camera>& cameras,
-                                      int rays_per_camera) {
+                                      int rays_per_camera, bool keep_unseen) {
   OrientStats stats;
   if (field.normals_from_file || field.size() == 0) return stats;
   const size_t n = field.size();
@@ -56,7 +56,7 @@ OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& ac
       stats.unseen++;
     }
   }
-  if (stats.unseen > 0) orient_normals_away_from_centroid(field, &unseen);
+  if (stats.unseen > 0 && !keep_unseen) orient_normals_away_from_centroid(field, &unseen);
   return stats;
 }
 

@@ -24,8 +24,9 @@ struct OrientStats {
 // Only normals that did not come from the file are re-oriented (all of them when
 // field.normals_from_file is false). rays_per_camera bounds the cost: the image
 // grid is subsampled to about that many rays.
+// keep_unseen: Gaussians no ray reached keep their sign (else: the centroid fallback).
 OrientStats orient_normals_to_cameras(GaussianField& field, const SceneAccel& accel, const std::vector<Camera>& cameras,
-                                      int rays_per_camera = 256 * 256);
+                                      int rays_per_camera = 256 * 256, bool keep_unseen = false);
 
 // For a loaded scene: when its Gaussians' normals did not come from their files,
 // orients them toward the scene's cameras (meshes occlude), or away from the
