@@ -63,7 +63,7 @@ struct ParameterSettings {
   bool optimize_meshes = false;          // mesh materials of a --scene, one set per mesh
   bool learn_exposure = false;           // one log-exposure per training view (optim/exposure.h)
   float lr_exposure = 0.03f;
-  float lr_balance = 0.01f;              // the light-albedo balance's Adam rate (light_balance.h)
+  float lr_balance = 0.03f;              // the light-albedo balance's Adam rate (light_balance.h)
   // Adam learning rates (PTIR code).
   float lr_albedo = 0.035f, lr_roughness = 0.025f, lr_metallic = 0.035f, lr_env = 0.035f, lr_mesh = 0.035f;
 };
