@@ -170,7 +170,7 @@ def test_resume_with_another_rank_count(ptir, mpi_cli, dataset, tmp_path):
     """10 iterations on 2 ranks, resumed to 20 on 1 process: the 20-iteration single-process result."""
     straight, part = tmp_path / "straight", tmp_path / "part"
     # Extending a run to more iterations is exact only with schedules that do not depend on --iters.
-    flat = ("--lr-final", 1, "--albedo-warmup", 0)
+    flat = ("--lr-final", 1, "--albedo-warmup", 0, "--balance-start", 0)
     optimize(mpi_cli, dataset, straight, "--iters", 20, "--seed", 6, *flat)
     r = mpirun(2, *optimize_args(mpi_cli, dataset, part, "--iters", 10, "--seed", 6, *flat))
     assert r.returncode == 0, r.stderr[-3000:]

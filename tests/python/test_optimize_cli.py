@@ -122,10 +122,10 @@ def test_outputs_and_progress(ptir, cli, dataset, tmp_path):
 
 def test_resume_after_interruption_is_exact(ptir, cli, dataset, tmp_path):
     straight = tmp_path / "straight"
-    # Schedules that do not depend on --iters (the defaults' are fractions of it, so a run extended
+    # Schedules that do not depend on --iters (the light-albedo balance learning from the start; the defaults' are fractions of it, so a run extended
     # from 4 to 8 iterations continues on the 8-iteration schedule; an interrupted run with the same
     # --iters resumes exactly on any schedule: test_ctrl_c_writes_a_checkpoint_and_resume_finishes_exactly).
-    flat = ("--lr-final", 1, "--albedo-warmup", 0)
+    flat = ("--lr-final", 1, "--albedo-warmup", 0, "--balance-start", 0)
     optimize(cli, dataset, straight, "--iters", 8, "--seed", 5, "--views-per-iter", 2, "--crop", 24, *flat)
     # The same run stopped after 4 iterations, then resumed to 8.
     part = tmp_path / "part"
