@@ -16,6 +16,8 @@ Blender:
                                         culling, caustics, 1-px box filter)
     exr_output(scene)                   render output: linear 32-bit float EXR (RGB, ZIP)
     add_camera(...), add_light(...)     objects aimed / placed as given
+    add_pedestal(...)                   the sample object's box pedestal (top / side materials, grid faces)
+    separate_suzanne(...)               the active Suzanne split into head and eyes, materials, subdivision
     set_environment(scene, path, ...)   world = Environment Texture (Closest), optional Mapping
                                         Z rotation, strength
     write_rgbe_texels(path, w, h, f)    a Radiance .hdr from a texel function (the add-on's writer)
@@ -131,6 +133,53 @@ def add_light(scene, kind, energy, location=(0, 0, 0), rotation=(0, 0, 0), **pro
     ob.location = location
     ob.rotation_euler = rotation
     return ob
+
+
+def add_pedestal(size, height, z, top_material, side_material, cuts, open_bottom=False):
+    """A size x size x height box centred at (0, 0, z), named "pedestal": material 0 (top_material)
+    on the top face, 1 (side_material) on the others, the bottom face removed with open_bottom; a
+    SIMPLE subdivision of `cuts` levels (uniform cuts: square faces on top). Returns the object."""
+    import bmesh
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, z))
+    obj = bpy.context.active_object
+    obj.name = "pedestal"
+    obj.scale = (size, size, height)
+    bpy.ops.object.transform_apply(scale=True)
+    obj.data.materials.append(top_material)
+    obj.data.materials.append(side_material)
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    if open_bottom:
+        bmesh.ops.delete(bm, geom=[f for f in bm.faces if f.normal.z < -0.9], context="FACES")
+    for f in bm.faces:
+        f.material_index = 0 if f.normal.z > 0.9 else 1
+    bm.to_mesh(obj.data)
+    bm.free()
+    mod = obj.modifiers.new("grid", "SUBSURF")
+    mod.subdivision_type = "SIMPLE"
+    mod.levels = mod.render_levels = cuts
+    return obj
+
+
+def separate_suzanne(material_of, subdiv, smooth_shading=False):
+    """Splits the active Suzanne into its loose parts, "head" (the largest) and "eye_1", "eye_2":
+    each gets material_of("head") or material_of("eyes") and a Catmull-Clark subdivision of
+    `subdiv` levels (and smooth shading with smooth_shading). Returns the parts, head first."""
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.separate(type="LOOSE")
+    bpy.ops.object.mode_set(mode="OBJECT")
+    parts = sorted(bpy.context.selected_objects, key=lambda o: len(o.data.vertices), reverse=True)
+    for i, obj in enumerate(parts):
+        obj.name = "head" if i == 0 else "eye_%d" % i
+        obj.data.materials.clear()
+        obj.data.materials.append(material_of("head" if i == 0 else "eyes"))
+        if smooth_shading:
+            for poly in obj.data.polygons:
+                poly.use_smooth = True
+        mod = obj.modifiers.new("smooth", "SUBSURF")
+        mod.levels = mod.render_levels = subdiv
+    return parts
 
 
 def set_environment(scene, path, rotation_z=None, strength=1.0, sampling="MANUAL", linear=True):

@@ -28,7 +28,6 @@ import math
 import os
 import sys
 
-import bmesh
 import bpy
 import numpy as np
 
@@ -76,27 +75,10 @@ def clear_scene():
 
 def make_pedestal(size, height):
     """Open-bottomed box with near-square faces about `size / 24` wide."""
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.5 * height))
-    obj = bpy.context.active_object
-    obj.name = "pedestal"
-    obj.scale = (size, size, height)
-    bpy.ops.object.transform_apply(scale=True)
-    obj.data.materials.append(material("pedestal_top"))
-    obj.data.materials.append(material("pedestal_side"))
-    # The bottom rests on the floor and is never seen.
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    bmesh.ops.delete(bm, geom=[f for f in bm.faces if f.normal.z < -0.9], context="FACES")
-    for f in bm.faces:
-        f.material_index = 0 if f.normal.z > 0.9 else 1
-    bm.to_mesh(obj.data)
-    bm.free()
-    # Uniform cuts give square faces on top; the sides' strips stay anisotropic,
-    # which exercises elongated Gaussians.
-    mod = obj.modifiers.new("grid", "SUBSURF")
-    mod.subdivision_type = "SIMPLE"
-    mod.levels = mod.render_levels = 5
-    return obj
+    # The bottom rests on the floor and is never seen (open_bottom). Uniform cuts give square
+    # faces on top; the sides' strips stay anisotropic, which exercises elongated Gaussians.
+    return kit.add_pedestal(size, height, 0.5 * height, material("pedestal_top"), material("pedestal_side"), 5,
+                            open_bottom=True)
 
 
 def make_suzanne(level, rest_z):
@@ -108,19 +90,7 @@ def make_suzanne(level, rest_z):
     lowest = min(v.co.z for v in head.data.vertices)
     head.location.z = rest_z - lowest - 0.02  # sink slightly: no gap under the chin
     # The eyes are loose parts of the mesh: split them off to colour them.
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.mesh.separate(type="LOOSE")
-    bpy.ops.object.mode_set(mode="OBJECT")
-    parts = list(bpy.context.selected_objects)
-    parts.sort(key=lambda o: len(o.data.vertices), reverse=True)
-    for i, obj in enumerate(parts):
-        obj.name = "head" if i == 0 else "eye_%d" % i
-        obj.data.materials.clear()
-        obj.data.materials.append(material("head" if i == 0 else "eyes"))
-        mod = obj.modifiers.new("smooth", "SUBSURF")
-        mod.levels = mod.render_levels = level
-    return parts
+    return kit.separate_suzanne(material, level)
 
 
 # ---------------------------------------------------------------- faces -> Gaussians

@@ -8,7 +8,6 @@ import math
 import os
 
 import blender_kit as kit
-import bmesh
 import bpy
 import numpy as np
 
@@ -127,22 +126,7 @@ def build_sample_object(subdiv=2, pedestal_cuts=4, radius=1.25):
     mats = {name: principled_material(name, c, r) for name, (c, r) in SAMPLE_PARTS.items()}
 
     size, height = 1.25, 0.4
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -0.5 * height))
-    ped = bpy.context.active_object
-    ped.name = "pedestal"
-    ped.scale = (size, size, height)
-    bpy.ops.object.transform_apply(scale=True)
-    ped.data.materials.append(mats["pedestal_top"])
-    ped.data.materials.append(mats["pedestal_side"])
-    bm = bmesh.new()
-    bm.from_mesh(ped.data)
-    for f in bm.faces:
-        f.material_index = 0 if f.normal.z > 0.9 else 1
-    bm.to_mesh(ped.data)
-    bm.free()
-    mod = ped.modifiers.new("grid", "SUBSURF")
-    mod.subdivision_type = "SIMPLE"
-    mod.levels = mod.render_levels = pedestal_cuts
+    ped = kit.add_pedestal(size, height, -0.5 * height, mats["pedestal_top"], mats["pedestal_side"], pedestal_cuts)
 
     bpy.ops.mesh.primitive_monkey_add(size=1.5, location=(0.0, 0.0, 0.0))
     head = bpy.context.active_object
@@ -151,19 +135,7 @@ def build_sample_object(subdiv=2, pedestal_cuts=4, radius=1.25):
     lowest = min(v.co.z for v in head.data.vertices)
     head.location.z = -lowest - 0.03  # sink the chin slightly into the pedestal top
     bpy.ops.object.transform_apply(location=True)
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.mesh.separate(type="LOOSE")
-    bpy.ops.object.mode_set(mode="OBJECT")
-    parts = sorted(bpy.context.selected_objects, key=lambda o: len(o.data.vertices), reverse=True)
-    for i, obj in enumerate(parts):
-        obj.name = "head" if i == 0 else "eye_%d" % i
-        obj.data.materials.clear()
-        obj.data.materials.append(mats["head" if i == 0 else "eyes"])
-        for poly in obj.data.polygons:
-            poly.use_smooth = True
-        mod = obj.modifiers.new("smooth", "SUBSURF")
-        mod.levels = mod.render_levels = subdiv
+    parts = kit.separate_suzanne(mats.get, subdiv, smooth_shading=True)
 
     objs = [ped] + parts
     for o in objs:

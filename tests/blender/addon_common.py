@@ -3,9 +3,11 @@
 - paths: the repository, the build folder ($PTIR_BUILD_DIR or <repo>/build), the CLI and module
 - run_blender(script, *args): blender -b with the add-on taken from the repository and the CLI from
   the build folder ($PTIR_CLI), returning the CompletedProcess
+- blender_result(script, marker, *args): run_blender, then the JSON of the script's `marker: {...}` line
 - small PLY writers: a standard 3DGS PLY with chosen activated values, in any encoding
 """
 
+import json
 import os
 import shutil
 import subprocess
@@ -44,6 +46,17 @@ def run_blender(script, *args, blend=None, timeout=600, env_extra=None):
         cmd.append(str(blend))
     cmd += ["-P", str(HERE / script), "--", *[str(a) for a in args]]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def blender_result(script, marker, *args, timeout=600):
+    """Runs HERE/script with run_blender and returns the JSON of the last stdout line `marker: {...}`;
+    fails the calling test, with the end of Blender's output, when Blender fails or prints no such line."""
+    proc = run_blender(script, *args, timeout=timeout)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, "Blender failed:\n" + out[-4000:]
+    lines = [l for l in proc.stdout.splitlines() if l.startswith(marker + ": ")]
+    assert lines, "no result line from Blender:\n" + out[-4000:]
+    return json.loads(lines[-1].split(": ", 1)[1])
 
 
 def output_of(result):

@@ -53,7 +53,6 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -61,8 +60,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import addon_common as ac
+
 REPO = Path(__file__).resolve().parents[2]
-SCRIPT = REPO / "tests" / "blender" / "cycles_compare_scenes.py"
+SCRIPT = "cycles_compare_scenes.py"
 BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
 SAMPLES = 256      # Cycles, per seed (two seeds)
 OUR_SPP = 512
@@ -100,15 +101,8 @@ def make_environment(ptir, path, width=128, height=64):
 def cycles(ptir):
     with tempfile.TemporaryDirectory(prefix="ptir_cycles_compare_") as tmp:
         env = make_environment(ptir, Path(tmp) / "environment.exr")
-        cmd = [BLENDER, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1", "-P", str(SCRIPT), "--",
-               "--out-dir", tmp, "--env", str(env), "--samples", str(SAMPLES), "--seeds", "1", "2",
-               "--res", str(RES), "--jobs", *JOBS]
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=1200)
-        out = proc.stdout + proc.stderr
-        assert proc.returncode == 0, "Blender failed:\n" + out[-4000:]
-        lines = [l for l in proc.stdout.splitlines() if l.startswith("PTIR_CYCLES_COMPARE_JSON: ")]
-        assert lines, "no result line from Blender:\n" + out[-4000:]
-        info = json.loads(lines[-1].split(": ", 1)[1])
+        info = ac.blender_result(SCRIPT, "PTIR_CYCLES_COMPARE_JSON", "--out-dir", tmp, "--env", env,
+                                 "--samples", SAMPLES, "--seeds", 1, 2, "--res", RES, "--jobs", *JOBS, timeout=1200)
         info["dir"] = Path(tmp)
         yield info
 

@@ -23,7 +23,6 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -31,41 +30,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
-SCRIPT = REPO / "tests" / "blender" / "cycles_compare_scenes.py"
+SCRIPT = "cycles_compare_scenes.py"
 BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
 SAMPLES, OUR_SPP, RES = 256, 256, 128
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import addon_common as ac  # noqa: E402
 from test_cycles_compare import make_environment, srgb  # noqa: E402
 
 pytestmark = pytest.mark.skipif(BLENDER is None, reason="blender not installed")
 
 
 @pytest.fixture(scope="module")
-def ptir():
-    module_dir = BUILD / "python"
-    if not any(module_dir.glob("ptir*.so")):
-        pytest.fail(f"no native module in {module_dir} (run 'make build' or set PTIR_BUILD_DIR)")
-    sys.path.insert(0, str(module_dir))
-    import ptir as module
-    return module
-
-
-@pytest.fixture(scope="module")
 def cycles_bh(ptir):
     with tempfile.TemporaryDirectory(prefix="ptir_filter_") as tmp:
         env = make_environment(ptir, Path(tmp) / "environment.exr")
-        cmd = [BLENDER, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1", "-P", str(SCRIPT), "--",
-               "--out-dir", tmp, "--env", str(env), "--samples", str(SAMPLES), "--seeds", "1", "2",
-               "--res", str(RES), "--jobs", "glossy_m0", "--pixel-filter", "BLACKMAN_HARRIS", "--filter-width", "1.5"]
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
-        out = proc.stdout + proc.stderr
-        assert proc.returncode == 0, "Blender failed:\n" + out[-4000:]
-        lines = [l for l in proc.stdout.splitlines() if l.startswith("PTIR_CYCLES_COMPARE_JSON: ")]
-        assert lines, "no result line from Blender:\n" + out[-4000:]
-        info = json.loads(lines[-1].split(": ", 1)[1])["jobs"]["glossy_m0"]
+        info = ac.blender_result(SCRIPT, "PTIR_CYCLES_COMPARE_JSON",
+                                 "--out-dir", tmp, "--env", env, "--samples", SAMPLES, "--seeds", 1, 2,
+                                 "--res", RES, "--jobs", "glossy_m0", "--pixel-filter", "BLACKMAN_HARRIS",
+                                 "--filter-width", 1.5, timeout=900)["jobs"]["glossy_m0"]
         info["dir"] = Path(tmp) / "glossy_m0"
         yield info
 

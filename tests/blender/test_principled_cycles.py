@@ -31,7 +31,6 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -41,7 +40,7 @@ import pytest
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
-SCRIPT = HERE / "principled_compare_scenes.py"
+SCRIPT = "principled_compare_scenes.py"
 BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
 SAMPLES = 256
 OUR_SPP = 512
@@ -49,6 +48,7 @@ RES = 200
 
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(REPO / "addon"))
+import addon_common as ac  # noqa: E402
 from test_cycles_compare import make_environment, psnr as psnr_srgb  # noqa: E402
 
 pytestmark = pytest.mark.skipif(BLENDER is None, reason="blender not installed")
@@ -58,14 +58,8 @@ pytestmark = pytest.mark.skipif(BLENDER is None, reason="blender not installed")
 def cycles(ptir):
     with tempfile.TemporaryDirectory(prefix="ptir_principled_") as tmp:
         env = make_environment(ptir, Path(tmp) / "environment.exr")
-        cmd = [BLENDER, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1", "-P", str(SCRIPT), "--",
-               "--out-dir", tmp, "--env", str(env), "--samples", str(SAMPLES), "--seeds", "1", "2", "--res", str(RES)]
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
-        out = proc.stdout + proc.stderr
-        assert proc.returncode == 0, "Blender failed:\n" + out[-4000:]
-        lines = [l for l in proc.stdout.splitlines() if l.startswith("PTIR_PRINCIPLED_COMPARE_JSON: ")]
-        assert lines, "no result line from Blender:\n" + out[-4000:]
-        info = json.loads(lines[-1].split(": ", 1)[1])
+        info = ac.blender_result(SCRIPT, "PTIR_PRINCIPLED_COMPARE_JSON", "--out-dir", tmp, "--env", env,
+                                 "--samples", SAMPLES, "--seeds", 1, 2, "--res", RES, timeout=1800)
         info["dir"] = Path(tmp)
         yield info
 

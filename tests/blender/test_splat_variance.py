@@ -34,16 +34,15 @@ import glob
 import json
 import os
 import shutil
-import subprocess
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
-SCRIPT = REPO / "tests" / "blender" / "splat_twin_scene.py"
+import addon_common as ac
+
+SCRIPT = "splat_twin_scene.py"
 BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
 RES, SPP, SEEDS = 128, 16, 8
 
@@ -53,15 +52,8 @@ pytestmark = pytest.mark.skipif(BLENDER is None, reason="blender not installed")
 @pytest.fixture(scope="module")
 def twin():
     with tempfile.TemporaryDirectory(prefix="ptir_splat_twin_") as tmp:
-        cmd = [BLENDER, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1", "-P", str(SCRIPT), "--",
-               "--out-dir", tmp, "--res", str(RES), "--samples", str(SPP), "--seeds",
-               *[str(s) for s in range(1, SEEDS + 1)]]
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
-        out = proc.stdout + proc.stderr
-        assert proc.returncode == 0, "Blender failed:\n" + out[-4000:]
-        lines = [l for l in proc.stdout.splitlines() if l.startswith("PTIR_SPLAT_TWIN_JSON: ")]
-        assert lines, "no result line from Blender:\n" + out[-4000:]
-        info = json.loads(lines[-1].split(": ", 1)[1])
+        info = ac.blender_result(SCRIPT, "PTIR_SPLAT_TWIN_JSON", "--out-dir", tmp, "--res", RES, "--samples", SPP,
+                                 "--seeds", *range(1, SEEDS + 1), timeout=900)
         info["dir"] = Path(tmp)
         yield info
 

@@ -13,6 +13,7 @@
 #include "ptir/io/ply.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/gaussians.h"
+#include "expect_error.h"
 
 using namespace ptir;
 
@@ -55,20 +56,8 @@ const std::vector<std::string> kBasic =
     float_props({"x", "y", "z", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3", "opacity"});
 const std::string kBasicRow = "0 0 0 0 0 0 1 0 0 0 0";
 
-template <typename F>
-void expect_gs_error(F&& fn, const std::string& path, std::initializer_list<std::string> phrases) {
-  try {
-    fn();
-    ADD_FAILURE() << "no error thrown for " << path;
-  } catch (const ptir::Error& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find(path), std::string::npos) << msg;
-    for (const std::string& p : phrases) EXPECT_NE(msg.find(p), std::string::npos) << "'" << p << "' not in: " << msg;
-  }
-}
-
 void expect_load_error(const std::string& path, std::initializer_list<std::string> phrases) {
-  expect_gs_error([&] { load_gaussians(path); }, path, phrases);
+  test::expect_error([&] { load_gaussians(path); }, path, phrases);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "ptir/core/error.h"
 #include "ptir/scene/mesh.h"
+#include "expect_error.h"
 
 using namespace ptir;
 
@@ -21,14 +22,7 @@ std::string mesh_tmp(const std::string& name, const std::string& contents) {
 }
 
 void expect_mesh_error(const std::string& path, std::initializer_list<std::string> phrases) {
-  try {
-    load_mesh(path);
-    ADD_FAILURE() << "no error thrown for " << path;
-  } catch (const ptir::Error& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find(path), std::string::npos) << msg;
-    for (const std::string& p : phrases) EXPECT_NE(msg.find(p), std::string::npos) << "'" << p << "' not in: " << msg;
-  }
+  test::expect_error([&] { load_mesh(path); }, path, phrases);
 }
 
 const std::string kQuadPlyHeader =

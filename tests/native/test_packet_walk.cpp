@@ -10,36 +10,16 @@
 #include <vector>
 
 #include "ptir/accel/scene_accel.h"
+#include "reference_hits.h"
 #include "test_scenes.h"
 
 using namespace ptir;
 
 namespace {
 
-// Every Gaussian evaluated with peak_response/hit_alpha (the functions the
-// traversal evaluates), accepted hits in [tmin, t_end) sorted by (t, id), cut where
-// the composited transmittance falls below min_transmittance.
+// The reference hits (reference_hits.h) of accel's Gaussians under its cull settings.
 std::vector<GaussianHit> naive_hits(const SceneAccel& accel, const Ray& r, float t_end) {
-  const CullSettings& cull = accel.settings().cull;
-  std::vector<GaussianHit> hits;
-  for (const GaussianTraceData& g : accel.trace_data()) {
-    PeakResponse p = peak_response(g, r.o, r.d);
-    if (!(p.t >= r.tmin) || !(p.t < t_end)) continue;
-    float a = hit_alpha(p.d2, g.opacity, g.accept_d2, cull);
-    if (a > 0) hits.push_back({p.t, a, g.id});
-  }
-  std::sort(hits.begin(), hits.end(), [](const GaussianHit& a, const GaussianHit& b) {
-    return a.t < b.t || (a.t == b.t && a.id < b.id);
-  });
-  float T = 1;
-  for (size_t i = 0; i < hits.size(); ++i) {
-    T *= 1 - hits[i].alpha;
-    if (T < cull.min_transmittance) {
-      hits.resize(i + 1);
-      break;
-    }
-  }
-  return hits;
+  return test::naive_hits(accel.trace_data(), r, t_end, accel.settings().cull);
 }
 
 // Closest mesh hit of the quads used here (planes z = const), by hand.
@@ -97,15 +77,6 @@ LaneResult single_hits(const SceneAccel& accel, const Ray& r, bool stop_when_opa
   return out;
 }
 
-void expect_same(const std::vector<GaussianHit>& a, const std::vector<GaussianHit>& b, const std::string& what) {
-  ASSERT_EQ(a.size(), b.size()) << what;
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i].id, b[i].id) << what << " hit " << i;
-    EXPECT_EQ(a[i].t, b[i].t) << what << " hit " << i;
-    EXPECT_EQ(a[i].alpha, b[i].alpha) << what << " hit " << i;
-  }
-}
-
 void expect_same_end(const WalkEnd& a, const WalkEnd& b, const std::string& what) {
   EXPECT_EQ(a.stopped, b.stopped) << what;
   ASSERT_EQ(a.mesh.valid, b.mesh.valid) << what;
@@ -157,9 +128,9 @@ TEST_P(PacketWalkVsNaive, EveryLaneMatchesNaiveAndWalk) {
       std::vector<LaneResult> got = packet_hits(accel, rays, opaque_walk);
       for (int l = 0; l < n; ++l) {
         std::string what = "packet " + std::to_string(p) + " lane " + std::to_string(l);
-        expect_same(got[l].hits, naive_hits(accel, rays[l], rays[l].tmax), what);
+        test::expect_same_hits(got[l].hits, naive_hits(accel, rays[l], rays[l].tmax), what);
         LaneResult one = single_hits(accel, rays[l], opaque_walk);
-        expect_same(got[l].hits, one.hits, what);
+        test::expect_same_hits(got[l].hits, one.hits, what);
         expect_same_end(got[l].end, one.end, what);
         total += got[l].hits.size();
       }
@@ -187,8 +158,8 @@ TEST(PacketWalk, LanesFinishAtDifferentRounds) {
   accel.walk_packet(rays.data(), 8, [&](int l, const GaussianHit& h) { got[l].hits.push_back(h); return true; }, ends,
                     &stats);
   for (int l = 0; l < 8; ++l) {
-    expect_same(got[l].hits, naive_hits(accel, rays[l], rays[l].tmax), "lane " + std::to_string(l));
-    expect_same(got[l].hits, single_hits(accel, rays[l], false).hits, "lane " + std::to_string(l));
+    test::expect_same_hits(got[l].hits, naive_hits(accel, rays[l], rays[l].tmax), "lane " + std::to_string(l));
+    test::expect_same_hits(got[l].hits, single_hits(accel, rays[l], false).hits, "lane " + std::to_string(l));
   }
   EXPECT_EQ(got[0].hits.size(), 21u);
   EXPECT_EQ(got[7].hits.size(), 100u);
@@ -207,7 +178,7 @@ TEST(PacketWalk, VisitorStopsLanesIndependently) {
     std::vector<LaneResult> got = packet_hits(accel, rays, false, stop_after);
     for (int l = 0; l < 16; ++l) {
       LaneResult one = single_hits(accel, rays[l], false, stop_after[l]);
-      expect_same(got[l].hits, one.hits, "lane " + std::to_string(l));
+      test::expect_same_hits(got[l].hits, one.hits, "lane " + std::to_string(l));
       expect_same_end(got[l].end, one.end, "lane " + std::to_string(l));
     }
   }
@@ -230,12 +201,12 @@ TEST(PacketWalk, MeshesEndLanesLikeWalk) {
         for (size_t l = 0; l < rays.size(); ++l) {
           std::string what = "k " + std::to_string(k) + " packet " + std::to_string(p) + " lane " + std::to_string(l);
           LaneResult one = single_hits(accel, rays[l], opaque_walk);
-          expect_same(got[l].hits, one.hits, what);
+          test::expect_same_hits(got[l].hits, one.hits, what);
           expect_same_end(got[l].end, one.end, what);
           // Against the reference where the lane is not grazing a wall's edge.
           float t_mesh = wall_t(rays[l], meshes);
           if (got[l].end.mesh.valid || got[l].end.stopped || !std::isfinite(t_mesh))
-            expect_same(got[l].hits, naive_hits(accel, rays[l], t_mesh), what);
+            test::expect_same_hits(got[l].hits, naive_hits(accel, rays[l], t_mesh), what);
           mesh_lanes += got[l].end.mesh.valid;
           opaque_lanes += got[l].end.stopped;
         }

@@ -15,6 +15,7 @@
 #include "ptir/core/error.h"
 #include "ptir/io/atomic_file.h"
 #include "ptir/io/ply.h"
+#include "expect_error.h"
 
 using namespace ptir;
 using namespace ptir::io;
@@ -37,24 +38,11 @@ std::string get_file(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(f), {});
 }
 
-// Expects fn() to throw ptir::Error whose message names the path and contains every phrase.
-template <typename F>
-void expect_ply_error(F&& fn, const std::string& path, std::initializer_list<std::string> phrases) {
-  try {
-    fn();
-    ADD_FAILURE() << "no error thrown for " << path;
-  } catch (const ptir::Error& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find(path), std::string::npos) << msg;
-    for (const std::string& p : phrases) EXPECT_NE(msg.find(p), std::string::npos) << "'" << p << "' not in: " << msg;
-  }
-}
-
 // Writes `header` + `body` to a temp file and expects read_ply to fail with the phrases.
 void expect_bad_ply(const std::string& name, const std::string& contents, std::initializer_list<std::string> phrases) {
   const std::string path = ply_tmp(name);
   put_file(path, contents);
-  expect_ply_error([&] { read_ply(path); }, path, phrases);
+  test::expect_error([&] { read_ply(path); }, path, phrases);
 }
 
 // One row of the round-trip data set: one value of each scalar type and a list.
@@ -230,8 +218,8 @@ TEST(PlyIo, AccessorsAndSetFloatColumn) {
   v.set_float_column("new", {4, 5, 6});  // appended
   EXPECT_EQ(v.properties.back().name, "new");
   EXPECT_EQ(v.column_as_float("c", in), (std::vector<float>{1, 2, 3}));
-  expect_ply_error([&] { v.column_as_float("missing", in); }, in, {"no property 'missing'"});
-  expect_ply_error([&] { v.column_as_float("idx", in); }, in, {"is a list"});
+  test::expect_error([&] { v.column_as_float("missing", in); }, in, {"no property 'missing'"});
+  test::expect_error([&] { v.column_as_float("idx", in); }, in, {"is a list"});
 }
 
 TEST(PlyIo, HeaderErrors) {
@@ -319,7 +307,8 @@ TEST(PlyIo, HeaderCutAnywhereIsTruncated) {
   // The case a user met: the cut falls inside "f_rest_12".
   const std::string cut = header.substr(0, header.find("f_rest_12") + std::string("f_rest_1").size());
   put_file(path, cut);
-  expect_ply_error([&] { read_ply(path); }, path, {"truncated", "in the middle of the line 'property float f_rest_1'"});
+  test::expect_error([&] { read_ply(path); }, path,
+                     {"truncated", "in the middle of the line 'property float f_rest_1'"});
   // A whole header whose end_header has no line break is still a header.
   put_file(path, "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nend_header");
   EXPECT_EQ(read_ply(path).elements.at(0).count, 0u);
@@ -327,16 +316,16 @@ TEST(PlyIo, HeaderCutAnywhereIsTruncated) {
 
 TEST(PlyIo, MissingFileAndWriteFailure) {
   const std::string missing = ply_tmp("does_not_exist.ply");
-  expect_ply_error([&] { read_ply(missing); }, missing, {"cannot open file", "No such file"});
+  test::expect_error([&] { read_ply(missing); }, missing, {"cannot open file", "No such file"});
   PlyFile ply;
   ply.elements.push_back({"vertex", 1, {}});
   ply.elements[0].set_float_column("x", {1.0f});
   const std::string bad = ply_tmp("no_such_dir/out.ply");
-  expect_ply_error([&] { write_ply(bad, ply); }, bad, {"cannot write file"});
+  test::expect_error([&] { write_ply(bad, ply); }, bad, {"cannot write file"});
   // A column with the wrong size is refused before anything is written.
   ply.elements[0].properties[0].data.resize(3);
   const std::string shape = ply_tmp("shape.ply");
-  expect_ply_error([&] { write_ply(shape, ply); }, shape, {"property 'x'", "bytes"});
+  test::expect_error([&] { write_ply(shape, ply); }, shape, {"property 'x'", "bytes"});
   EXPECT_FALSE(std::filesystem::exists(shape));
   // A failure part-way (a list too long for its count type) keeps the old file and leaves no temp.
   PlyFile lists;
@@ -351,7 +340,7 @@ TEST(PlyIo, MissingFileAndWriteFailure) {
   lists.elements[0].properties.push_back(list);
   const std::string kept = ply_tmp("kept.ply");
   put_file(kept, "old contents");
-  expect_ply_error([&] { write_ply(kept, lists); }, kept, {"300 items", "too many"});
+  test::expect_error([&] { write_ply(kept, lists); }, kept, {"300 items", "too many"});
   EXPECT_EQ(get_file(kept), "old contents");
   for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(kept).parent_path()))
     EXPECT_EQ(entry.path().filename().string().find(".ptir-tmp-"), std::string::npos) << entry.path();

@@ -9,6 +9,7 @@
 #include "ptir/accel/scene_accel.h"
 #include "ptir/render/aov.h"
 #include "ptir/transport/interaction.h"
+#include "reference_hits.h"
 #include "test_scenes.h"
 
 using namespace ptir;
@@ -42,28 +43,7 @@ double naive_mesh_t(const Ray& r, const std::vector<TriangleMesh>& meshes) {
   return best;
 }
 
-// Every Gaussian evaluated, accepted hits in [tmin, t_end) sorted by (t, id), then the
-// front-to-back early stop applied.
-std::vector<GaussianHit> naive_hits(const std::vector<GaussianTraceData>& data, const Ray& r, float t_end,
-                                    const CullSettings& cull) {
-  std::vector<GaussianHit> hits;
-  for (uint32_t i = 0; i < data.size(); ++i) {
-    PeakResponse p = peak_response(data[i], r.o, r.d);
-    if (!(p.t >= r.tmin) || !(p.t < t_end)) continue;
-    float a = hit_alpha(p.d2, data[i].opacity, data[i].accept_d2, cull);
-    if (a > 0) hits.push_back({p.t, a, data[i].id});
-  }
-  std::sort(hits.begin(), hits.end(), [](const GaussianHit& a, const GaussianHit& b) { return a.t < b.t || (a.t == b.t && a.id < b.id); });
-  float T = 1;
-  for (size_t i = 0; i < hits.size(); ++i) {
-    T *= 1 - hits[i].alpha;
-    if (T < cull.min_transmittance) {
-      hits.resize(i + 1);
-      break;
-    }
-  }
-  return hits;
-}
+using test::naive_hits;
 
 // The walk with a compositing visitor; with stop_when_opaque the traversal also
 // prunes behind the point where the ray turns opaque.
@@ -94,12 +74,7 @@ Ray random_ray(std::mt19937& rng, bool inside) {
 }
 
 void expect_same_hits(const std::vector<GaussianHit>& a, const std::vector<GaussianHit>& b, int ray) {
-  ASSERT_EQ(a.size(), b.size()) << "ray " << ray;
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i].id, b[i].id) << "ray " << ray << " hit " << i;
-    EXPECT_EQ(a[i].t, b[i].t) << "ray " << ray << " hit " << i;
-    EXPECT_EQ(a[i].alpha, b[i].alpha) << "ray " << ray << " hit " << i;
-  }
+  test::expect_same_hits(a, b, "ray " + std::to_string(ray));
 }
 
 }  // namespace

@@ -75,6 +75,51 @@ def write_transforms(path, matrices, fov_x=math.radians(40.0), size=(32, 32)):
     return Path(path)
 
 
+def fibonacci_sphere(n):
+    """n points spread evenly over the unit sphere (the Fibonacci lattice), from the top down."""
+    i = np.arange(n) + 0.5
+    z = 1 - 2 * i / n
+    r = np.sqrt(1 - z * z)
+    phi = i * math.pi * (3 - math.sqrt(5))
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
+
+
+def quat_z_to(n):
+    """Unit quaternions (w, x, y, z) rotating +z onto each row of n."""
+    q = np.zeros((len(n), 4))
+    for k, v in enumerate(n):
+        c, d = np.cross([0, 0, 1.0], v), v[2]
+        q[k] = (0, 1, 0, 0) if d < -0.999999 else np.array([1 + d, *c]) / np.linalg.norm([1 + d, *c])
+    return q
+
+
+def sphere_scene(ptir, folder, n, sky, cameras):
+    """The sphere capture of the optimiser tests, made in `folder`; returns (scene, positions, albedo).
+
+    g.ply: n flat Gaussians tangent to the unit sphere at Fibonacci points, facing out, 0.7 of the
+    point spacing wide and 1e-3 of it thick; env.exr: an 8 x 16 lat-long sky whose row r is
+    (red - r red_step, green - r green_step, 1) for sky = ((red, red_step), (green, green_step)),
+    with a sun texel (8, 7, 5) at row 1, column 4; the cameras of `cameras`, a transforms file in
+    `folder` the caller has written; albedo warm on top (0.7, 0.3, 0.2), cool below (0.2, 0.5, 0.7).
+    Roughness is the caller's to set.
+    """
+    folder = Path(folder)
+    p = fibonacci_sphere(n)
+    spacing = math.sqrt(4 * math.pi / n)
+    write_splat_ply(folder / "g.ply", p, (0.7 * spacing, 0.7 * spacing, 1e-3 * spacing), quat=quat_z_to(p))
+    (red, red_step), (green, green_step) = sky
+    env = np.zeros((8, 16, 3), np.float32)
+    for r in range(8):
+        env[r] = [red - red_step * r, green - green_step * r, 1.0]
+    env[1, 4] = [8, 7, 5]
+    ptir.write_image(str(folder / "env.exr"), env)
+    scene = ptir.scene_from_dict({"gaussians": [{"file": "g.ply"}], "environment": {"type": "latlong", "file": "env.exr"},
+                                  "cameras": [{"transforms": cameras}]}, base_dir=str(folder))
+    albedo = np.where(p[:, 2:3] > 0, [[0.7, 0.3, 0.2]], [[0.2, 0.5, 0.7]]).astype(np.float32)
+    scene.gaussians.albedo = albedo
+    return scene, p, albedo
+
+
 @pytest.fixture(scope="session")
 def ptir():
     """The native module from the build folder."""

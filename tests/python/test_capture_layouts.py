@@ -19,8 +19,7 @@ import numpy as np
 import pytest
 
 from blender_kit import look_at
-from ptir_testing import REPO, write_splat_ply
-from test_optimize_cli import fibonacci, quat_z_to
+from ptir_testing import REPO, sphere_scene
 
 sys.path.insert(0, str(REPO / "scripts"))
 from dataset import capture  # noqa: E402
@@ -32,14 +31,6 @@ RES, N_VIEWS, FOV_X = 40, 16, 0.7
 def capture_dirs(ptir, tmp_path_factory):
     src = tmp_path_factory.mktemp("capture_src")
     n = 500
-    p = fibonacci(n)
-    spacing = math.sqrt(4 * math.pi / n)
-    write_splat_ply(src / "g.ply", p, (0.7 * spacing, 0.7 * spacing, 1e-3 * spacing), quat=quat_z_to(p))
-    env = np.zeros((8, 16, 3), np.float32)
-    for r in range(8):
-        env[r] = [1.3 - 0.12 * r, 1.2 - 0.1 * r, 1.0]
-    env[1, 4] = [8, 7, 5]
-    ptir.write_image(str(src / "env.exr"), env)
     mats = []
     for i in range(N_VIEWS):
         phi = 2 * math.pi * i / N_VIEWS
@@ -47,10 +38,7 @@ def capture_dirs(ptir, tmp_path_factory):
     frames = [{"file_path": "v%d" % i, "transform_matrix": m.tolist()} for i, m in enumerate(mats)]
     # Rendered at twice the photo size: the photos are box-filtered down after the lens warp.
     (src / "cams.json").write_text(json.dumps({"camera_angle_x": FOV_X, "w": 2 * RES, "h": 2 * RES, "frames": frames}))
-    scene = ptir.scene_from_dict({"gaussians": [{"file": "g.ply"}], "environment": {"type": "latlong", "file": "env.exr"},
-                                  "cameras": [{"transforms": "cams.json"}]}, base_dir=str(src))
-    truth = np.where(p[:, 2:3] > 0, [[0.7, 0.3, 0.2]], [[0.2, 0.5, 0.7]]).astype(np.float32)
-    scene.gaussians.albedo = truth
+    scene, _, truth = sphere_scene(ptir, src, n, ((1.3, 0.12), (1.2, 0.1)), "cams.json")
     scene.gaussians.roughness = np.full(n, 0.6, np.float32)
     views = []
     for i in range(N_VIEWS):

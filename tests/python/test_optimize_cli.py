@@ -18,49 +18,20 @@ import numpy as np
 import pytest
 
 from blender_kit import look_at
-from ptir_testing import write_splat_ply
-
-
-def fibonacci(n):
-    i = np.arange(n) + 0.5
-    z = 1 - 2 * i / n
-    r = np.sqrt(1 - z * z)
-    phi = i * math.pi * (3 - math.sqrt(5))
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
-
-
-def quat_z_to(n):
-    """Unit quaternions (w, x, y, z) rotating +z onto each row of n."""
-    q = np.zeros((len(n), 4))
-    for k, v in enumerate(n):
-        c, d = np.cross([0, 0, 1.0], v), v[2]
-        q[k] = (0, 1, 0, 0) if d < -0.999999 else np.array([1 + d, *c]) / np.linalg.norm([1 + d, *c])
-    return q
+from ptir_testing import sphere_scene
 
 
 @pytest.fixture(scope="module")
 def dataset(ptir, tmp_path_factory):
     out = tmp_path_factory.mktemp("optimize_ds")
-    n = 600
-    p = fibonacci(n)
-    spacing = math.sqrt(4 * math.pi / n)
-    write_splat_ply(out / "g.ply", p, (0.7 * spacing, 0.7 * spacing, 1e-3 * spacing), quat=quat_z_to(p), opacity=0.95)
-    env = np.zeros((8, 16, 3), np.float32)
-    for r in range(8):
-        env[r] = [1.6 - 0.15 * r, 1.4 - 0.12 * r, 1.0]
-    env[1, 4] = [8, 7, 5]
-    ptir.write_image(str(out / "env.exr"), env)
     frames = []
     for i in range(6):
         phi = 2 * math.pi * i / 6
         eye = (3.5 * math.cos(phi), 3.5 * math.sin(phi), 1.0 + 0.6 * (i % 2))
         frames.append({"file_path": "./train_%03d/rgba" % i, "transform_matrix": look_at(eye, (0, 0, 0)).tolist()})
     (out / "transforms_train.json").write_text(json.dumps({"camera_angle_x": 0.7, "w": 32, "h": 32, "frames": frames}))
-    scene = ptir.scene_from_dict({"gaussians": [{"file": "g.ply"}], "environment": {"type": "latlong", "file": "env.exr"},
-                                  "cameras": [{"transforms": "transforms_train.json"}]}, base_dir=str(out))
-    g = scene.gaussians
-    g.albedo = np.where(p[:, 2:3] > 0, [[0.7, 0.3, 0.2]], [[0.2, 0.5, 0.7]]).astype(np.float32)
-    g.roughness = np.where(p[:, 2] > 0, 0.3, 0.7).astype(np.float32)
+    scene, p, _ = sphere_scene(ptir, out, 600, ((1.6, 0.15), (1.4, 0.12)), "transforms_train.json")
+    scene.gaussians.roughness = np.where(p[:, 2] > 0, 0.3, 0.7).astype(np.float32)
     for i in range(6):
         img = scene.render(i, spp=32, bounces=2)
         (out / ("train_%03d" % i)).mkdir()
