@@ -30,7 +30,7 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     env_smooth10  the same prior at 1e-2; env_smooth_off: 0
     env_chroma    colour-consistency prior on the environment (--lambda-env-chroma 3); env_chroma30: 30
     init_albedo5/7  the albedo starts at 0.5 / 0.7 instead of 0.3 (--init-albedo)
-    balance       learn the light-albedo balance (--light-balance 1)
+    balance       learn the light-albedo balance (--light-balance 1); no_balance: without it (--light-balance 0)
     lr_env3       the environment's rate 3x (--lr-env 0.105)
     fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
@@ -85,6 +85,7 @@ ROWS = {
     "init_albedo5": ["--init-albedo", "0.5"],
     "init_albedo7": ["--init-albedo", "0.7"],
     "balance": ["--light-balance", "1"],
+    "no_balance": ["--light-balance", "0"],
     "balance3_s25": ["--light-balance", "1", "--lr-balance", "0.03", "--balance-start", "0.25"],
     "lr_env3": ["--lr-env", "0.105"],
     "fine_warmup": ["--env-fine-warmup", "0.5"],
