@@ -86,6 +86,7 @@ ROWS = {
     "init_albedo7": ["--init-albedo", "0.7"],
     "balance": ["--light-balance", "1"],
     "no_balance": ["--light-balance", "0"],
+    "balance3_s50": ["--light-balance", "1", "--lr-balance", "0.03", "--balance-start", "0.5"],
     "balance3_s25": ["--light-balance", "1", "--lr-balance", "0.03", "--balance-start", "0.25"],
     "lr_env3": ["--lr-env", "0.105"],
     "fine_warmup": ["--env-fine-warmup", "0.5"],
