@@ -72,6 +72,21 @@ def check(cond, what):
         raise AssertionError(what)
 
 
+def spec_scene_with_splats():
+    """The checks driven by a SPEC.json (argv: SPEC.json WORK_DIR): an empty scene with the spec's
+    "input" splat PLY imported. Returns (spec, work_dir, the splat object)."""
+    import json
+
+    import bpy
+    spec_path, work = argv()[:2]
+    spec = json.load(open(spec_path))
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    r = bpy.ops.import_scene.gaussian_splat_ply(filepath=spec["input"])
+    check(r == {"FINISHED"}, "import splats")
+    return spec, work, bpy.context.active_object
+
+
 def run(main):
     try:
         main()

@@ -90,13 +90,7 @@ def optimise(spec, work, splats, name):
 
 
 def main():
-    spec_path, work = h.argv()[:2]
-    spec = json.load(open(spec_path))
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    r = bpy.ops.import_scene.gaussian_splat_ply(filepath=spec["input"])
-    h.check(r == {"FINISHED"}, "import splats")
-    splats = bpy.context.active_object
+    spec, work, splats = h.spec_scene_with_splats()
     stats = {}
     check_cameras(spec, stats)
     a = optimise(spec, work, splats, "identity")

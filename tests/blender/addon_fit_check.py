@@ -120,13 +120,7 @@ def fit_and_optimise(spec, splats, work, name, stats):
 
 
 def main():
-    spec_path, work = h.argv()[:2]
-    spec = json.load(open(spec_path))
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    r = bpy.ops.import_scene.gaussian_splat_ply(filepath=spec["input"])
-    h.check(r == {"FINISHED"}, "import splats")
-    splats = bpy.context.active_object
+    spec, work, splats = h.spec_scene_with_splats()
     stats = {}
     check_decisions(spec)
     cancel_during_fit(spec, splats, work, stats)

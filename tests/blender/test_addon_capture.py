@@ -37,14 +37,16 @@ def capture_dir(ptir, tmp_path_factory):
             "distortion": list(capture.DEFAULT_DISTORTION), "cameras": [m.tolist() for m in d["cameras"]]}
 
 
-def test_import_capture_cameras_and_optimise_from_colmap(capture_dir, tmp_path):
+def _check_stats(script, marker, capture_dir, tmp_path):
+    """Runs the Blender check `script` on the capture (its spec as JSON) and returns its `marker` stats."""
     spec = tmp_path / "spec.json"
     spec.write_text(json.dumps({k: str(v) if not isinstance(v, (int, float, list)) else v
                                 for k, v in capture_dir.items()}))
-    r = ac.run_blender("addon_capture_check.py", spec, tmp_path, timeout=600)
-    assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
-    line = next(l for l in r.stdout.splitlines() if l.startswith("CAPTURE_STATS: "))
-    stats = json.loads(line[len("CAPTURE_STATS: "):])
+    return ac.blender_result(script, marker, spec, tmp_path, timeout=600)
+
+
+def test_import_capture_cameras_and_optimise_from_colmap(capture_dir, tmp_path):
+    stats = _check_stats("addon_capture_check.py", "CAPTURE_STATS", capture_dir, tmp_path)
     print("capture: %s" % stats)
     assert stats["cameras"] == 6
     assert stats["max_projection_error_px"] < 0.02
@@ -53,13 +55,7 @@ def test_import_capture_cameras_and_optimise_from_colmap(capture_dir, tmp_path):
 def test_optimise_fits_the_geometry_of_a_capture(capture_dir, tmp_path):
     """The geometry stage in the optimise flow (addon_fit_check.py): on by default for the COLMAP
     capture, cancellable, the fitted splats replace the object's (also when it is moved)."""
-    spec = tmp_path / "spec.json"
-    spec.write_text(json.dumps({k: str(v) if not isinstance(v, (int, float, list)) else v
-                                for k, v in capture_dir.items()}))
-    r = ac.run_blender("addon_fit_check.py", spec, tmp_path, timeout=600)
-    assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
-    line = next(l for l in r.stdout.splitlines() if l.startswith("FIT_STATS: "))
-    stats = json.loads(line[len("FIT_STATS: "):])
+    stats = _check_stats("addon_fit_check.py", "FIT_STATS", capture_dir, tmp_path)
     print("fit in the optimise flow: %s" % stats)
     for name in ("identity", "moved"):
         assert stats[name]["loss_last_epoch"] < 0.9 * stats[name]["loss_first_epoch"]
