@@ -104,8 +104,10 @@ def optimise(a, row, out_dir, meta):
     env = os.path.join(a.dataset, meta["envmaps"][meta["train_env"]])
     subst = {"env": env, "oracle_ply": os.path.join(a.dataset, "oracle", "gaussians.ply"),
              "spp4": str(4 * a.spp), "spp_quarter": str(max(1, a.spp // 4)), "iters4": str(4 * a.iters)}
-    flags = ["--iters", str(a.iters), "--spp", str(a.spp)]
-    flags += [f.format(**subst) for f in ROWS[row]] + shlex.split(a.extra)
+    row_flags = [f.format(**subst) for f in ROWS[row]] + shlex.split(a.extra)
+    # The row's own --iters / --spp replace the run's (the CLI takes each once).
+    flags = [f for opt, val in (("--iters", a.iters), ("--spp", a.spp)) if opt not in row_flags for f in (opt, str(val))]
+    flags += row_flags
     if "--gaussians" not in flags:
         flags += ["--gaussians", os.path.join(a.dataset, "gaussians.ply")]
     cmd = [a.ptir, "optimize", "--dataset", a.dataset, "--out", os.path.join(out_dir, "result"), "--seed", str(a.seed),
