@@ -90,14 +90,7 @@ int run_fit(FitCommand& o) {
     return true;
   };
   auto previous = install_sigint();
-  RunResult r;
-  try {
-    r = run_geometry_fit(fit, ro);
-  } catch (...) {
-    restore_sigint(previous);
-    throw;
-  }
-  restore_sigint(previous);
+  const RunResult r = with_sigint_restored(previous, [&] { return run_geometry_fit(fit, ro); });
   if (r == RunResult::Cancelled) {
     std::fprintf(stderr, "ptir: interrupted after iteration %d; wrote %s and the outputs in %s (continue with --resume)\n",
                  fit.iteration(), ckpt.c_str(), o.out.c_str());

@@ -228,14 +228,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
                  l.views.c_str());
     return true;
   };
-  RunResult r;
-  try {
-    r = run_optimizer(opt, ro);
-  } catch (...) {
-    restore_sigint(previous);
-    throw;
-  }
-  restore_sigint(previous);
+  const RunResult r = with_sigint_restored(previous, [&] { return run_optimizer(opt, ro); });
   if (opt.nonfinite_gradients() > 0 && !o.quiet)
     std::fprintf(stderr, "warning: %zu non-finite gradient entries were dropped\n", opt.nonfinite_gradients());
   if (r == RunResult::Cancelled) {

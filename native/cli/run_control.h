@@ -16,6 +16,19 @@ using SignalHandler = void (*)(int);
 SignalHandler install_sigint();
 void restore_sigint(SignalHandler previous);
 
+// f()'s result, with the Ctrl-C handler set back to `previous` afterwards (also when f throws).
+template <class F>
+auto with_sigint_restored(SignalHandler previous, F&& f) -> decltype(f()) {
+  try {
+    auto r = f();
+    restore_sigint(previous);
+    return r;
+  } catch (...) {
+    restore_sigint(previous);
+    throw;
+  }
+}
+
 // "12.3s", "4m05s", "1h02m"; "?" for a negative or non-finite value.
 std::string duration_text(double seconds);
 

@@ -48,7 +48,7 @@ using test::naive_hits;
 // The walk with a compositing visitor; with stop_when_opaque the traversal also
 // prunes behind the point where the ray turns opaque.
 std::vector<GaussianHit> walk_hits(const SceneAccel& accel, const Ray& r, bool stop_when_opaque = false,
-                                   WalkEnd* end_out = nullptr) {
+                                   WalkEnd* end_out = nullptr, const HitTest* skip = nullptr) {
   std::vector<GaussianHit> hits;
   float T = 1;
   WalkEnd end = accel.walk(
@@ -58,7 +58,7 @@ std::vector<GaussianHit> walk_hits(const SceneAccel& accel, const Ray& r, bool s
         T *= 1 - h.alpha;
         return T >= accel.settings().cull.min_transmittance;
       },
-      nullptr, stop_when_opaque);
+      nullptr, stop_when_opaque, skip);
   if (end_out) *end_out = end;
   return hits;
 }
@@ -275,16 +275,8 @@ TEST(Traversal, SkippedHitsLeaveTheOpaqueWalkAsIfAbsent) {
         T *= 1 - h.alpha;
         if (T < settings.cull.min_transmittance) break;
       }
-      std::vector<GaussianHit> got;
-      float T_walk = 1;
-      WalkEnd end = accel.walk(
-          r,
-          [&](const GaussianHit& h) {
-            got.push_back(h);
-            T_walk *= 1 - h.alpha;
-            return T_walk >= settings.cull.min_transmittance;
-          },
-          nullptr, /*stop_when_opaque=*/true, &skip);
+      WalkEnd end;
+      std::vector<GaussianHit> got = walk_hits(accel, r, /*stop_when_opaque=*/true, &end, &skip);
       if (std::isfinite(t_mesh) && !end.stopped && !end.mesh.valid) continue;  // grazing a wall edge
       opaque_rays += end.stopped;
       expect_same_hits(got, expected, i);
