@@ -33,6 +33,8 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     balance       learn the light-albedo balance (--light-balance 1); no_balance: without it (--light-balance 0)
     lr_env3       the environment's rate 3x (--lr-env 0.105)
     fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
+    correlated    one set of samples for the loss and its replay (--decorrelate-adjoint 0)
+    huber2/5/10   Huber's function with knee 0.02 / 0.05 / 0.1 for the L1 term (--huber-delta)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
 Extra optimize flags for every row: --extra "...".
 
@@ -90,6 +92,10 @@ ROWS = {
     "balance3_s25": ["--light-balance", "1", "--lr-balance", "0.03", "--balance-start", "0.25"],
     "lr_env3": ["--lr-env", "0.105"],
     "fine_warmup": ["--env-fine-warmup", "0.5"],
+    "correlated": ["--decorrelate-adjoint", "0"],
+    "huber2": ["--huber-delta", "0.02"],
+    "huber5": ["--huber-delta", "0.05"],
+    "huber10": ["--huber-delta", "0.1"],
 }
 
 

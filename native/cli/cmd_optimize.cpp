@@ -303,6 +303,12 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--light-balance", o->opt.light_balance,
                   "learn the light-albedo balance: one scale per channel moving all albedos against the environment (lat-long)")
       ->capture_default_str();
+  cmd->add_option("--decorrelate-adjoint", o->opt.decorrelate_adjoint,
+                  "weight each half of the samples' gradient by the image loss of the other, independent half (unbiased by the render's noise)")
+      ->capture_default_str();
+  cmd->add_option("--huber-delta", o->opt.huber_delta,
+                  "knee of the image loss's L1 term in loss-space units: quadratic below it, so render noise does not bias the gradient (0: plain L1)")
+      ->capture_default_str();
   cmd->add_option("--lr-balance", o->opt.lr_balance, "the light-albedo balance's Adam learning rate")->capture_default_str();
   cmd->add_option("--balance-start", o->opt.balance_start, "fraction of the iterations before the light-albedo balance learns")
       ->capture_default_str();

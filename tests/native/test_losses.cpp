@@ -219,6 +219,26 @@ TEST(Losses, L1KnownValues) {
   EXPECT_NEAR(image_loss(p, t, nullptr, s, nullptr), expect, 1e-7);
 }
 
+TEST(Losses, HuberKnownValues) {
+  // The L1KnownValues pair with a knee at 0.3: |diff| .1 .2 .2 .25 are inside
+  // (x^2 / 0.6), .5 and 1 outside (|x| - 0.15).
+  Image p = make_image(2, 2, 3), t = make_image(2, 2, 3);
+  const float pv[12] = {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 1.0f, 0.0f, 0.5f};
+  const float tv[12] = {0.0f, 0.4f, 0.3f, 0.4f, 0.0f, 0.6f, 0.5f, 0.8f, 0.9f, 0.0f, 0.0f, 0.25f};
+  for (int i = 0; i < 12; ++i) p.pixels[size_t(i)] = pv[i], t.pixels[size_t(i)] = tv[i];
+  ImageLossSettings s;
+  s.lambda_ssim = 0.0f;
+  s.binomial_filter = false;
+  s.huber_delta = 0.3f;
+  const double inside = (0.01 + 0.04 + 0.04 + 0.0625) / 0.6, outside = (0.5 - 0.15) + (1.0 - 0.15);
+  Image d;
+  EXPECT_NEAR(image_loss(p, t, nullptr, s, &d), (inside + outside) / 12.0, 1e-6);
+  EXPECT_NEAR(d.pixels[0], 0.1 / 0.3 / 12.0, 1e-6);   // inside: linear in the difference
+  EXPECT_NEAR(d.pixels[1], -0.2 / 0.3 / 12.0, 1e-6);
+  EXPECT_FLOAT_EQ(d.pixels[4], 1.0f / 12.0f);          // outside: L1's slope
+  EXPECT_FLOAT_EQ(d.pixels[2], 0.0f);
+}
+
 TEST(Losses, MaskedVersusUnmasked) {
   Image p = random_image(30, 26, 4, 10), t = random_image(30, 26, 3, 11);
   ImageLossSettings s;
@@ -264,17 +284,20 @@ TEST(Losses, ImageLossGradientMatchesFiniteDifferences) {
     float lambda;
     bool blur;
     const Image* mask;
+    float huber = 0.0f;
   };
   const Variant variants[] = {{"L1 + D-SSIM, binomial", 0.2f, true, nullptr},
                               {"L1 + D-SSIM, binomial, masked", 0.2f, true, &mask},
                               {"D-SSIM only, no blur", 1.0f, false, nullptr},
                               {"D-SSIM only, binomial, masked", 1.0f, true, &mask},
-                              {"L1 only, no blur, masked", 0.0f, false, &mask}};
+                              {"L1 only, no blur, masked", 0.0f, false, &mask},
+                              {"Huber 0.15 + D-SSIM, binomial, masked", 0.2f, true, &mask, 0.15f}};
   uint32_t seed = 100;
   for (const Variant& v : variants) {
     ImageLossSettings s;
     s.lambda_ssim = v.lambda;
     s.binomial_filter = v.blur;
+    s.huber_delta = v.huber;
     const Image& target = v.blur ? t : t_noblur;
     Image d;
     image_loss(p, target, v.mask, s, &d);

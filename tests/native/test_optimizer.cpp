@@ -21,6 +21,7 @@
 #include "ptir/render/aov.h"
 #include "ptir/render/render_path.h"
 #include "ptir/scene/gaussian_ply.h"
+#include "optimizer_fixture.h"
 #include "test_scenes.h"
 
 namespace fs = std::filesystem;
@@ -28,112 +29,11 @@ using namespace ptir;
 
 namespace {
 
-fs::path fresh_dir(const std::string& name) {
-  fs::path d = fs::path(PTIR_TEST_TMP) / "optimizer" / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-Camera look_at(Vec3 eye, Vec3 target, int res, const std::string& name) {
-  Vec3 back = normalize(eye - target);
-  Vec3 right = normalize(cross(Vec3(0, 0, 1), back));
-  Vec3 up = cross(back, right);
-  float m[16] = {right.x, up.x, back.x, eye.x, right.y, up.y, back.y, eye.y, right.z, up.z, back.z, eye.z, 0, 0, 0, 1};
-  return make_camera(m, 0.7f, res, res, name);
-}
-
-// A sky: brighter and bluer toward +z, one hot texel.
-Environment sky(int w = 16, int h = 8) {
-  Image img(w, h, {"R", "G", "B"});
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      float t = float(y) / float(h - 1);
-      img.at(x, y, 0) = 1.5f - 1.0f * t;
-      img.at(x, y, 1) = 1.4f - 0.8f * t;
-      img.at(x, y, 2) = 1.2f - 0.4f * t;
-    }
-  img.at(w / 4, 1, 0) = 6.0f;
-  img.at(w / 4, 1, 1) = 5.0f;
-  img.at(w / 4, 1, 2) = 4.0f;
-  return Environment(img);
-}
-
-// Ground truth: a sphere of Gaussians, warm top, cool bottom.
-GaussianField truth_field(size_t n) {
-  GaussianField f = test::gaussian_sphere(n, 1.0f, Vec3(0.3f), 0.6f, 0.0f, 0.95f);
-  for (size_t i = 0; i < n; ++i) {
-    bool top = f.position[i].z > 0;
-    f.albedo[i] = top ? Vec3(0.7f, 0.35f, 0.2f) : Vec3(0.2f, 0.45f, 0.7f);
-    f.roughness[i] = top ? 0.3f : 0.7f;
-  }
-  return f;
-}
-
-// Renders `views` training views of the truth into `dir` (TensoIR layout, RGBA EXR)
-// and returns the dataset.
-std::shared_ptr<const Dataset> make_dataset(const fs::path& dir, size_t n, int views, int res, int spp) {
-  Scene truth;
-  truth.gaussians = std::make_shared<GaussianField>(truth_field(n));
-  truth.environment = sky();
-  PathTracer tracer(truth);
-  IntegratorSettings s;
-  s.spp = spp;
-  s.max_bounces = 1;
-  std::ostringstream js;
-  js << "{\"camera_angle_x\": 0.7, \"frames\": [";
-  for (int i = 0; i < views; ++i) {
-    float phi = 2.0f * kPi * float(i) / float(views);
-    Vec3 eye(3.5f * std::cos(phi), 3.5f * std::sin(phi), (i % 2) ? 1.6f : -0.8f);
-    std::string name = "train_00" + std::to_string(i);
-    Camera cam = look_at(eye, Vec3(0.0f), res, name);
-    Image img = render_path(tracer, cam, s);
-    for (int p = 0; p < res * res; ++p)
-      for (int c = 0; c < 3; ++c) img.pixels[size_t(p) * 4 + c] *= img.pixels[size_t(p) * 4 + 3];  // EXR: associated alpha
-    fs::create_directories(dir / name);
-    write_image((dir / name / "rgba.exr").string(), img);
-    const Affine& a = cam.cam_to_world;
-    js << (i ? "," : "") << "{\"file_path\": \"./" << name << "/rgba\", \"transform_matrix\": [";
-    for (int r = 0; r < 3; ++r)
-      js << "[" << a.linear.m[r][0] << "," << a.linear.m[r][1] << "," << a.linear.m[r][2] << "," << a.translation[r] << "],";
-    js << "[0,0,0,1]]}";
-  }
-  js << "]}";
-  std::ofstream(dir / "transforms_train.json") << js.str();
-  return std::shared_ptr<const Dataset>(load_dataset(dir.string()));
-}
-
-Scene input_scene(size_t n) {
-  Scene s;
-  GaussianField f = truth_field(n);
-  std::fill(f.albedo.begin(), f.albedo.end(), Vec3(0.5f));  // forgotten by the optimiser anyway
-  s.gaussians = std::make_shared<GaussianField>(std::move(f));
-  return s;
-}
-
-OptimizerSettings small_settings() {
-  OptimizerSettings s;
-  s.integrator.spp = 2;
-  s.integrator.max_bounces = 1;
-  s.params.env_width = 16;
-  s.params.env_height = 8;
-  s.seed = 7;
-  return s;
-}
-
-struct Fixture {
-  std::shared_ptr<const Dataset> data;
-  size_t n = 300;
-};
-
-const Fixture& fixture() {
-  static Fixture f = [] {
-    Fixture x;
-    x.data = make_dataset(fresh_dir("data"), x.n, 4, 24, 32);
-    return x;
-  }();
-  return f;
-}
+using test::fixture;
+using test::fresh_dir;
+using test::input_scene;
+using test::small_settings;
+using test::truth_field;
 
 bool same_state(const Optimizer& a, const Optimizer& b) {
   const Parameters &pa = a.parameters(), &pb = b.parameters();
@@ -293,7 +193,7 @@ TEST(Checkpoint, RoundTripAndCorruption) {
 }
 
 TEST(Optimizer, ViewsCoverEveryViewOncePerEpochAndCropsStayInside) {
-  const Fixture& fx = fixture();
+  const test::OptimizerFixture& fx = fixture();
   OptimizerSettings s = small_settings();
   s.views_per_iteration = 3;
   s.crop_size = 10;
@@ -330,11 +230,12 @@ TEST(Optimizer, ViewsCoverEveryViewOncePerEpochAndCropsStayInside) {
 // distribution unchanged, so again the same paths.
 TEST(Optimizer, ObjectiveGradientMatchesFiniteDifferences) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
-  const Fixture& fx = fixture();
+  const test::OptimizerFixture& fx = fixture();
   OptimizerSettings s = small_settings();
   s.integrator.spp = 4;
   s.views_per_iteration = 2;
   s.crop_size = 20;
+  s.decorrelate_adjoint = false;  // one set of samples: the gradient of the objective evaluate() returns
   Optimizer opt(input_scene(fx.n), fx.data, s);
   // Move away from the uniform start so that TV has something to act on.
   Parameters p0 = opt.parameters();
@@ -407,7 +308,7 @@ TEST(Optimizer, ResumeIsBitIdenticalForTheOtherEnvironmentModels) {
   // model fewer times than an uninterrupted one; the result must not depend on that
   // (the SG axes once drifted by an ulp per update).
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
-  const Fixture& fx = fixture();
+  const test::OptimizerFixture& fx = fixture();
   // Also the lat-long map with a coarse level, the learning-rate decay and the shared
   // second moment (their state is the iteration count and the Adam groups).
   for (EnvMode mode : {EnvMode::SG, EnvMode::Constant, EnvMode::LatLong}) {
@@ -440,7 +341,7 @@ TEST(Optimizer, ResumeIsBitIdenticalForTheOtherEnvironmentModels) {
 
 TEST(Optimizer, ResumeIsBitIdenticalToAnUninterruptedRun) {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
-  const Fixture& fx = fixture();
+  const test::OptimizerFixture& fx = fixture();
   OptimizerSettings s = small_settings();
   s.views_per_iteration = 2;
   s.crop_size = 16;
@@ -485,7 +386,7 @@ TEST(Optimizer, ResumeIsBitIdenticalToAnUninterruptedRun) {
 }
 
 TEST(Optimizer, CancelLeavesTheStateOfTheLastIteration) {
-  const Fixture& fx = fixture();
+  const test::OptimizerFixture& fx = fixture();
   Optimizer opt(input_scene(fx.n), fx.data, small_settings());
   opt.step();
   Parameters before = opt.parameters();
@@ -507,7 +408,7 @@ TEST(Optimizer, CancelLeavesTheStateOfTheLastIteration) {
 }
 
 TEST(Optimizer, LossDecreasesAndOutputsAreWritten) {
-  const Fixture& fx = fixture();
+  const test::OptimizerFixture& fx = fixture();
   OptimizerSettings s = small_settings();
   s.iterations = 60;
   s.integrator.spp = 4;
@@ -541,7 +442,7 @@ TEST(Optimizer, LossDecreasesAndOutputsAreWritten) {
 
 
 TEST(Optimizer, MaterialMapsEqualTheAovRenders) {
-  const Fixture& fx = fixture();
+  const test::OptimizerFixture& fx = fixture();
   Optimizer opt(input_scene(fx.n), fx.data, small_settings());
   Parameters p = opt.parameters();
   std::mt19937 rng(9);
@@ -568,7 +469,7 @@ TEST(Optimizer, MaterialMapsEqualTheAovRenders) {
 }
 
 TEST(Optimizer, SchedulesFollowTheirDefinitions) {
-  const Fixture& fx = fixture();
+  const test::OptimizerFixture& fx = fixture();
   OptimizerSettings s = small_settings();
   s.iterations = 100;
   s.lr_final = 0.1f;

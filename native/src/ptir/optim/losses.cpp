@@ -408,9 +408,11 @@ double image_loss(const Image& pred, const Image& target, const Image* mask, con
     if (wsum > 0.0) {
       double scale = 1.0 / (double(nc) * wsum);
       for (size_t i = 0; i < n; ++i) {
-        double diff = x[i] - y[i];
-        l1 += wts[i] * std::abs(diff);
-        if (d_pred) dx[i] = (1.0 - lambda) * scale * wts[i] * (diff > 0.0 ? 1.0 : diff < 0.0 ? -1.0 : 0.0);
+        const double diff = x[i] - y[i], a = std::abs(diff), delta = settings.huber_delta;
+        const bool inside = a < delta;
+        l1 += wts[i] * (inside ? 0.5 * diff * diff / delta : a - 0.5 * delta);
+        if (d_pred)
+          dx[i] = (1.0 - lambda) * scale * wts[i] * (inside ? diff / delta : diff > 0.0 ? 1.0 : diff < 0.0 ? -1.0 : 0.0);
       }
     }
     if (ssim_empty) {

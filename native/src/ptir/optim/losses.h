@@ -30,6 +30,12 @@ namespace ptir {
 struct ImageLossSettings {
   float lambda_ssim = 0.2f;     // loss = (1 - lambda) L1 + lambda (1 - SSIM)
   bool binomial_filter = true;  // 3x3 normalised binomial blur of the prediction first (noise suppression)
+  // The L1 term's absolute value becomes Huber's function with this knee (0: plain
+  // L1): x^2 / (2 delta) below delta, |x| - delta / 2 above. Its derivative is
+  // linear in the prediction inside the knee, so a Monte Carlo render's noise
+  // there averages out of the expected gradient instead of biasing it toward the
+  // noise's median (sign(x) of a skewed estimate).
+  float huber_delta = 0.0f;
 };
 
 // (1 - lambda) * masked mean |blur(pred) - target| + lambda * (1 - masked mean SSIM(blur(pred), target)).

@@ -47,6 +47,8 @@ double process_cpu_seconds() {
 constexpr uint64_t kTagViews = 0x7669657773ull;  // "views"
 constexpr uint64_t kTagCrop = 0x63726f70ull;     // "crop"
 constexpr uint64_t kTagPath = 0x70617468ull;     // "path"
+constexpr uint64_t kTagHalfA = 0x68616c6661ull;  // "halfa"
+constexpr uint64_t kTagHalfB = 0x68616c6662ull;  // "halfb"
 
 Image crop_image(const Image& img, int x0, int y0, int w, int h) {
   if (x0 == 0 && y0 == 0 && w == img.width && h == img.height) return img;
@@ -302,63 +304,121 @@ Optimizer::ViewWork Optimizer::view_work(int it, size_t v, const ViewPick& pk) c
 float Optimizer::loss_encode(float c) const { return settings_.srgb_loss ? srgb_encode_unclamped(c) : c; }
 float Optimizer::loss_encode_derivative(float c) const { return settings_.srgb_loss ? srgb_encode_derivative(c) : 1.0f; }
 
+// One primal render of a view at `is` and what its replay needs (each sample's
+// radiance and shadow-ray outcomes per row band, data_parallel.h, when they fit).
+struct Optimizer::Primal {
+  IntegratorSettings is;
+  Image render;  // RGB exposed by the view's scale, A = coverage
+  bool cache = false;
+  std::vector<std::vector<Vec3>> radiance;
+  std::vector<std::vector<uint64_t>> shadows;
+};
+
+Optimizer::Primal Optimizer::primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients,
+                                    size_t cache_bytes, const RenderControl& control, IterationLog& log) const {
+  auto t0 = Clock::now();
+  double c0 = process_cpu_seconds();
+  Primal r;
+  r.is = is;
+  r.cache = with_gradients && w.px * size_t(is.spp) * (sizeof(Vec3) + sizeof(uint64_t)) <= cache_bytes;
+  r.render = render_path_ranks(*comm_, *tracer_, w.cam, is, control, r.cache ? &r.radiance : nullptr,
+                               r.cache ? &r.shadows : nullptr);
+  ExposureGradients::expose(r.render, ExposureGradients::scale(params_, w.pick.view));  // the loss sees s_v x render
+  log.primal_s += seconds_since(t0);
+  log.primal_cpu_s += process_cpu_seconds() - c0;
+  return r;
+}
+
 void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control,
                            IterationLog& log) {
   const ViewPick& pk = w.pick;
-  // Primal render (keeping each sample's radiance for the replay when it fits) and the image loss.
-  auto t0 = Clock::now();
-  double c0 = process_cpu_seconds();
-  const bool cache =
-      with_gradients && w.px * size_t(w.is.spp) * (sizeof(Vec3) + sizeof(uint64_t)) <= settings_.sample_cache_bytes;
-  // Per row band (data_parallel.h: split across ranks): each sample's radiance and shadow-ray
-  // outcomes, so the replay neither recomputes the one nor traces the other again.
-  std::vector<std::vector<Vec3>> sample_radiance;
-  std::vector<std::vector<uint64_t>> sample_shadows;
-  Image render = render_path_ranks(*comm_, *tracer_, w.cam, w.is, control, cache ? &sample_radiance : nullptr,
-                                   cache ? &sample_shadows : nullptr);
-  log.primal_s += seconds_since(t0);
-  log.primal_cpu_s += process_cpu_seconds() - c0;
-  const float exposure = ExposureGradients::scale(params_, pk.view);  // the loss sees s_v times the render
-  ExposureGradients::expose(render, exposure);
-  Image pred(pk.w, pk.h, {"R", "G", "B"}), mask(pk.w, pk.h, {"A"});
+  // The primal render(s). Decorrelated (decorrelate_adjoint, optimizer.h): two
+  // independent halves of the samples; each half's replay is weighted by the
+  // loss gradient of the *other* half's image.
+  std::vector<Primal> parts;
+  if (with_gradients && settings_.decorrelate_adjoint && w.is.spp >= 2) {
+    IntegratorSettings a = w.is, b = w.is;
+    a.spp = w.is.spp / 2;
+    b.spp = w.is.spp - a.spp;
+    a.seed = hash_combine(w.is.seed, kTagHalfA);
+    b.seed = hash_combine(w.is.seed, kTagHalfB);
+    parts.push_back(primal(w, a, true, settings_.sample_cache_bytes / 2, control, log));
+    parts.push_back(primal(w, b, true, settings_.sample_cache_bytes / 2, control, log));
+  } else {
+    parts.push_back(primal(w, w.is, with_gradients, settings_.sample_cache_bytes, control, log));
+  }
+  // The whole render (the halves' sample-weighted mean): the mask and the logged loss.
+  Image render = parts[0].render;
+  if (parts.size() == 2) {
+    const float wa = float(parts[0].is.spp) / float(w.is.spp), wb = 1.0f - wa;
+    for (size_t i = 0; i < render.pixels.size(); ++i)
+      render.pixels[i] = wa * parts[0].render.pixels[i] + wb * parts[1].render.pixels[i];
+  }
+  Image mask(pk.w, pk.h, {"A"});
   size_t masked = 0;
   for (size_t p = 0; p < w.px; ++p) {
-    for (int c = 0; c < 3; ++c) pred.pixels[p * 3 + c] = loss_encode(render.pixels[p * 4 + c]);
     bool in = !w.full->has_alpha || (w.target_alpha.pixels[p] >= settings_.mask_threshold &&
                                      render.pixels[p * 4 + 3] >= settings_.mask_threshold);
     mask.pixels[p] = in ? 1.0f : 0.0f;
     masked += in;
   }
   if (masked == 0) return;
-  // Outside the mask the prediction is replaced by the target (a constant): the
-  // 3x3 blur and the 11x11 SSIM windows of pixels inside then see the target
-  // there, and no gradient leaks out through them -- else the silhouette's
-  // neighbours (environment seen past the object) are pulled toward the object's
-  // colour, which drew dark object outlines into the recovered environment.
-  if (w.full->has_alpha)
+  // A render in loss space, with the target standing outside the mask: the 3x3
+  // blur and the 11x11 SSIM windows of pixels inside then see the target there,
+  // and no gradient leaks out through them -- else the silhouette's neighbours
+  // (environment seen past the object) are pulled toward the object's colour,
+  // which drew dark object outlines into the recovered environment.
+  auto loss_space = [&](const Image& r) {
+    Image pred(pk.w, pk.h, {"R", "G", "B"});
     for (size_t p = 0; p < w.px; ++p)
-      if (mask.pixels[p] == 0.0f)
-        for (int c = 0; c < 3; ++c) pred.pixels[p * 3 + c] = w.target.pixels[p * 3 + c];
-  Image d_pred;
-  log.image += inv_k * image_loss(pred, w.target, w.full->has_alpha ? &mask : nullptr, settings_.loss,
-                                  with_gradients ? &d_pred : nullptr);
-  if (!with_gradients) return;
-  // Through the loss-space curve to the linear render.
-  Image d_render(pk.w, pk.h, {"R", "G", "B"});
-  for (size_t p = 0; p < w.px; ++p) {
-    if (w.full->has_alpha && mask.pixels[p] == 0.0f) continue;  // the target stands there: no gradient
-    for (int c = 0; c < 3; ++c)
-      d_render.pixels[p * 3 + c] = inv_k * d_pred.pixels[p * d_pred.channels + c] * loss_encode_derivative(render.pixels[p * 4 + c]);
+      for (int c = 0; c < 3; ++c)
+        pred.pixels[p * 3 + c] = mask.pixels[p] == 0.0f ? w.target.pixels[p * 3 + c] : loss_encode(r.pixels[p * 4 + c]);
+    return pred;
+  };
+  const Image* mask_ptr = w.full->has_alpha ? &mask : nullptr;
+  // dL/d(linear render) of one image: through the loss and the loss-space curve.
+  auto adjoint = [&](const Image& r, double* loss) {
+    Image d_pred, d_render(pk.w, pk.h, {"R", "G", "B"});
+    const double l = image_loss(loss_space(r), w.target, mask_ptr, settings_.loss, &d_pred);
+    if (loss) *loss = l;
+    for (size_t p = 0; p < w.px; ++p) {
+      if (mask.pixels[p] == 0.0f) continue;  // the target stands there: no gradient
+      for (int c = 0; c < 3; ++c)
+        d_render.pixels[p * 3 + c] = d_pred.pixels[p * d_pred.channels + c] * loss_encode_derivative(r.pixels[p * 4 + c]);
+    }
+    return d_render;
+  };
+  if (!with_gradients) {
+    log.image += inv_k * image_loss(loss_space(render), w.target, mask_ptr, settings_.loss, nullptr);
+    return;
   }
-  if (params_.find(ParamKind::Exposure)) {  // dL/dlog s_v, then d_render w.r.t. the unexposed render
-    exposure_grads_.accumulate(pk.view, d_render, render);
-    for (float& d : d_render.pixels) d *= exposure;
+  std::vector<Image> d_renders;
+  if (parts.size() == 1) {
+    double l = 0.0;
+    d_renders.push_back(adjoint(render, &l));
+    log.image += inv_k * l;
+  } else {
+    log.image += inv_k * image_loss(loss_space(render), w.target, mask_ptr, settings_.loss, nullptr);
+    d_renders.push_back(adjoint(parts[1].render, nullptr));  // weights half A's replay
+    d_renders.push_back(adjoint(parts[0].render, nullptr));  // weights half B's replay
   }
-  if (all_zero(d_render)) return;
-  t0 = Clock::now();
-  c0 = process_cpu_seconds();
-  render_path_backward_ranks(*comm_, *tracer_, w.cam, w.is, d_render, grads_, control,
-                             cache ? &sample_radiance : nullptr, cache ? &sample_shadows : nullptr);
+  // Each part's replay: inv_k x its share of the samples x the (other) adjoint.
+  auto t0 = Clock::now();
+  double c0 = process_cpu_seconds();
+  const float exposure = ExposureGradients::scale(params_, pk.view);
+  for (size_t i = 0; i < parts.size(); ++i) {
+    Image& d = d_renders[i];
+    const float share = inv_k * float(parts[i].is.spp) / float(w.is.spp);
+    for (float& x : d.pixels) x *= share;
+    if (params_.find(ParamKind::Exposure)) {  // dL/dlog s_v, then d w.r.t. the unexposed render
+      exposure_grads_.accumulate(pk.view, d, parts[i].render);
+      for (float& x : d.pixels) x *= exposure;
+    }
+    if (all_zero(d)) continue;
+    const Primal& q = parts[i];
+    render_path_backward_ranks(*comm_, *tracer_, w.cam, q.is, d, grads_, control, q.cache ? &q.radiance : nullptr,
+                               q.cache ? &q.shadows : nullptr);
+  }
   log.backward_s += seconds_since(t0);
   log.backward_cpu_s += process_cpu_seconds() - c0;
 }

@@ -139,6 +139,17 @@ struct OptimizerSettings {
   // +0.5 / +0.6 and -0.6 / +0.8 (the sample's per-channel levels go astray),
   // and a 60-iteration add-on run ended with a darker albedo level.
   float balance_start = 0.5f;
+  // Decorrelated adjoint: with gradients, the spp are rendered as two independent
+  // halves and each half's replay is weighted by dL/dimage of the other half. With
+  // one set of samples for both, the noise of a pixel's estimate and of its
+  // derivative are correlated, so the step follows the gradient of the *expected
+  // noisy loss*, E[L(I_spp)] = L(E I) + a variance term: it also drives the scene
+  // toward lower Monte Carlo variance -- a flatter environment (the recovered light
+  // lost its highlights and brightened below, the albedo took the shading), more
+  // so the longer the run and the fewer the samples. Independent halves remove
+  // that term (for an L2 loss exactly; Mitsuba 3 decorrelates its adjoint render
+  // for the same reason) at no extra cost: the same samples, split.
+  bool decorrelate_adjoint = true;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
   // The primal pass keeps every sample's radiance and shadow-ray outcomes (20 bytes
   // per pixel and sample) so the replay need not recompute them, while that fits this budget; beyond it
@@ -224,6 +235,9 @@ class Optimizer {
 
  private:
   struct ViewWork;  // one view of an iteration (optimizer.cpp)
+  struct Primal;    // one primal render and its replay cache (optimizer.cpp)
+  Primal primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients, size_t cache_bytes,
+                const RenderControl& control, IterationLog& log) const;
   void apply();
   const std::array<int, 4>& mask_box(size_t view) const;
   ViewWork view_work(int it, size_t v, const ViewPick& pick) const;

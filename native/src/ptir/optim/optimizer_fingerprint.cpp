@@ -102,6 +102,8 @@ Fingerprint Optimizer::fingerprint() const {
       {"environment prior", "smooth " + num(settings_.lambda_env_smooth) + " chroma " + num(settings_.lambda_env_chroma) + " fine warmup " + num(settings_.env_fine_warmup)},
       {"light balance", settings_.light_balance ? "on " + num(ps.lr_balance) + " from " + num(settings_.balance_start) : std::string("off")},
       {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},
+      {"adjoint", settings_.decorrelate_adjoint ? "decorrelated" : "same samples"},
+      {"huber", num(settings_.loss.huber_delta)},
       {"orient_normals", settings_.orient_normals ? "1" : "0"},
   };
 }

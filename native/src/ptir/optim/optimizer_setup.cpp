@@ -54,6 +54,9 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (!(o.lambda_env_chroma >= 0.0f)) throw Error(names("lambda_env_chroma") + " must be >= 0");
   s.lambda_env_chroma = o.lambda_env_chroma;
   s.env_fine_warmup = o.env_fine_warmup;
+  s.decorrelate_adjoint = o.decorrelate_adjoint;
+  if (!(o.huber_delta >= 0.0f)) throw Error(names("huber_delta") + " must be >= 0");
+  s.loss.huber_delta = o.huber_delta;
   s.accel.k = o.k;
   if (o.loss_space == "srgb") s.srgb_loss = true;
   else if (o.loss_space == "linear") s.srgb_loss = false;

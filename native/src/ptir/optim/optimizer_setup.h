@@ -44,6 +44,8 @@ struct OptimizeOptions {
   float lambda_env_smooth = OptimizerSettings{}.lambda_env_smooth;
   float lambda_env_chroma = OptimizerSettings{}.lambda_env_chroma;
   float env_fine_warmup = OptimizerSettings{}.env_fine_warmup;
+  bool decorrelate_adjoint = OptimizerSettings{}.decorrelate_adjoint;
+  float huber_delta = ImageLossSettings{}.huber_delta;
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start
