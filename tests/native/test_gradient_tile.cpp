@@ -195,3 +195,70 @@ TEST(GradientTile, ReplayWithRecordedShadowRaysGivesTheSameFloats) {
   std::vector<uint64_t> short_record(3);
   EXPECT_THROW(render_path_backward(tracer, cam, is, weights, read, {}, &radiance, nullptr, &short_record), Error);
 }
+
+TEST(GradientTile, BatchedSamplesGiveTheSameFloatsAsSingleSamples) {
+  // sample_radiance_batch / sample_adjoint_batch trace the camera rays of a batch
+  // as packets; every sample must come out exactly as from the one-sample calls:
+  // radiance, coverage, shadow-ray record, and the gradients (aggregate and
+  // discrete interactions; batches of 16 + 1 and 16 + 3 samples).
+  Scene s = tile_scene(16, 8);
+  Affine light_xf;
+  light_xf.translation = Vec3(0.6f, 0.3f, 1.5f);
+  s.emitters.push_back(AreaLight::from_blender(light_xf, AreaShape::Rectangle, 0.6f, 0.6f, 60.0f, Vec3(1.0f)));
+  PathTracer tracer(s);
+  const Camera cam = tile_camera(12, 10);
+  for (InteractionMode mode : {InteractionMode::Aggregate, InteractionMode::Discrete})
+    for (int n : {17, 19}) {
+      IntegratorSettings is = s.integrator;
+      is.interaction.mode = mode;
+      is.seed = 11;
+      GradientTile single(SceneGradients::zeros_like(s), s.environment), batched = single, batched_bits = single;
+      size_t covered = 0, vertices = 0;
+      for (int y = 0; y < cam.height; ++y)
+        for (int x = 0; x < cam.width; ++x) {
+          const size_t m = static_cast<size_t>(n);
+          std::vector<Ray> rays(m);
+          std::vector<uint64_t> pixels(m, cam.full_pixel_index(x, y)), bits(m), bits1(m);
+          std::vector<uint32_t> samples(m);
+          std::vector<Vec3> L(m);
+          std::vector<float> c(m);
+          for (int j = 0; j < n; ++j) {  // jittered rays inside the pixel
+            samples[j] = uint32_t(j);
+            rays[j] = cam.generate_ray(x + 0.5f + 0.45f * std::sin(1.7f * j), y + 0.5f + 0.45f * std::cos(2.3f * j));
+          }
+          PathStats st;
+          tracer.sample_radiance_batch(rays.data(), n, pixels.data(), samples.data(), is, L.data(), c.data(), &st,
+                                       bits.data());
+          vertices += st.vertices;
+          std::vector<PathAdjoint> adj(m), adj_bits(m);
+          for (int j = 0; j < n; ++j) {
+            float c1 = -1.0f;
+            const Vec3 L1 = tracer.sample_radiance(rays[j], pixels[j], samples[j], is, &c1, nullptr, &bits1[j]);
+            ASSERT_EQ(L1.x, L[j].x);
+            ASSERT_EQ(L1.y, L[j].y);
+            ASSERT_EQ(L1.z, L[j].z);
+            ASSERT_EQ(c1, c[j]);
+            ASSERT_EQ(bits1[j], bits[j]);
+            covered += c1 > 0.0f;
+            const Vec3 dL(0.3f + 0.01f * j, -0.2f, 0.1f * float(x - y));
+            tracer.sample_adjoint(rays[j], pixels[j], samples[j], is, PathAdjoint{L1, dL, &single});
+            adj[j] = PathAdjoint{L1, dL, &batched};
+            adj_bits[j] = PathAdjoint{L1, dL, &batched_bits, &bits[j]};
+          }
+          tracer.sample_adjoint_batch(rays.data(), n, pixels.data(), samples.data(), is, adj.data());
+          tracer.sample_adjoint_batch(rays.data(), n, pixels.data(), samples.data(), is, adj_bits.data());
+        }
+      EXPECT_GT(covered, size_t(cam.width * cam.height * n) / 4);
+      EXPECT_GT(vertices, size_t(cam.width * cam.height * n));
+      SceneGradients a = SceneGradients::zeros_like(s), b = a, c = a;
+      for (auto [tile, g] : {std::pair<GradientTile*, SceneGradients*>{&single, &a}, {&batched, &b}, {&batched_bits, &c}}) {
+        tile->finish();
+        tile->add_to(*g);
+      }
+      double sum = 0.0;
+      for (const Vec3& v : a.gaussian_albedo) sum += std::fabs(v.x);
+      EXPECT_GT(sum, 0.0);
+      expect_same_floats(a, b);
+      expect_same_floats(a, c);
+    }
+}

@@ -3,6 +3,7 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <mutex>
 
@@ -28,6 +29,9 @@ Ray camera_sample(const Camera& camera, const PixelFilterSampler& filter, uint64
   return camera.generate_ray(filter.position(x, jitter.at(0)), filter.position(y, jitter.at(1)));
 }
 
+// Samples of a pixel traced together: their camera rays form one packet.
+constexpr int kBatch = SceneAccel::kMaxPacket;
+
 }  // namespace
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
@@ -51,19 +55,28 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
       for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
         Vec3 sum(0.0f);
         float covered = 0.0f;
-        for (int s = 0; s < settings.spp; ++s) {
+        // The pixel's samples in batches, their camera rays traced together (PathTracer::sample_radiance_batch).
+        for (int s0 = 0; s0 < settings.spp; s0 += kBatch) {
           // Cancellation within a pixel too: at high sample counts one tile can take minutes.
-          if ((s & 15) == 15 && control.cancel && control.cancel->load(std::memory_order_relaxed)) return;
-          uint64_t pixel;
-          const uint32_t index = first_sample + uint32_t(s);
-          Ray ray = camera_sample(camera, filter, settings.seed, x, y, int(index), &pixel);
-          float c = 0.0f;
-          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
-          Vec3 L = tracer.sample_radiance(ray, pixel, index, settings, &c, &local,
-                                          sample_shadows ? &(*sample_shadows)[at] : nullptr);
-          if (sample_radiance) (*sample_radiance)[at] = L;
-          if (!transparent_film || c > 0.0f) sum += L;
-          covered += c;
+          if (s0 > 0 && control.cancel && control.cancel->load(std::memory_order_relaxed)) return;
+          const int n = std::min(kBatch, settings.spp - s0);
+          Ray rays[kBatch];
+          uint64_t pixel[kBatch];
+          uint32_t index[kBatch];
+          Vec3 L[kBatch];
+          float c[kBatch];
+          for (int j = 0; j < n; ++j) {
+            index[j] = first_sample + uint32_t(s0 + j);
+            rays[j] = camera_sample(camera, filter, settings.seed, x, y, int(index[j]), &pixel[j]);
+          }
+          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s0;
+          tracer.sample_radiance_batch(rays, n, pixel, index, settings, L, c, &local,
+                                       sample_shadows ? &(*sample_shadows)[at] : nullptr);
+          for (int j = 0; j < n; ++j) {
+            if (sample_radiance) (*sample_radiance)[at + j] = L[j];
+            if (!transparent_film || c[j] > 0.0f) sum += L[j];
+            covered += c[j];
+          }
         }
         float inv = 1.0f / float(settings.spp);
         image.at(x, y, 0) = sum.x * inv;
@@ -108,14 +121,22 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
       for (int x = tile.x0; x < tile.x1; ++x) {
         Vec3 dI(d_image.at(x, y, 0), d_image.at(x, y, 1), d_image.at(x, y, 2));
         if (dI.x == 0.0f && dI.y == 0.0f && dI.z == 0.0f) continue;
-        for (int s = 0; s < settings.spp; ++s) {
-          uint64_t pixel;
-          Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
-          // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
-          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
-          Vec3 L = sample_radiance ? (*sample_radiance)[at] : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);
-          PathAdjoint adjoint{L, dI * inv_spp, &g, sample_shadows ? &(*sample_shadows)[at] : nullptr};
-          tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint);
+        for (int s0 = 0; s0 < settings.spp; s0 += kBatch) {
+          const int n = std::min(kBatch, settings.spp - s0);
+          Ray rays[kBatch];
+          uint64_t pixel[kBatch];
+          uint32_t index[kBatch];
+          PathAdjoint adjoint[kBatch];
+          for (int j = 0; j < n; ++j) {
+            const int s = s0 + j;
+            index[j] = uint32_t(s);
+            rays[j] = camera_sample(camera, filter, settings.seed, x, y, s, &pixel[j]);
+            // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
+            const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
+            Vec3 L = sample_radiance ? (*sample_radiance)[at] : tracer.sample_radiance(rays[j], pixel[j], index[j], settings);
+            adjoint[j] = PathAdjoint{L, dI * inv_spp, &g, sample_shadows ? &(*sample_shadows)[at] : nullptr};
+          }
+          tracer.sample_adjoint_batch(rays, n, pixel, index, settings, adjoint);
         }
       }
   }, tile_stats);

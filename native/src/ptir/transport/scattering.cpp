@@ -1,6 +1,7 @@
 #include "ptir/transport/scattering.h"
 
 #include <cmath>
+#include <optional>
 
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/sampling.h"
@@ -33,13 +34,17 @@ bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit&
   return h.t <= settings_.fixed_range && dot(d, field_.normal[h.id]) > kFixedBackfaceCos;
 }
 
-NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
-                                std::vector<WeightedHit>* record) const {
+InteractionBuilder Scatterer::interaction_builder(uint64_t path_key, uint32_t bounce,
+                                                 std::vector<WeightedHit>* record) const {
   InteractionSettings isettings = settings_.interaction;
   if (!settings_.geometric_criterion) isettings.tau_g = 0.0f;  // ablation: any response forms an interaction
   uint64_t pick_key = hash_combine(hash_combine(path_key, bounce), kStreamPick);
-  InteractionBuilder builder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record);
+  return InteractionBuilder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record);
+}
 
+NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
+                                std::vector<WeightedHit>* record) const {
+  InteractionBuilder builder = interaction_builder(path_key, bounce, record);
   // Composite the Gaussians front to back, skipping the surface the ray leaves
   // (dropped inside the traversal, so that the walk can stop where the ray turns
   // opaque and prune the BVH behind it: the same hits reach the builder).
@@ -47,8 +52,22 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
   const HitTest skip = hit_test(self_hit);
   WalkEnd end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true,
                             from.kind == SpawnContext::Gaussian ? &skip : nullptr);
-  SurfaceInteraction si = builder.finish(ray);
+  return classify(ray, builder.finish(ray), end, path_key, bounce);
+}
 
+void Scatterer::camera_events(const Ray* rays, int n, const uint64_t* path_keys, NextEvent* events,
+                              std::vector<WeightedHit>* records) const {
+  std::optional<InteractionBuilder> builders[SceneAccel::kMaxPacket];
+  for (int l = 0; l < n; ++l) builders[l].emplace(interaction_builder(path_keys[l], 0, records ? &records[l] : nullptr));
+  // The same walk per lane as next_event's (a camera ray skips nothing), the rays traced together.
+  WalkEnd ends[SceneAccel::kMaxPacket];
+  accel_.walk_packet(rays, n, [&](int l, const GaussianHit& h) { return builders[l]->add(h); }, ends, nullptr,
+                     /*stop_when_opaque=*/true);
+  for (int l = 0; l < n; ++l) events[l] = classify(rays[l], builders[l]->finish(rays[l]), ends[l], path_keys[l], 0);
+}
+
+NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, const WalkEnd& end, uint64_t path_key,
+                              uint32_t bounce) const {
   NextEvent ev;
   ev.si = si;
   // A valid Gaussian interaction (chi_geom = 1).
