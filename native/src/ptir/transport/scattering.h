@@ -34,10 +34,11 @@ struct DirectAdjoint {
 
 // The ray outcomes of one path, in the order the path meets them: the primal
 // pass records them (bit k: the k-th outcome was true) and the replay, which
-// traces the same rays in the same order with the same random numbers, reads
-// them back instead of tracing again. Two kinds, interleaved: whether a shadow
-// ray was unoccluded, and whether a continuation ray escaped (path_tracer.cpp).
-// Outcomes after the 64th are traced in both passes.
+// meets the same samples in the same order with the same random numbers, reads
+// them back instead of tracing again. Two kinds, interleaved: whether a light
+// sample contributed (valid, BSDF value > 0, shadow ray unoccluded: the replay
+// skips the others whole, scattering.cpp), and whether a continuation ray
+// escaped (path_tracer.cpp). Outcomes after the 64th are traced in both passes.
 struct ShadowLog {
   uint64_t bits = 0;
   int count = 0;
