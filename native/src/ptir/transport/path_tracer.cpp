@@ -26,12 +26,6 @@ PathTracer::PathTracer(const Scene& scene, const AccelSettings& accel_settings) 
 
 namespace {
 
-// Radiance of the environment seen along d (black when the scene has none).
-Vec3 environment_radiance(const SceneEnvironment& env, Vec3 d) { return env.eval(d); }
-
-// Solid-angle density with which next-event estimation samples d from the environment.
-float environment_pdf(const SceneEnvironment& env, Vec3 d) { return env.pdf(d); }
-
 // Emission of every light surface the ray crosses before max_t (area lights,
 // finite point lights, suns with an angle; none are in the Embree scene and, as in
 // Cycles, rays pass through them), MIS-weighted against the light sampling that
@@ -176,8 +170,11 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
 
   // Escape: the environment, MIS-weighted against its own sampling.
   auto escape = [&]() {
-    Vec3 Le = environment_radiance(scene.environment, ray.d);
-    float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, environment_pdf(scene.environment, ray.d)) : 1.0f;
+    // Radiance along d (black without an environment) and the density with which
+    // next-event estimation samples d, from one lookup.
+    float env_pdf = 0.0f;
+    const Vec3 Le = prev_brdf_pdf > 0.0f ? scene.environment.eval_pdf(ray.d, &env_pdf) : scene.environment.eval(ray.d);
+    float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, env_pdf) : 1.0f;
     add(beta * Le * w);
     if (adj && adj->grads) adj->grads->add_environment(ray.d, adj->dL * beta * w);
   };
