@@ -3,12 +3,14 @@
 // the same order holds (Gaussians through hash-table growth, meshes, the
 // environment dense or logged), and a whole replay gives the same floats on 1, 2
 // and 3 threads and the per-pixel sum of single-pixel replays (independent of
-// any tiling) to float rounding.
+// any tiling) to float rounding; batched camera rays (packets) change no float.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <random>
 
+#include "ptir/math/path_sampler.h"
+#include "ptir/math/pixel_filter.h"
 #include "ptir/render/render_path.h"
 #include "ptir/render/tile_reduce.h"
 #include "ptir/transport/gradient_tile.h"
@@ -261,4 +263,53 @@ TEST(GradientTile, BatchedSamplesGiveTheSameFloatsAsSingleSamples) {
       expect_same_floats(a, b);
       expect_same_floats(a, c);
     }
+}
+
+TEST(GradientTile, RenderPathEqualsItsSamplesOneByOne) {
+  // render_path traces the samples of neighbouring pixels in batches (5 pixels of
+  // 3 samples; 16 + 4 samples of one pixel): each pixel must be the mean of its
+  // samples traced one by one, the same floats; and the replay's gradients (whose
+  // batches span pixels) those of replaying the samples one by one in pixel order.
+  Scene s = tile_scene(16, 8);
+  PathTracer tracer(s);
+  const Camera cam = tile_camera(13, 7);
+  const PixelFilterSampler filter(s.integrator.filter);
+  for (int spp : {3, 20}) {
+    IntegratorSettings is = s.integrator;
+    is.spp = spp;
+    std::vector<Vec3> radiance;
+    std::vector<uint64_t> shadows;
+    const Image img = render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows);
+    Image weights(cam.width, cam.height, {"R", "G", "B"});
+    for (size_t i = 0; i < weights.pixels.size(); ++i) weights.pixels[i] = (i % 7 == 3) ? 0.0f : float(i % 5) - 1.5f;
+    SceneGradients grads = SceneGradients::zeros_like(s);
+    render_path_backward(tracer, cam, is, weights, grads, {}, &radiance, nullptr, &shadows);
+    // Reference: the samples one by one (the camera ray as render_path draws it),
+    // into one buffer per tile, the tiles added in order (as render/tile_reduce.h does).
+    SceneGradients ref = SceneGradients::zeros_like(s);
+    const int side = gradient_tile_side(cam.width, cam.height);
+    for (int ty = 0; ty < cam.height; ty += side)
+      for (int tx = 0; tx < cam.width; tx += side) {
+        GradientTile tile(ref, s.environment);
+        for (int y = ty; y < std::min(cam.height, ty + side); ++y)
+          for (int x = tx; x < std::min(cam.width, tx + side); ++x) {
+            Vec3 sum(0.0f);
+            const Vec3 dI(weights.at(x, y, 0), weights.at(x, y, 1), weights.at(x, y, 2));
+            for (int k = 0; k < spp; ++k) {
+              const uint64_t pixel = cam.full_pixel_index(x, y);
+              PathRng jitter(make_path_key(is.seed, pixel, uint32_t(k)), ~uint64_t(0), 0);
+              const Ray ray = cam.generate_ray(filter.position(x, jitter.at(0)), filter.position(y, jitter.at(1)));
+              const Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(k), is);
+              sum += L;
+              if (dI.x != 0.0f || dI.y != 0.0f || dI.z != 0.0f)
+                tracer.sample_adjoint(ray, pixel, uint32_t(k), is, PathAdjoint{L, dI * (1.0f / float(spp)), &tile});
+            }
+            ASSERT_EQ(img.at(x, y, 0), sum.x * (1.0f / float(spp))) << x << " " << y;
+            ASSERT_EQ(img.at(x, y, 2), sum.z * (1.0f / float(spp))) << x << " " << y;
+          }
+        tile.finish();
+        tile.add_to(ref);
+      }
+    expect_same_floats(grads, ref);
+  }
 }
