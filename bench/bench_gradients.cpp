@@ -51,6 +51,7 @@ bool same_floats(const SceneGradients& a, const SceneGradients& b) {
 struct Options {
   std::string scene;
   int spp = 16, bounces = 2, size = 0;
+  bool traced = true;  // also time the replay that traces the shadow rays again
   std::vector<int> threads = {1, 2};
   std::vector<int> model_threads = {16, 64};
 };
@@ -90,9 +91,14 @@ int run(const Options& o) {
     t0 = wall(), c0 = cpu();
     render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, &st, &shadows);
     double replay = wall() - t0, replay_cpu = cpu() - c0;
-    t0 = wall();
-    render_path_backward(tracer, cam, is, d_image, traced, {}, &radiance);
-    double replay_traced = wall() - t0;
+    double replay_traced = 0.0;
+    if (o.traced) {
+      t0 = wall();
+      render_path_backward(tracer, cam, is, d_image, traced, {}, &radiance);
+      replay_traced = wall() - t0;
+    } else {
+      traced = g;
+    }
     bool same = same_floats(g, traced) && (reference.gaussian_albedo.empty() || same_floats(g, reference));
     if (reference.gaussian_albedo.empty()) reference = g;
     std::printf("%7d %9.3f %9.3f %16.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %9s %9.3f %9.3f %8.3f\n", t, primal,
@@ -133,6 +139,7 @@ int main(int argc, char** argv) {
   app.add_option("--size", o.size, "crop the camera to its central size x size (0: whole image)");
   app.add_option("--threads", o.threads);
   app.add_option("--model-threads", o.model_threads);
+  app.add_flag("!--no-traced", o.traced, "skip the replay that traces the shadow rays again (for profiles)");
   CLI11_PARSE(app, argc, argv);
   try {
     return run(o);

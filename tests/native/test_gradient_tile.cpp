@@ -3,12 +3,14 @@
 // the same order holds (Gaussians through hash-table growth, meshes, the
 // environment dense or logged), and a whole replay gives the same floats on 1, 2
 // and 3 threads and the per-pixel sum of single-pixel replays (independent of
-// any tiling) to float rounding.
+// any tiling) to float rounding; batched camera rays (packets) change no float.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <random>
 
+#include "ptir/math/path_sampler.h"
+#include "ptir/math/pixel_filter.h"
 #include "ptir/render/render_path.h"
 #include "ptir/render/tile_reduce.h"
 #include "ptir/transport/gradient_tile.h"
@@ -194,4 +196,120 @@ TEST(GradientTile, ReplayWithRecordedShadowRaysGivesTheSameFloats) {
   // Wrong-sized records are refused.
   std::vector<uint64_t> short_record(3);
   EXPECT_THROW(render_path_backward(tracer, cam, is, weights, read, {}, &radiance, nullptr, &short_record), Error);
+}
+
+TEST(GradientTile, BatchedSamplesGiveTheSameFloatsAsSingleSamples) {
+  // sample_radiance_batch / sample_adjoint_batch trace the camera rays of a batch
+  // as packets; every sample must come out exactly as from the one-sample calls:
+  // radiance, coverage, shadow-ray record, and the gradients (aggregate and
+  // discrete interactions; batches of 16 + 1 and 16 + 3 samples).
+  Scene s = tile_scene(16, 8);
+  Affine light_xf;
+  light_xf.translation = Vec3(0.6f, 0.3f, 1.5f);
+  s.emitters.push_back(AreaLight::from_blender(light_xf, AreaShape::Rectangle, 0.6f, 0.6f, 60.0f, Vec3(1.0f)));
+  PathTracer tracer(s);
+  const Camera cam = tile_camera(12, 10);
+  for (InteractionMode mode : {InteractionMode::Aggregate, InteractionMode::Discrete})
+    for (int n : {17, 19}) {
+      IntegratorSettings is = s.integrator;
+      is.interaction.mode = mode;
+      is.seed = 11;
+      GradientTile single(SceneGradients::zeros_like(s), s.environment), batched = single, batched_bits = single;
+      size_t covered = 0, vertices = 0;
+      for (int y = 0; y < cam.height; ++y)
+        for (int x = 0; x < cam.width; ++x) {
+          const size_t m = static_cast<size_t>(n);
+          std::vector<Ray> rays(m);
+          std::vector<uint64_t> pixels(m, cam.full_pixel_index(x, y)), bits(m), bits1(m);
+          std::vector<uint32_t> samples(m);
+          std::vector<Vec3> L(m);
+          std::vector<float> c(m);
+          for (int j = 0; j < n; ++j) {  // jittered rays inside the pixel
+            samples[j] = uint32_t(j);
+            rays[j] = cam.generate_ray(x + 0.5f + 0.45f * std::sin(1.7f * j), y + 0.5f + 0.45f * std::cos(2.3f * j));
+          }
+          PathStats st;
+          tracer.sample_radiance_batch(rays.data(), n, pixels.data(), samples.data(), is, L.data(), c.data(), &st,
+                                       bits.data());
+          vertices += st.vertices;
+          std::vector<PathAdjoint> adj(m), adj_bits(m);
+          for (int j = 0; j < n; ++j) {
+            float c1 = -1.0f;
+            const Vec3 L1 = tracer.sample_radiance(rays[j], pixels[j], samples[j], is, &c1, nullptr, &bits1[j]);
+            ASSERT_EQ(L1.x, L[j].x);
+            ASSERT_EQ(L1.y, L[j].y);
+            ASSERT_EQ(L1.z, L[j].z);
+            ASSERT_EQ(c1, c[j]);
+            ASSERT_EQ(bits1[j], bits[j]);
+            covered += c1 > 0.0f;
+            const Vec3 dL(0.3f + 0.01f * j, -0.2f, 0.1f * float(x - y));
+            tracer.sample_adjoint(rays[j], pixels[j], samples[j], is, PathAdjoint{L1, dL, &single});
+            adj[j] = PathAdjoint{L1, dL, &batched};
+            adj_bits[j] = PathAdjoint{L1, dL, &batched_bits, &bits[j]};
+          }
+          tracer.sample_adjoint_batch(rays.data(), n, pixels.data(), samples.data(), is, adj.data());
+          tracer.sample_adjoint_batch(rays.data(), n, pixels.data(), samples.data(), is, adj_bits.data());
+        }
+      EXPECT_GT(covered, size_t(cam.width * cam.height * n) / 4);
+      EXPECT_GT(vertices, size_t(cam.width * cam.height * n));
+      SceneGradients a = SceneGradients::zeros_like(s), b = a, c = a;
+      for (auto [tile, g] : {std::pair<GradientTile*, SceneGradients*>{&single, &a}, {&batched, &b}, {&batched_bits, &c}}) {
+        tile->finish();
+        tile->add_to(*g);
+      }
+      double sum = 0.0;
+      for (const Vec3& v : a.gaussian_albedo) sum += std::fabs(v.x);
+      EXPECT_GT(sum, 0.0);
+      expect_same_floats(a, b);
+      expect_same_floats(a, c);
+    }
+}
+
+TEST(GradientTile, RenderPathEqualsItsSamplesOneByOne) {
+  // render_path traces the samples of neighbouring pixels in batches (5 pixels of
+  // 3 samples; 16 + 4 samples of one pixel): each pixel must be the mean of its
+  // samples traced one by one, the same floats; and the replay's gradients (whose
+  // batches span pixels) those of replaying the samples one by one in pixel order.
+  Scene s = tile_scene(16, 8);
+  PathTracer tracer(s);
+  const Camera cam = tile_camera(13, 7);
+  const PixelFilterSampler filter(s.integrator.filter);
+  for (int spp : {3, 20}) {
+    IntegratorSettings is = s.integrator;
+    is.spp = spp;
+    std::vector<Vec3> radiance;
+    std::vector<uint64_t> shadows;
+    const Image img = render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows);
+    Image weights(cam.width, cam.height, {"R", "G", "B"});
+    for (size_t i = 0; i < weights.pixels.size(); ++i) weights.pixels[i] = (i % 7 == 3) ? 0.0f : float(i % 5) - 1.5f;
+    SceneGradients grads = SceneGradients::zeros_like(s);
+    render_path_backward(tracer, cam, is, weights, grads, {}, &radiance, nullptr, &shadows);
+    // Reference: the samples one by one (the camera ray as render_path draws it),
+    // into one buffer per tile, the tiles added in order (as render/tile_reduce.h does).
+    SceneGradients ref = SceneGradients::zeros_like(s);
+    const int side = gradient_tile_side(cam.width, cam.height);
+    for (int ty = 0; ty < cam.height; ty += side)
+      for (int tx = 0; tx < cam.width; tx += side) {
+        GradientTile tile(ref, s.environment);
+        for (int y = ty; y < std::min(cam.height, ty + side); ++y)
+          for (int x = tx; x < std::min(cam.width, tx + side); ++x) {
+            Vec3 sum(0.0f);
+            const Vec3 dI(weights.at(x, y, 0), weights.at(x, y, 1), weights.at(x, y, 2));
+            for (int k = 0; k < spp; ++k) {
+              const uint64_t pixel = cam.full_pixel_index(x, y);
+              PathRng jitter(make_path_key(is.seed, pixel, uint32_t(k)), ~uint64_t(0), 0);
+              const Ray ray = cam.generate_ray(filter.position(x, jitter.at(0)), filter.position(y, jitter.at(1)));
+              const Vec3 L = tracer.sample_radiance(ray, pixel, uint32_t(k), is);
+              sum += L;
+              if (dI.x != 0.0f || dI.y != 0.0f || dI.z != 0.0f)
+                tracer.sample_adjoint(ray, pixel, uint32_t(k), is, PathAdjoint{L, dI * (1.0f / float(spp)), &tile});
+            }
+            ASSERT_EQ(img.at(x, y, 0), sum.x * (1.0f / float(spp))) << x << " " << y;
+            ASSERT_EQ(img.at(x, y, 2), sum.z * (1.0f / float(spp))) << x << " " << y;
+          }
+        tile.finish();
+        tile.add_to(ref);
+      }
+    expect_same_floats(grads, ref);
+  }
 }

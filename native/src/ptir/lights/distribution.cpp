@@ -55,8 +55,15 @@ int Distribution1D::find_bin(float u) const {
   const double du = double(u);
   int count = n;  // u >= 1 or NaN: every entry (as the binary search gives)
   if (du >= 0.0 && du < 1.0) {
-    count = guide_[size_t(du * G)];
-    while (count < n && cdf_[count] <= du) ++count;
+    // The count lies in [guide_[g], guide_[g + 1]]: a short scan, or a binary
+    // search where many bins share the guide cell (a peaked map: the cells
+    // left of a bright patch hold many small bins), with the same result.
+    const size_t g = size_t(du * G);
+    count = guide_[g];
+    const int end = guide_[g + 1];
+    if (end - count > 8) count = int(std::upper_bound(cdf_.begin() + count, cdf_.begin() + end, du) - cdf_.begin());
+    else
+      while (count < n && cdf_[count] <= du) ++count;
   } else if (du < 0.0) {
     count = 0;
   }

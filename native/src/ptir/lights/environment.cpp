@@ -114,14 +114,21 @@ Vec3 Environment::uv_to_direction(float u, float v) const {
   return to_world(l);
 }
 
+void Environment::cell_of(double u, double t, int* x, int* y) const {
+  int ix = int(std::floor(u * width_));
+  *x = ((ix % width_) + width_) % width_;
+  *y = std::clamp(int(std::floor(t * height_)), 0, height_ - 1);
+}
+
+float Environment::pdf_at(int x, int y, double sin_theta) const {
+  if (!(sin_theta > 0.0)) return 0.0f;
+  return float(double(distribution_.pdf_cell(x, y)) / (2.0 * kPiD * kPiD * sin_theta));
+}
+
 void Environment::texel_coords(Vec3 d, int* x, int* y) const {
   double u, t;
   local_angles(d, &u, &t, nullptr);
-  int ix = int(std::floor(u * width_));
-  ix = ((ix % width_) + width_) % width_;
-  int iy = std::clamp(int(std::floor(t * height_)), 0, height_ - 1);
-  *x = ix;
-  *y = iy;
+  cell_of(u, t, x, y);
 }
 
 int Environment::texel_index(Vec3 d) const {
@@ -154,11 +161,18 @@ EnvSample Environment::sample(float u0, float u1) const {
 float Environment::pdf(Vec3 d) const {
   double u, t, sin_theta;
   local_angles(d, &u, &t, &sin_theta);
-  if (!(sin_theta > 0.0)) return 0.0f;
-  int ix = int(std::floor(u * width_));
-  ix = ((ix % width_) + width_) % width_;
-  int iy = std::clamp(int(std::floor(t * height_)), 0, height_ - 1);
-  return float(double(distribution_.pdf_cell(ix, iy)) / (2.0 * kPiD * kPiD * sin_theta));
+  int ix, iy;
+  cell_of(u, t, &ix, &iy);
+  return pdf_at(ix, iy, sin_theta);
+}
+
+Vec3 Environment::eval_pdf(Vec3 d, float* pdf) const {
+  double u, t, sin_theta;
+  local_angles(d, &u, &t, &sin_theta);
+  int ix, iy;
+  cell_of(u, t, &ix, &iy);
+  *pdf = pdf_at(ix, iy, sin_theta);
+  return texel(ix, iy) * strength_;
 }
 
 // ---- EnvironmentLight

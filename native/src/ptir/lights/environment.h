@@ -103,6 +103,8 @@ class Environment final : public EnvironmentLight {
   EnvSample sample(float u0, float u1) const;
   // Solid-angle density of sample() producing d.
   float pdf(Vec3 d) const override;
+  // Both from one lookup (the same values as eval and pdf).
+  Vec3 eval_pdf(Vec3 d, float* pdf) const override;
 
   // EnvironmentLight (sample_li uses u0, u1 like sample()).
   std::unique_ptr<EnvironmentLight> clone() const override { return std::make_unique<Environment>(*this); }
@@ -118,6 +120,8 @@ class Environment final : public EnvironmentLight {
 
  private:
   void local_angles(Vec3 d, double* u, double* t, double* sin_theta) const;
+  void cell_of(double u, double t, int* x, int* y) const;  // the texel holding (u, t)
+  float pdf_at(int x, int y, double sin_theta) const;       // pdf() of a direction in texel (x, y)
   Vec3 to_world(Vec3 d) const;   // Rz(-rotation) d
   int width_ = 1, height_ = 1;
   std::vector<float> texels_;

@@ -54,6 +54,11 @@ class EnvironmentLight {
   virtual Vec3 eval(Vec3 d) const = 0;
   // Solid-angle density with which sample_li() produces d.
   virtual float pdf(Vec3 d) const = 0;
+  // eval(d), with *pdf = pdf(d): one lookup where a model can share it (an escaping ray needs both).
+  virtual Vec3 eval_pdf(Vec3 d, float* pdf) const {
+    *pdf = this->pdf(d);
+    return eval(d);
+  }
   // An importance-sampled direction from three uniforms (a model needing fewer
   // ignores the last ones).
   virtual EnvLightSample sample_li(float u0, float u1, float u2) const = 0;
@@ -117,6 +122,10 @@ class SceneEnvironment {
   // Black when empty.
   Vec3 eval(Vec3 d) const { return light_ ? light_->eval(d) : Vec3(0.0f); }
   float pdf(Vec3 d) const { return light_ ? light_->pdf(d) : 0.0f; }
+  Vec3 eval_pdf(Vec3 d, float* pdf) const {
+    *pdf = 0.0f;
+    return light_ ? light_->eval_pdf(d, pdf) : Vec3(0.0f);
+  }
   size_t parameter_count() const { return light_ ? light_->parameter_count() : 0; }
 
  private:

@@ -23,6 +23,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "ptir/material/ggx_energy.h"
 #include "ptir/math/sampling.h"
@@ -154,6 +155,15 @@ PrincipledBsdf::SpecularTerms PrincipledBsdf::specular_terms(Vec3 wi) const {
   return t;
 }
 
+const PrincipledBsdf::Terms& PrincipledBsdf::terms(Vec3 wi) const {
+  if (memo_set_ && std::memcmp(&memo_wi_, &wi, sizeof wi) == 0) return memo_;
+  memo_.st = specular_terms(wi);
+  memo_.Kd = diffuse_shape(wi);
+  memo_wi_ = wi;
+  memo_set_ = true;
+  return memo_;
+}
+
 float PrincipledBsdf::specular_pdf(float D) const {
   // Visible normals reflected about h: G1(wo) max(0, wo.h) D / (n.wo) * 1 / (4 wo.h).
   return G1o_ * D * 0.25f / wo_.z;
@@ -161,10 +171,11 @@ float PrincipledBsdf::specular_pdf(float D) const {
 
 Vec3 PrincipledBsdf::eval(Vec3 wi) const {
   if (!above_ || !(wi.z > 0.0f)) return Vec3(0.0f);
-  SpecularTerms st = specular_terms(wi);
+  const Terms& tm = terms(wi);
+  const SpecularTerms& st = tm.st;
   const Vec3 F = cspec0_ * (1.0f - st.FH) + Vec3(st.FH);
   const Vec3 M = Vec3(1.0f) + cspec0_ * ms_k_;
-  return diffuse_weight_ * diffuse_shape(wi) + F * M * st.S;
+  return diffuse_weight_ * tm.Kd + F * M * st.S;
 }
 
 float PrincipledBsdf::pdf(Vec3 wi) const {
@@ -177,10 +188,11 @@ float PrincipledBsdf::pdf(Vec3 wi) const {
 BsdfEvalPdf PrincipledBsdf::eval_pdf(Vec3 wi) const {
   BsdfEvalPdf r;
   if (!above_ || !(wi.z > 0.0f)) return r;
-  SpecularTerms st = specular_terms(wi);
+  const Terms& tm = terms(wi);
+  const SpecularTerms& st = tm.st;
   const Vec3 F = cspec0_ * (1.0f - st.FH) + Vec3(st.FH);
   const Vec3 M = Vec3(1.0f) + cspec0_ * ms_k_;
-  r.f = diffuse_weight_ * diffuse_shape(wi) + F * M * st.S;
+  r.f = diffuse_weight_ * tm.Kd + F * M * st.S;
   const float ps = st.h.z > 0.0f ? specular_pdf(st.D) : 0.0f;
   r.pdf = p_spec_ * ps + (1.0f - p_spec_) * wi.z * kInvPi;
   return r;
@@ -212,8 +224,9 @@ Vec3 PrincipledBsdf::eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
   const Vec3 b = p_.albedo;
 
   // Values.
-  const float Kd = diffuse_shape(wi);
-  SpecularTerms st = specular_terms(wi);
+  const Terms& tm = terms(wi);
+  const float Kd = tm.Kd;
+  const SpecularTerms& st = tm.st;
   const float S = st.S, FH = st.FH;
   const Vec3 F = cspec0_ * (1.0f - FH) + Vec3(FH);
   const Vec3 M = Vec3(1.0f) + cspec0_ * ms_k_;

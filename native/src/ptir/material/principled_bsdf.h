@@ -91,6 +91,13 @@ class PrincipledBsdf {
   };
   SpecularTerms specular_terms(Vec3 wi) const;
   float diffuse_shape(Vec3 wi) const;  // the bracket of the diffuse lobe times n.wi / pi
+  // Both at wi, remembered for the last wi: the gradient replay evaluates eval_pdf
+  // (or sample) and then eval_grad at the same direction (the same values either way).
+  struct Terms {
+    SpecularTerms st;
+    float Kd = 0.0f;
+  };
+  const Terms& terms(Vec3 wi) const;
   float specular_pdf(float D) const;  // density of the specular strategy, given D(h)
 
   MaterialParams p_;
@@ -109,6 +116,9 @@ class PrincipledBsdf {
   float ms_k_ = 0.0f;         // (1 - E) / E at n.wo
   float ms_dk_dr_ = 0.0f;
   float p_spec_ = 0.5f;
+  mutable bool memo_set_ = false;
+  mutable Vec3 memo_wi_;
+  mutable Terms memo_;
 };
 
 }  // namespace ptir

@@ -3,6 +3,7 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <mutex>
 
@@ -28,6 +29,9 @@ Ray camera_sample(const Camera& camera, const PixelFilterSampler& filter, uint64
   return camera.generate_ray(filter.position(x, jitter.at(0)), filter.position(y, jitter.at(1)));
 }
 
+// Samples of a pixel traced together: their camera rays form one packet.
+constexpr int kBatch = SceneAccel::kMaxPacket;
+
 }  // namespace
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
@@ -43,33 +47,48 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
   std::atomic<size_t> done{0};
   std::atomic<uint64_t> paths{0}, vertices{0}, shadow_rays{0};
   std::mutex progress_mutex;
+  const int group = std::max(1, kBatch / settings.spp);  // pixels whose samples fill one batch
 
   tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, 8, 0, camera.width, 8), [&](const tbb::blocked_range2d<int>& r) {
     if (control.cancel && control.cancel->load()) return;
     PathStats local;
     for (int y = r.rows().begin(); y < r.rows().end(); ++y)
-      for (int x = r.cols().begin(); x < r.cols().end(); ++x) {
-        Vec3 sum(0.0f);
-        float covered = 0.0f;
-        for (int s = 0; s < settings.spp; ++s) {
+      for (int x = r.cols().begin(); x < r.cols().end(); x += group) {
+        // The samples of `gx` neighbouring pixels (consecutive in the sample layout) in
+        // batches, their camera rays traced together (PathTracer::sample_radiance_batch).
+        const int gx = std::min(group, r.cols().end() - x), total = gx * settings.spp;
+        Vec3 sum[kBatch];
+        float covered[kBatch] = {};
+        for (int s0 = 0; s0 < total; s0 += kBatch) {
           // Cancellation within a pixel too: at high sample counts one tile can take minutes.
-          if ((s & 15) == 15 && control.cancel && control.cancel->load(std::memory_order_relaxed)) return;
-          uint64_t pixel;
-          const uint32_t index = first_sample + uint32_t(s);
-          Ray ray = camera_sample(camera, filter, settings.seed, x, y, int(index), &pixel);
-          float c = 0.0f;
-          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
-          Vec3 L = tracer.sample_radiance(ray, pixel, index, settings, &c, &local,
-                                          sample_shadows ? &(*sample_shadows)[at] : nullptr);
-          if (sample_radiance) (*sample_radiance)[at] = L;
-          if (!transparent_film || c > 0.0f) sum += L;
-          covered += c;
+          if (s0 > 0 && control.cancel && control.cancel->load(std::memory_order_relaxed)) return;
+          const int n = std::min(kBatch, total - s0);
+          Ray rays[kBatch];
+          uint64_t pixel[kBatch];
+          uint32_t index[kBatch];
+          Vec3 L[kBatch];
+          float c[kBatch];
+          for (int j = 0; j < n; ++j) {
+            index[j] = first_sample + uint32_t((s0 + j) % settings.spp);
+            rays[j] = camera_sample(camera, filter, settings.seed, x + (s0 + j) / settings.spp, y, int(index[j]), &pixel[j]);
+          }
+          const size_t at = (size_t(y) * camera.width + x) * settings.spp + s0;
+          tracer.sample_radiance_batch(rays, n, pixel, index, settings, L, c, &local,
+                                       sample_shadows ? &(*sample_shadows)[at] : nullptr);
+          for (int j = 0; j < n; ++j) {
+            const int p = (s0 + j) / settings.spp;
+            if (sample_radiance) (*sample_radiance)[at + j] = L[j];
+            if (!transparent_film || c[j] > 0.0f) sum[p] += L[j];
+            covered[p] += c[j];
+          }
         }
         float inv = 1.0f / float(settings.spp);
-        image.at(x, y, 0) = sum.x * inv;
-        image.at(x, y, 1) = sum.y * inv;
-        image.at(x, y, 2) = sum.z * inv;
-        image.at(x, y, 3) = covered * inv;
+        for (int p = 0; p < gx; ++p) {
+          image.at(x + p, y, 0) = sum[p].x * inv;
+          image.at(x + p, y, 1) = sum[p].y * inv;
+          image.at(x + p, y, 2) = sum[p].z * inv;
+          image.at(x + p, y, 3) = covered[p] * inv;
+        }
       }
     paths += local.paths;
     vertices += local.vertices;
@@ -104,20 +123,36 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
   const float inv_spp = 1.0f / float(settings.spp);
   reduce_gradient_tiles(camera.width, camera.height, tracer.scene().environment, grads, control,
                         [&](const PixelTile& tile, GradientTile& g) {
+    // The samples of neighbouring pixels with a non-zero adjoint in batches of
+    // whole pixels where they fit (their camera rays traced together), pixel by
+    // pixel, sample by sample: the adds into the tile come in the order of a
+    // pixel-by-pixel loop.
+    Ray rays[kBatch];
+    uint64_t pixel[kBatch];
+    uint32_t index[kBatch];
+    PathAdjoint adjoint[kBatch];
+    int n = 0;
+    auto flush = [&] {
+      tracer.sample_adjoint_batch(rays, n, pixel, index, settings, adjoint);
+      n = 0;
+    };
     for (int y = tile.y0; y < tile.y1; ++y)
       for (int x = tile.x0; x < tile.x1; ++x) {
         Vec3 dI(d_image.at(x, y, 0), d_image.at(x, y, 1), d_image.at(x, y, 2));
         if (dI.x == 0.0f && dI.y == 0.0f && dI.z == 0.0f) continue;
+        if (n + settings.spp > kBatch && n > 0) flush();
         for (int s = 0; s < settings.spp; ++s) {
-          uint64_t pixel;
-          Ray ray = camera_sample(camera, filter, settings.seed, x, y, s, &pixel);
+          if (n == kBatch) flush();
+          index[n] = uint32_t(s);
+          rays[n] = camera_sample(camera, filter, settings.seed, x, y, s, &pixel[n]);
           // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
           const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
-          Vec3 L = sample_radiance ? (*sample_radiance)[at] : tracer.sample_radiance(ray, pixel, uint32_t(s), settings);
-          PathAdjoint adjoint{L, dI * inv_spp, &g, sample_shadows ? &(*sample_shadows)[at] : nullptr};
-          tracer.sample_adjoint(ray, pixel, uint32_t(s), settings, adjoint);
+          Vec3 L = sample_radiance ? (*sample_radiance)[at] : tracer.sample_radiance(rays[n], pixel[n], index[n], settings);
+          adjoint[n] = PathAdjoint{L, dI * inv_spp, &g, sample_shadows ? &(*sample_shadows)[at] : nullptr};
+          ++n;
         }
       }
+    if (n > 0) flush();
   }, tile_stats);
 }
 

@@ -26,12 +26,6 @@ PathTracer::PathTracer(const Scene& scene, const AccelSettings& accel_settings) 
 
 namespace {
 
-// Radiance of the environment seen along d (black when the scene has none).
-Vec3 environment_radiance(const SceneEnvironment& env, Vec3 d) { return env.eval(d); }
-
-// Solid-angle density with which next-event estimation samples d from the environment.
-float environment_pdf(const SceneEnvironment& env, Vec3 d) { return env.pdf(d); }
-
 // Emission of every light surface the ray crosses before max_t (area lights,
 // finite point lights, suns with an angle; none are in the Embree scene and, as in
 // Cycles, rays pass through them), MIS-weighted against the light sampling that
@@ -84,8 +78,66 @@ void PathTracer::sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t 
   trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr, nullptr);
 }
 
+void PathTracer::sample_radiance_batch(const Ray* camera_rays, int n, const uint64_t* pixels, const uint32_t* samples,
+                                       const IntegratorSettings& settings, Vec3* L, float* coverage, PathStats* stats,
+                                       uint64_t* shadow_bits) const {
+  constexpr int P = SceneAccel::kMaxPacket;
+  Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
+  for (int first = 0; first < n; first += P) {
+    const int m = std::min(P, n - first);
+    if (m == 1) {  // nothing to trace together
+      L[first] = trace(camera_rays[first], pixels[first], samples[first], settings, nullptr,
+                       coverage ? &coverage[first] : nullptr, stats, shadow_bits ? &shadow_bits[first] : nullptr);
+      continue;
+    }
+    uint64_t keys[P];
+    NextEvent events[P];
+    for (int l = 0; l < m; ++l) keys[l] = make_path_key(settings.seed, pixels[first + l], samples[first + l]);
+    scatterer.camera_events(camera_rays + first, m, keys, events);
+    for (int l = 0; l < m; ++l) {
+      const int i = first + l;
+      L[i] = trace(camera_rays[i], pixels[i], samples[i], settings, nullptr, coverage ? &coverage[i] : nullptr, stats,
+                   shadow_bits ? &shadow_bits[i] : nullptr, &events[l]);
+    }
+  }
+}
+
+void PathTracer::sample_adjoint_batch(const Ray* camera_rays, int n, const uint64_t* pixels, const uint32_t* samples,
+                                      const IntegratorSettings& settings, const PathAdjoint* adjoints) const {
+  constexpr int P = SceneAccel::kMaxPacket;
+  Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
+  thread_local std::vector<WeightedHit> records[P];
+  for (int first = 0; first < n; first += P) {
+    const int m = std::min(P, n - first);
+    // The lanes whose camera ray leads to a vertex: a replay that knows from the
+    // primal's record that the ray escaped walks nothing (trace's first recall).
+    int lane_of[P], walked = 0;
+    Ray rays[P];
+    uint64_t keys[P];
+    for (int l = 0; l < m; ++l) {
+      const PathAdjoint& a = adjoints[first + l];
+      lane_of[l] = -1;
+      if (a.shadow_bits && (*a.shadow_bits & 1u)) continue;
+      lane_of[l] = walked;
+      rays[walked] = camera_rays[first + l];
+      keys[walked++] = make_path_key(settings.seed, pixels[first + l], samples[first + l]);
+    }
+    NextEvent events[P];
+    if (walked > 1) {
+      for (int w = 0; w < walked; ++w) records[w].clear();
+      scatterer.camera_events(rays, walked, keys, events, records);
+    }
+    for (int l = 0; l < m; ++l) {
+      const int i = first + l, w = walked > 1 ? lane_of[l] : -1;
+      trace(camera_rays[i], pixels[i], samples[i], settings, &adjoints[i], nullptr, nullptr, nullptr,
+            w >= 0 ? &events[w] : nullptr, w >= 0 ? &records[w] : nullptr);
+    }
+  }
+}
+
 Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                       const PathAdjoint* adj, float* coverage, PathStats* stats, uint64_t* shadow_bits) const {
+                       const PathAdjoint* adj, float* coverage, PathStats* stats, uint64_t* shadow_bits,
+                       const NextEvent* first, const std::vector<WeightedHit>* first_hits) const {
   const Scene& scene = scene_;
   const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
@@ -118,8 +170,11 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
 
   // Escape: the environment, MIS-weighted against its own sampling.
   auto escape = [&]() {
-    Vec3 Le = environment_radiance(scene.environment, ray.d);
-    float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, environment_pdf(scene.environment, ray.d)) : 1.0f;
+    // Radiance along d (black without an environment) and the density with which
+    // next-event estimation samples d, from one lookup.
+    float env_pdf = 0.0f;
+    const Vec3 Le = prev_brdf_pdf > 0.0f ? scene.environment.eval_pdf(ray.d, &env_pdf) : scene.environment.eval(ray.d);
+    float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, env_pdf) : 1.0f;
     add(beta * Le * w);
     if (adj && adj->grads) adj->grads->add_environment(ray.d, adj->dL * beta * w);
   };
@@ -137,9 +192,12 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
       }
       if (bounce > settings.max_bounces) break;
     }
-    // Next event along the ray: a Gaussian interaction, a mesh, or an escape.
+    // Next event along the ray: a Gaussian interaction, a mesh, or an escape (the
+    // camera ray's may be given, found with others in a packet).
+    const bool given = bounce == 0 && first;
+    const std::vector<WeightedHit>& hits = given && first_hits ? *first_hits : vertex_hits;
     vertex_hits.clear();
-    NextEvent ev = scatterer.next_event(ray, spawn, path_key, uint32_t(bounce), adj ? &vertex_hits : nullptr);
+    NextEvent ev = given ? *first : scatterer.next_event(ray, spawn, path_key, uint32_t(bounce), adj ? &vertex_hits : nullptr);
     if (shadows && !shadows->replay) shadows->record(ev.kind == NextEvent::Escape);
     if (bounce == 0 && coverage) *coverage = (ev.kind == NextEvent::Gaussian || ev.kind == NextEvent::Mesh) ? 1.0f : 0.0f;
 
@@ -178,7 +236,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
       for (int c = 0; c < 3; ++c) d_f[c] = f[c] > 0.0f ? adj->dL[c] * L_rem[c] / f[c] : 0.0f;
       bsdf.eval_grad(bs.wi, d_f, vertex_grad);
     }
-    if (adj && adj->grads) scatter_vertex_adjoint(ev, vertex_hits, vertex_grad, settings.interaction.mode, *adj->grads);
+    if (adj && adj->grads) scatter_vertex_adjoint(ev, hits, vertex_grad, settings.interaction.mode, *adj->grads);
     if (!bs.valid) break;
     beta *= bs.weight;
     if (max_component(beta) < settings.min_throughput) break;

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "ptir/accel/scene_accel.h"
 #include "ptir/scene/scene.h"
@@ -17,6 +18,8 @@
 namespace ptir {
 
 class GradientTile;
+struct NextEvent;
+struct WeightedHit;
 
 // Inputs of the adjoint (replay) mode of one sample: the sample's primal
 // radiance L and the adjoint dL of the loss with respect to it.
@@ -56,14 +59,27 @@ class PathTracer {
   void sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                       const PathAdjoint& adjoint) const;
 
+  // sample_radiance / sample_adjoint of n camera rays at once (the samples of one
+  // pixel, or any coherent rays): their first walks are traced as packets of up
+  // to SceneAccel::kMaxPacket rays (about twice as fast as one by one), the rest
+  // of each path alone. Each sample gets exactly the result of the single call
+  // (same hits, same floats). coverage and shadow_bits may be null, else n long.
+  void sample_radiance_batch(const Ray* camera_rays, int n, const uint64_t* pixels, const uint32_t* samples,
+                             const IntegratorSettings& settings, Vec3* L, float* coverage = nullptr,
+                             PathStats* stats = nullptr, uint64_t* shadow_bits = nullptr) const;
+  void sample_adjoint_batch(const Ray* camera_rays, int n, const uint64_t* pixels, const uint32_t* samples,
+                            const IntegratorSettings& settings, const PathAdjoint* adjoints) const;
+
   const Scene& scene() const { return scene_; }
   const SceneAccel& accel() const { return *accel_; }
 
  private:
   // The path in either mode: primal (adjoint == nullptr) returns L; replay
   // accumulates gradients (one routine, so the two can never disagree).
+  // first (and first_hits, replay): the camera ray's event, already found (camera_events).
   Vec3 trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-             const PathAdjoint* adjoint, float* coverage, PathStats* stats, uint64_t* shadow_bits) const;
+             const PathAdjoint* adjoint, float* coverage, PathStats* stats, uint64_t* shadow_bits,
+             const NextEvent* first = nullptr, const std::vector<WeightedHit>* first_hits = nullptr) const;
 
   const Scene& scene_;
   std::unique_ptr<SceneAccel> accel_;

@@ -1,6 +1,7 @@
 #include "ptir/transport/scattering.h"
 
 #include <cmath>
+#include <optional>
 
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/sampling.h"
@@ -33,13 +34,17 @@ bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit&
   return h.t <= settings_.fixed_range && dot(d, field_.normal[h.id]) > kFixedBackfaceCos;
 }
 
-NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
-                                std::vector<WeightedHit>* record) const {
+InteractionBuilder Scatterer::interaction_builder(uint64_t path_key, uint32_t bounce,
+                                                 std::vector<WeightedHit>* record) const {
   InteractionSettings isettings = settings_.interaction;
   if (!settings_.geometric_criterion) isettings.tau_g = 0.0f;  // ablation: any response forms an interaction
   uint64_t pick_key = hash_combine(hash_combine(path_key, bounce), kStreamPick);
-  InteractionBuilder builder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record);
+  return InteractionBuilder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record);
+}
 
+NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
+                                std::vector<WeightedHit>* record) const {
+  InteractionBuilder builder = interaction_builder(path_key, bounce, record);
   // Composite the Gaussians front to back, skipping the surface the ray leaves
   // (dropped inside the traversal, so that the walk can stop where the ray turns
   // opaque and prune the BVH behind it: the same hits reach the builder).
@@ -47,8 +52,22 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
   const HitTest skip = hit_test(self_hit);
   WalkEnd end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true,
                             from.kind == SpawnContext::Gaussian ? &skip : nullptr);
-  SurfaceInteraction si = builder.finish(ray);
+  return classify(ray, builder.finish(ray), end, path_key, bounce);
+}
 
+void Scatterer::camera_events(const Ray* rays, int n, const uint64_t* path_keys, NextEvent* events,
+                              std::vector<WeightedHit>* records) const {
+  std::optional<InteractionBuilder> builders[SceneAccel::kMaxPacket];
+  for (int l = 0; l < n; ++l) builders[l].emplace(interaction_builder(path_keys[l], 0, records ? &records[l] : nullptr));
+  // The same walk per lane as next_event's (a camera ray skips nothing), the rays traced together.
+  WalkEnd ends[SceneAccel::kMaxPacket];
+  accel_.walk_packet(rays, n, [&](int l, const GaussianHit& h) { return builders[l]->add(h); }, ends, nullptr,
+                     /*stop_when_opaque=*/true);
+  for (int l = 0; l < n; ++l) events[l] = classify(rays[l], builders[l]->finish(rays[l]), ends[l], path_keys[l], 0);
+}
+
+NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, const WalkEnd& end, uint64_t path_key,
+                              uint32_t bounce) const {
   NextEvent ev;
   ev.si = si;
   // A valid Gaussian interaction (chi_geom = 1).
@@ -133,16 +152,25 @@ bool Scatterer::unoccluded(const SpawnContext& from, Vec3 wi, float distance, ui
 
 namespace {
 
-// The outcome of the next shadow ray of a path: from the log when it holds it, else traced.
-template <class Trace>
-bool shadow_outcome(ShadowLog* log, Trace&& trace) {
-  if (!log) return trace();
-  bool visible;
-  if (log->replay) return log->recall(&visible) ? visible : trace();
-  visible = trace();
-  log->record(visible);
-  return visible;
-}
+// A light sample's slot in the path's outcome log (ShadowLog): the primal records
+// whether the sample contributed (valid, f~ > 0, shadow ray unoccluded); the
+// replay skips a sample that did not (no sampling, no BSDF evaluation: it added
+// nothing) and, for one that did, knows its shadow ray is unoccluded. Without a
+// log, or past its 64 entries, everything is computed and traced.
+struct LightSlot {
+  ShadowLog* log;
+  bool known = false;        // replay: the primal's outcome was read
+  bool contributes = false;  // replay: what it was
+  explicit LightSlot(ShadowLog* l) : log(l) {
+    if (log && log->replay) known = log->recall(&contributes);
+  }
+  bool skip() const { return known && !contributes; }
+  template <class Trace>
+  bool unoccluded(Trace&& trace) const { return known || trace(); }
+  void record(bool contributed) const {
+    if (log && !log->replay) log->record(contributed);
+  }
+};
 
 }  // namespace
 
@@ -152,47 +180,53 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
   const auto& emitters = scene_.emitters;
   // Emitters: light sample, MIS against the BRDF density (delta lights: weight 1).
   for (uint32_t l = 0; l < emitters.size(); ++l) {
-    PathRng rng(path_key, bounce, kStreamLight + l);
-    LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
-    if (!ls.valid()) continue;
-    Vec3 wi_local = frame.to_local(ls.wi);
-    BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
-    const Vec3 f = fp.f;
-    if (max_component(f) <= 0.0f) continue;
-    if (stats) stats->shadow_rays++;
-    if (!shadow_outcome(shadows, [&] { return unoccluded(from, ls.wi, ls.distance, path_key, bounce, l); })) continue;
-    float w = ls.delta ? 1.0f : power_heuristic(1, ls.pdf, 1, fp.pdf);
-    Ld += f * ls.Li * (w / ls.pdf);
-    // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
-    if (adjoint) bsdf.eval_grad(wi_local, adjoint->dL * adjoint->beta * ls.Li * (w / ls.pdf), *adjoint->brdf);
+    const LightSlot slot(shadows);
+    if (slot.skip()) continue;
+    slot.record([&] {
+      PathRng rng(path_key, bounce, kStreamLight + l);
+      LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
+      if (!ls.valid()) return false;
+      Vec3 wi_local = frame.to_local(ls.wi);
+      BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
+      const Vec3 f = fp.f;
+      if (max_component(f) <= 0.0f) return false;
+      if (stats && !slot.known) stats->shadow_rays++;
+      if (!slot.unoccluded([&] { return unoccluded(from, ls.wi, ls.distance, path_key, bounce, l); })) return false;
+      float w = ls.delta ? 1.0f : power_heuristic(1, ls.pdf, 1, fp.pdf);
+      Ld += f * ls.Li * (w / ls.pdf);
+      // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
+      if (adjoint) bsdf.eval_grad(wi_local, adjoint->dL * adjoint->beta * ls.Li * (w / ls.pdf), *adjoint->brdf);
+      return true;
+    }());
   }
   // Environment: importance-sampled direction, MIS against the BRDF density.
   const SceneEnvironment& env = scene_.environment;
-  if (env.present()) {
+  if (!env.present()) return Ld;
+  const LightSlot slot(shadows);
+  if (slot.skip()) return Ld;
+  slot.record([&] {
     const uint32_t l = uint32_t(emitters.size());
     PathRng rng(path_key, bounce, kStreamLight + l);
     const EnvLightSample es = env->sample_li(rng.at(0), rng.at(1), rng.at(2));
     const Vec3 wi = es.wi, Li = es.Li;
     const float pdf = es.pdf;
-    if (pdf > 0.0f) {
-      Vec3 wi_local = frame.to_local(wi);
-      BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
-      const Vec3 f = fp.f;
-      if (max_component(f) > 0.0f) {
-        if (stats) stats->shadow_rays++;
-        if (shadow_outcome(shadows, [&] { return unoccluded(from, wi, INFINITY, path_key, bounce, l); })) {
-          float w = power_heuristic(1, pdf, 1, fp.pdf);
-          Ld += f * Li * (w / pdf);
-          // Adjoint: into the BRDF (through f~) and into the environment (through Li).
-          if (adjoint) {
-            Vec3 scale = adjoint->dL * adjoint->beta * (w / pdf);
-            bsdf.eval_grad(wi_local, scale * Li, *adjoint->brdf);
-            if (adjoint->grads) adjoint->grads->add_environment(wi, scale * f);
-          }
-        }
-      }
+    if (!(pdf > 0.0f)) return false;
+    Vec3 wi_local = frame.to_local(wi);
+    BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
+    const Vec3 f = fp.f;
+    if (!(max_component(f) > 0.0f)) return false;
+    if (stats && !slot.known) stats->shadow_rays++;
+    if (!slot.unoccluded([&] { return unoccluded(from, wi, INFINITY, path_key, bounce, l); })) return false;
+    float w = power_heuristic(1, pdf, 1, fp.pdf);
+    Ld += f * Li * (w / pdf);
+    // Adjoint: into the BRDF (through f~) and into the environment (through Li).
+    if (adjoint) {
+      Vec3 scale = adjoint->dL * adjoint->beta * (w / pdf);
+      bsdf.eval_grad(wi_local, scale * Li, *adjoint->brdf);
+      if (adjoint->grads) adjoint->grads->add_environment(wi, scale * f);
     }
-  }
+    return true;
+  }());
   return Ld;
 }
 

@@ -34,10 +34,11 @@ struct DirectAdjoint {
 
 // The ray outcomes of one path, in the order the path meets them: the primal
 // pass records them (bit k: the k-th outcome was true) and the replay, which
-// traces the same rays in the same order with the same random numbers, reads
-// them back instead of tracing again. Two kinds, interleaved: whether a shadow
-// ray was unoccluded, and whether a continuation ray escaped (path_tracer.cpp).
-// Outcomes after the 64th are traced in both passes.
+// meets the same samples in the same order with the same random numbers, reads
+// them back instead of tracing again. Two kinds, interleaved: whether a light
+// sample contributed (valid, BSDF value > 0, shadow ray unoccluded: the replay
+// skips the others whole, scattering.cpp), and whether a continuation ray
+// escaped (path_tracer.cpp). Outcomes after the 64th are traced in both passes.
 struct ShadowLog {
   uint64_t bits = 0;
   int count = 0;
@@ -97,6 +98,12 @@ class Scatterer {
   // With `record`, the Gaussians composited are appended with their weights.
   NextEvent next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
                        std::vector<WeightedHit>* record = nullptr) const;
+  // next_event of n <= SceneAccel::kMaxPacket camera rays (bounce 0, leaving no
+  // surface) at once, traced as one packet (SceneAccel::walk_packet): events[l] and
+  // records[l] (when records is given) are exactly what next_event(rays[l], {},
+  // path_keys[l], 0, &records[l]) gives. For coherent rays (the samples of one pixel).
+  void camera_events(const Ray* rays, int n, const uint64_t* path_keys, NextEvent* events,
+                     std::vector<WeightedHit>* records = nullptr) const;
 
   SpawnContext spawn_context(const NextEvent& ev, const Ray& incoming) const;
   // The ray leaving `from` along unit direction wi (offsets applied).
@@ -120,6 +127,11 @@ class Scatterer {
   bool is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const;
 
  private:
+  InteractionBuilder interaction_builder(uint64_t path_key, uint32_t bounce, std::vector<WeightedHit>* record) const;
+  // The event a walk found: the interaction its hits formed and how the walk ended.
+  NextEvent classify(const Ray& ray, const SurfaceInteraction& si, const WalkEnd& end, uint64_t path_key,
+                     uint32_t bounce) const;
+
   const Scene& scene_;
   const SceneAccel& accel_;
   const GaussianField& field_;
