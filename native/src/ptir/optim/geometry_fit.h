@@ -15,6 +15,8 @@
 //      after normal_from iterations: + lambda_normal * mean (1 - N . N_pseudo) over
 //      pixels whose pseudo-normal exists (optim/pseudo_normals.h), N = the
 //      normalised normal sum. The pseudo-normals are held fixed (no gradient to depth).
+//      Optional: + lambda_distortion * mean Ldist / extent (depth distortion), and
+//      + lambda_entropy * mean binary entropy of the opacities.
 //   4. the replay backward, the chain rule into the raw parameters (quaternions and
 //      normals are normalised on use: their gradients are projected), one Adam
 //      step per group.
@@ -61,6 +63,14 @@ struct GeometryFitSettings {
   // > 45 degrees off; 15.4 / 23.0 in the first measurements). README, geometry stage.
   float lambda_normal = 0.0f;
   int normal_from = 0;  // iteration from which the pseudo-normal term applies
+  // Weight of the depth-distortion term, from distortion_from on: mean over pixels of
+  // Ldist / extent (render/splat_composite.h; Mip-NeRF 360's, 2DGS's), which gathers
+  // each ray's weights at one depth: the field's depth flattens onto one layer.
+  float lambda_distortion = 0.0f;
+  int distortion_from = 0;
+  // Weight of the opacity-entropy term (optim/opacity_entropy.h), from entropy_from on.
+  float lambda_entropy = 0.0f;
+  int entropy_from = 0;
   int normal_radius = 2;  // stencil radius of the pseudo-normals (pixels)
   bool median_depth = true;  // pseudo-normals from the median depth (else the mean, Dsum / O)
   bool normal_to_weights = false;  // the normal term moves the splats too (else only the normals)
@@ -90,7 +100,7 @@ struct GeometryFitSettings {
 // One row of the fit's log.csv.
 struct FitLog {
   int iteration = 0;  // 1-based
-  double loss = 0, image = 0, mask = 0, normal = 0;
+  double loss = 0, image = 0, mask = 0, normal = 0, entropy = 0, distortion = 0;
   size_t gaussians = 0;
   int pruned = 0, cloned = 0, split = 0;  // densification at this iteration
   int flipped = 0;  // normals re-oriented at this iteration (progress only; not in log.csv)

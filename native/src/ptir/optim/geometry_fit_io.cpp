@@ -39,6 +39,8 @@ Fingerprint GeometryFit::fingerprint() const {
           {"lambda_ssim", num(s.loss.lambda_ssim)},
           {"lambda_mask", num(s.lambda_mask)},
           {"lambda_normal", num(s.lambda_normal)},
+          {"entropy", num(s.lambda_entropy) + " from " + std::to_string(s.entropy_from)},
+          {"distortion", num(s.lambda_distortion) + " from " + std::to_string(s.distortion_from)},
           {"normal_from", std::to_string(s.normal_from) + " r" + std::to_string(s.normal_radius) +
                               (s.normal_to_weights ? " weights" : "") + (s.median_depth ? " median" : " mean")},
           {"lr", num(s.lr_position) + " " + num(s.lr_scale) + " " + num(s.lr_rotation) + " " + num(s.lr_opacity) + " " +
