@@ -134,10 +134,6 @@ Runner add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--distortion-from", o->s.distortion_from, "iteration from which the depth-distortion term applies")
       ->capture_default_str();
-  cmd->add_option("--lambda-entropy", o->s.lambda_entropy, "weight of the opacity-entropy term (pushes opacities to 0 or 1)")
-      ->capture_default_str();
-  cmd->add_option("--entropy-from", o->s.entropy_from, "iteration from which the opacity-entropy term applies")
-      ->capture_default_str();
   cmd->add_option("--lr-normal", o->s.lr_normal, "shading-normal learning rate")->capture_default_str();
   cmd->add_option("--lambda-mask", o->s.lambda_mask, "weight of |opacity - mask| where the images have alpha")
       ->capture_default_str();

@@ -12,7 +12,6 @@
 #include "ptir/core/error.h"
 #include "ptir/math/rng.h"
 #include "ptir/optim/geometry_fit_groups.h"
-#include "ptir/optim/opacity_entropy.h"
 #include "ptir/optim/pseudo_normals.h"
 #include "ptir/render/splat_composite.h"
 #include "ptir/transport/orient_normals.h"
@@ -150,10 +149,6 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   g.resize(field_.size(), field_.sh_stride());
   render_splat_backward(accel, cam, black, fwd, &d_colour, masked ? &d_opacity : nullptr, normals ? &d_normal : nullptr,
                         g, control, settings_.normal_to_weights, distortion ? &d_distortion : nullptr);
-  if (it >= settings_.entropy_from && settings_.lambda_entropy > 0.0f) {
-    log.entropy = opacity_entropy(field_.opacity, settings_.lambda_entropy, &g.opacity);
-    log.loss += settings_.lambda_entropy * log.entropy;
-  }
 
   // Densification statistics: |dL/dmu| in 3DGS's NDC units (dL/dpixel * W/2).
   const float ndc = std::tan(0.5f * cam.fov_x);
