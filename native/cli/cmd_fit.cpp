@@ -5,6 +5,7 @@
 //   ptir fit --dataset DIR --gaussians IN.ply --out OUT [--iters N] [--seed S] [--resume]
 //       [--checkpoint-every N] [--threads N] [--lambda-normal X] [--lambda-mask X]
 //       [--normal-from N] [--normal-per-hit] [--normal-outlier-deg D] [--reorient-every N]
+//       [--lambda-distortion X] [--distortion-from N]
 //       [--max-gaussians N] [--no-densify] [--k K] [-q] [capture flags]
 //
 // Writes OUT/gaussians.ply (standard 3DGS layout with the fitted values, SH
