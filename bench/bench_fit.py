@@ -31,7 +31,7 @@ def fit_point(cli, ply, ds, out, iters, threads):
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
     lines = (out / "log.csv").read_text().splitlines()
     head = lines[0].split(",")
-    rows = [{k: float(v) for k, v in zip(head[:-1], l.split(",")[:-1])} for l in lines[1:]]
+    rows = [{k: float(v) for k, v in zip(head, l.split(",")) if k != "view"} for l in lines[1:]]
     use = rows[1:] if len(rows) > 1 else rows
     return {k: float(np.median([r[k] for r in use])) for k in ("seconds", "build_s", "forward_s", "backward_s")}
 

@@ -5,6 +5,7 @@
 //   ptir fit --dataset DIR --gaussians IN.ply --out OUT [--iters N] [--seed S] [--resume]
 //       [--checkpoint-every N] [--threads N] [--lambda-normal X] [--lambda-mask X]
 //       [--normal-from N] [--normal-per-hit] [--normal-outlier-deg D] [--reorient-every N]
+//       [--lambda-distortion X] [--distortion-from N]
 //       [--max-gaussians N] [--no-densify] [--k K] [-q] [capture flags]
 //
 // Writes OUT/gaussians.ply (standard 3DGS layout with the fitted values, SH
@@ -129,6 +130,11 @@ Runner add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--normal-per-hit", o->s.normal_per_hit, "per-hit normal loss weighted by the compositing weights");
   cmd->add_flag("--normal-to-weights", o->s.normal_to_weights, "let the normal term move the splats too");
+  cmd->add_option("--lambda-distortion", o->s.lambda_distortion,
+                  "weight of the depth-distortion term (gathers each ray's weights at one depth)")
+      ->capture_default_str();
+  cmd->add_option("--distortion-from", o->s.distortion_from, "iteration from which the depth-distortion term applies")
+      ->capture_default_str();
   cmd->add_option("--lr-normal", o->s.lr_normal, "shading-normal learning rate")->capture_default_str();
   cmd->add_option("--lambda-mask", o->s.lambda_mask, "weight of |opacity - mask| where the images have alpha")
       ->capture_default_str();

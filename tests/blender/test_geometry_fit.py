@@ -8,14 +8,16 @@ rotation about the normal, opacities 0.5).
 Scores (scripts/fit_quality.py, the `ptir eval` protocol): NVS PSNR of the
 ray-traced SH render over white on the test views, normal MAE over the
 foreground (normals rendered with 16 samples through the dataset's box filter,
-as `ptir eval`). Measured at 600 iterations, seed 0 (about 25 s on 2 cores):
-PSNR 20.5 -> 26.5 dB (the dataset's own splats, whose SH is the albedo and not
-the radiance: 21.7 dB); normal MAE 17.6 -> 16.3 degrees (16.4 without the
-normals' re-orientation, which pays later: 10.3 -> 9.2 at 1500 iterations on the
-100^2 sample; the normals are the shortest axes, which the perturbation keeps:
-what improves is which splats a ray sees and which way their normals face; the
-pseudo-normal term is off by default, see the README's geometry-stage notes).
-The bounds: PSNR up by >= 4 dB, normals >= 1 degree better than before.
+as `ptir eval`). Measured at 600 iterations, seed 0 (the module about 75 s on 2 busy cores):
+PSNR 20.5 -> 27.2 dB (the dataset's own splats, whose SH is the albedo and not
+the radiance: 21.7 dB); normal MAE 17.6 -> 9.2 degrees (16.3 without the depth
+distortion, the default since: the photometric loss alone leaves a cloud of
+semi-transparent splats whose pixels blend normals from several depths; the
+normals are the shortest axes, which the perturbation keeps: what improves is
+which splats a ray sees and which way their normals face; the pseudo-normal term
+is off by default, see the README's geometry-stage notes).
+The bounds: PSNR up by >= 4 dB, normals >= 5 degrees better than before (the
+fit without the distortion term gains 1.3 and fails it).
 
 Also: `--resume` from a checkpoint written mid-run gives the same PLY, byte for
 byte, as an uninterrupted run (same thread count), through a densification step.
@@ -40,7 +42,7 @@ import perturb_splats  # noqa: E402
 pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
 
 PSNR_GAIN_MIN = 4.0
-NORMAL_GAIN_MIN = 1.0
+NORMAL_GAIN_MIN = 5.0
 
 
 @pytest.fixture(scope="module")

@@ -47,16 +47,28 @@ GaussianField cluster(uint32_t seed, int n = 10) {
 }
 
 struct Adjoints {
-  Image colour, opacity, normal;
+  Image colour, opacity, normal, distortion;
 };
 
 Adjoints random_adjoints(uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  Adjoints a{Image(kSize, kSize, {"R", "G", "B"}), Image(kSize, kSize, {"A"}), Image(kSize, kSize, {"X", "Y", "Z"})};
+  Adjoints a{Image(kSize, kSize, {"R", "G", "B"}), Image(kSize, kSize, {"A"}), Image(kSize, kSize, {"X", "Y", "Z"}),
+             Image(kSize, kSize, {"Y"})};
   for (float& v : a.colour.pixels) v = u(rng);
   for (float& v : a.opacity.pixels) v = u(rng);
   for (float& v : a.normal.pixels) v = u(rng);
+  for (float& v : a.distortion.pixels) v = u(rng);
+  return a;
+}
+
+// Only the distortion's adjoint: its gradient is checked on its own, not
+// hidden under the colour's.
+Adjoints distortion_adjoints(uint32_t seed) {
+  Adjoints a = random_adjoints(seed);
+  for (Image* im : {&a.colour, &a.opacity, &a.normal})
+    for (float& v : im->pixels) v = 0.0f;
+  for (float& v : a.distortion.pixels) v = 4.0f * v;
   return a;
 }
 
@@ -74,6 +86,8 @@ double objective(const GaussianField& f, const Adjoints& a, int k) {
   for (size_t i = 0; i < im.colour.pixels.size(); ++i) s += double(a.colour.pixels[i]) * im.colour.pixels[i];
   for (size_t i = 0; i < im.opacity.pixels.size(); ++i) s += double(a.opacity.pixels[i]) * im.opacity.pixels[i];
   for (size_t i = 0; i < im.normal.pixels.size(); ++i) s += double(a.normal.pixels[i]) * im.normal.pixels[i];
+  for (size_t i = 0; i < im.distortion.pixels.size(); ++i)
+    s += double(a.distortion.pixels[i]) * im.distortion.pixels[i];
   return s;
 }
 
@@ -84,7 +98,7 @@ SplatGradients gradients(const GaussianField& f, const Adjoints& a, int k) {
   SplatImage im = render_splat(accel, cam, bg);
   SplatGradients g;
   g.resize(f.size(), f.sh_stride());
-  render_splat_backward(accel, cam, bg, im, &a.colour, &a.opacity, &a.normal, g);
+  render_splat_backward(accel, cam, bg, im, &a.colour, &a.opacity, &a.normal, g, {}, true, &a.distortion);
   return g;
 }
 
@@ -132,11 +146,9 @@ void normalise(std::array<float, 4>& q) {
   for (float& v : q) v /= l;
 }
 
-}  // namespace
 
-TEST(SplatGradients, MatchFiniteDifferencesAcrossRounds) {
-  const GaussianField f = cluster(7);
-  const Adjoints a = random_adjoints(3);
+// Every parameter's gradient of <a, outputs> against central differences (k = 3).
+void check_every_parameter(const GaussianField& f, const Adjoints& a, bool with_sh_and_normal) {
   const int k = 3;
   // Rays with more than 2k hits: three rounds or more, the first two buffers full.
   int longest = 0, run = 0;
@@ -170,6 +182,7 @@ TEST(SplatGradients, MatchFiniteDifferencesAcrossRounds) {
                   id + " sh " + std::to_string(j));
   }
   for (const Check* c : {&pos, &scl, &rot, &opa, &sh, &nrm}) {
+    if (!with_sh_and_normal && (c == &sh || c == &nrm)) continue;  // the distortion does not see them
     EXPECT_GE(c->compared, 3 * (c->compared + c->skipped) / 4);
     EXPECT_GT(c->max_grad, 0.05);  // the parameters matter
   }
@@ -180,6 +193,15 @@ TEST(SplatGradients, MatchFiniteDifferencesAcrossRounds) {
               "(%.2f) sh %.2e (%.2f) normal %.2e (%.2f)\n",
               pos.max_err, pos.max_grad, scl.max_err, scl.max_grad, rot.max_err, rot.max_grad, opa.max_err, opa.max_grad,
               sh.max_err, sh.max_grad, nrm.max_err, nrm.max_grad);
+}
+
+}  // namespace
+
+TEST(SplatGradients, MatchFiniteDifferencesAcrossRounds) { check_every_parameter(cluster(7), random_adjoints(3), true); }
+
+// The depth distortion alone: through the weights and through t_peak.
+TEST(SplatGradients, DistortionMatchesFiniteDifferences) {
+  check_every_parameter(cluster(7), distortion_adjoints(3), false);
 }
 
 // The k-buffer size changes how the hits are collected, never which or in what

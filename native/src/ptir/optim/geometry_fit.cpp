@@ -130,13 +130,25 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
                                         ? std::cos(settings_.normal_outlier_deg * 3.14159265f / 180.0f)
                                         : 2.0f);
   log.loss = log.image + settings_.lambda_mask * log.mask + settings_.lambda_normal * log.normal;
+  Image d_distortion;
+  const bool distortion = it >= settings_.distortion_from && settings_.lambda_distortion > 0.0f;
+  if (distortion) {
+    // Depths in units of the cameras' extent: the weight does not depend on the scene's scale.
+    const size_t n = fwd.distortion.pixels.size();
+    double sum = 0;
+    for (float v : fwd.distortion.pixels) sum += v;
+    log.distortion = sum / (double(std::max<size_t>(1, n)) * extent_);
+    log.loss += settings_.lambda_distortion * log.distortion;
+    d_distortion = Image(cam.width, cam.height, {"Y"});
+    for (float& v : d_distortion.pixels) v = settings_.lambda_distortion / (float(n) * extent_);
+  }
 
   log.forward_s = since(t1);
   const auto t2 = clock::now();
   SplatGradients g;
   g.resize(field_.size(), field_.sh_stride());
   render_splat_backward(accel, cam, black, fwd, &d_colour, masked ? &d_opacity : nullptr, normals ? &d_normal : nullptr,
-                        g, control, settings_.normal_to_weights);
+                        g, control, settings_.normal_to_weights, distortion ? &d_distortion : nullptr);
 
   // Densification statistics: |dL/dmu| in 3DGS's NDC units (dL/dpixel * W/2).
   const float ndc = std::tan(0.5f * cam.fov_x);

@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr int kLogFields = 14;
+constexpr int kLogFields = 15;
 
 std::string num(double v) {
   std::ostringstream s;
@@ -39,6 +39,7 @@ Fingerprint GeometryFit::fingerprint() const {
           {"lambda_ssim", num(s.loss.lambda_ssim)},
           {"lambda_mask", num(s.lambda_mask)},
           {"lambda_normal", num(s.lambda_normal)},
+          {"distortion", num(s.lambda_distortion) + " from " + std::to_string(s.distortion_from)},
           {"normal_from", std::to_string(s.normal_from) + " r" + std::to_string(s.normal_radius) +
                               (s.normal_to_weights ? " weights" : "") + (s.median_depth ? " median" : " mean")},
           {"lr", num(s.lr_position) + " " + num(s.lr_scale) + " " + num(s.lr_rotation) + " " + num(s.lr_opacity) + " " +
@@ -64,7 +65,7 @@ Checkpoint GeometryFit::checkpoint() const {
     rows.raw.insert(rows.raw.end(), {float(l.iteration), float(l.loss), float(l.image), float(l.mask), float(l.normal),
                                      float(l.gaussians), float(l.pruned), float(l.cloned), float(l.split),
                                      float(l.seconds), float(l.view), float(l.build_s), float(l.forward_s),
-                                     float(l.backward_s)});
+                                     float(l.backward_s), float(l.distortion)});
   rows.m.assign(rows.raw.size(), 0.0f), rows.v = rows.m;
   c.groups.push_back(std::move(rows));
   return c;
@@ -105,6 +106,7 @@ void GeometryFit::restore(const Checkpoint& c, const std::string& path) {
     l.iteration = int(v[0]), l.loss = v[1], l.image = v[2], l.mask = v[3], l.normal = v[4];
     l.gaussians = size_t(v[5]), l.pruned = int(v[6]), l.cloned = int(v[7]), l.split = int(v[8]);
     l.seconds = v[9], l.view = size_t(v[10]), l.build_s = v[11], l.forward_s = v[12], l.backward_s = v[13];
+    l.distortion = v[14];
     log_.push_back(l);
   }
   // The material columns (not fitted here; densification reorders them) are not
@@ -122,11 +124,13 @@ void GeometryFit::restore(const Checkpoint& c, const std::string& path) {
 
 std::string GeometryFit::log_csv() const {
   std::ostringstream s;
-  s << "iteration,loss,image,mask,normal,gaussians,pruned,cloned,split,seconds,build_s,forward_s,backward_s,view\n";
+  s << "iteration,loss,image,mask,normal,gaussians,pruned,cloned,split,seconds,build_s,forward_s,backward_s,view,"
+       "distortion\n";
   for (const FitLog& l : log_)
     s << l.iteration << ',' << num(l.loss) << ',' << num(l.image) << ',' << num(l.mask) << ',' << num(l.normal) << ','
       << l.gaussians << ',' << l.pruned << ',' << l.cloned << ',' << l.split << ',' << num(l.seconds) << ','
-      << num(l.build_s) << ',' << num(l.forward_s) << ',' << num(l.backward_s) << ',' << dataset_->views[l.view].camera.name << '\n';
+      << num(l.build_s) << ',' << num(l.forward_s) << ',' << num(l.backward_s) << ',' << dataset_->views[l.view].camera.name
+      << ',' << num(l.distortion) << '\n';
   return s.str();
 }
 

@@ -56,6 +56,8 @@ struct RayState {
   Vec3 colour, normal_sum, acc_colour, acc_normal;
   float depth_sum = 0.0f;
   float median_t = 0.0f;
+  float distortion = 0.0f;  // forward: Ldist so far
+  float acc_depth = 0.0f, acc_distortion = 0.0f;  // replay: S_< and sum_{j<=i} w_j g_j
 };
 
 // Forward step for hit h.
@@ -63,15 +65,18 @@ inline void composite(const GaussianField& f, const Ray& ray, const GaussianHit&
   const float w = st.T * h.alpha;
   st.colour += w * f.sh_colour(h.id, ray.d);
   if (st.T > kFrontT) st.normal_sum += w * f.normal[h.id];
+  st.distortion += 2.0f * w * (h.t * (1.0f - st.T) - st.depth_sum);  // pairs with the hits in front
   st.depth_sum += w * h.t;
   if (st.T > 0.5f && st.T * (1.0f - h.alpha) <= 0.5f) st.median_t = h.t;
   st.T *= 1.0f - h.alpha;
 }
 
-// The chain from dL/dalpha into the Gaussian's sigma and geometry (alpha = sigma rho).
-void alpha_backward(const GaussianField& f, const Ray& ray, uint32_t id, float alpha, float d_alpha,
-                    const CullSettings& cull, SplatGradients& g) {
-  if (!(alpha < cull.max_alpha) || d_alpha == 0.0f) return;  // clamped: flat
+// The chain from dL/dalpha (alpha = sigma rho) and dL/dt_peak into the Gaussian's
+// sigma and geometry.
+void hit_backward(const GaussianField& f, const Ray& ray, uint32_t id, float alpha, float d_alpha, float d_t,
+                  const CullSettings& cull, SplatGradients& g) {
+  const bool through_alpha = alpha < cull.max_alpha && d_alpha != 0.0f;  // clamped: flat
+  if (!through_alpha && d_t == 0.0f) return;
   const Mat3 R = f.rotation_matrix(id);
   const Vec3 s = f.scale[id], mu = f.position[id];
   // Unit space: o' = S^-1 R^T (o - mu), d' = S^-1 R^T d; u = o' + t d'.
@@ -81,21 +86,35 @@ void alpha_backward(const GaussianField& f, const Ray& ray, uint32_t id, float a
     ou[k] = dot(R.col(k), po) / s[k];
     du[k] = dot(R.col(k), ray.d) / s[k];
   }
-  const float t = -dot(ou, du) / dot(du, du);
+  const float dd = dot(du, du);
+  const float t = -dot(ou, du) / dd;
   const Vec3 u = ou + t * du;
-  const float rho = std::exp(-0.5f * dot(u, u));
-  g.opacity[id] += d_alpha * rho;
-  const float d_d2 = d_alpha * (-0.5f * alpha);
-  const Vec3 pm = po + t * ray.d;  // p_peak - mu
-  Vec3 mtu(0.0f);
   Mat3 dR;
-  for (int k = 0; k < 3; ++k) {
-    mtu += (u[k] / s[k]) * R.col(k);
-    g.log_scale[id][k] += d_d2 * (-2.0f * u[k] * u[k]);
-    const Vec3 dcol = (d_d2 * 2.0f * u[k] / s[k]) * pm;
-    for (int r = 0; r < 3; ++r) dR.m[r][k] = dcol[r];
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) dR.m[r][k] = 0.0f;
+  if (through_alpha) {
+    const float rho = std::exp(-0.5f * dot(u, u));
+    g.opacity[id] += d_alpha * rho;
+    const float d_d2 = d_alpha * (-0.5f * alpha);
+    const Vec3 pm = po + t * ray.d;  // p_peak - mu
+    Vec3 mtu(0.0f);
+    for (int k = 0; k < 3; ++k) {
+      mtu += (u[k] / s[k]) * R.col(k);
+      g.log_scale[id][k] += d_d2 * (-2.0f * u[k] * u[k]);
+      const Vec3 dcol = (d_d2 * 2.0f * u[k] / s[k]) * pm;
+      for (int r = 0; r < 3; ++r) dR.m[r][k] += dcol[r];
+    }
+    g.position[id] += (-2.0f * d_d2) * mtu;
   }
-  g.position[id] += (-2.0f * d_d2) * mtu;
+  if (d_t != 0.0f) {
+    const float scale = d_t / dd;
+    for (int k = 0; k < 3; ++k) {
+      g.position[id] += (scale * du[k] / s[k]) * R.col(k);
+      g.log_scale[id][k] += scale * 2.0f * du[k] * u[k];
+      const Vec3 dcol = (-scale / s[k]) * (du[k] * po + (ou[k] + 2.0f * t * du[k]) * ray.d);
+      for (int r = 0; r < 3; ++r) dR.m[r][k] += dcol[r];
+    }
+  }
   const auto dq = quat_to_mat3_adjoint(f.rotation[id], dR);
   for (int k = 0; k < 4; ++k) g.rotation[id][k] += dq[k];
 }
@@ -112,6 +131,17 @@ inline void replay(const GaussianField& f, const CullSettings& cull, const Ray& 
   const Vec3 rest_c = s.colour - st.acc_colour, rest_n = s.normal_sum - st.acc_normal;
   float d_alpha = dot(adj.colour, st.T * c - inv * rest_c) + adj.opacity * s.transmittance * inv;
   if (adj.normal_to_weights) d_alpha += dot(adj.normal_sum, (front ? st.T : 0.0f) * n - inv * rest_n);
+  float d_t = 0.0f;
+  if (adj.distortion != 0.0f) {
+    // Weight and depth sums in front of and behind hit i (module comment).
+    const float w_front = 1.0f - st.T, w_back = (1.0f - s.transmittance) - w_front - w;
+    const float s_front = st.acc_depth, s_back = s.depth_sum - s_front - w * h.t;
+    const float gi = 2.0f * (h.t * w_front - s_front + s_back - h.t * w_back);
+    st.acc_distortion += w * gi;
+    d_alpha += adj.distortion * (st.T * gi - inv * (2.0f * s.distortion - st.acc_distortion));
+    d_t = adj.distortion * 2.0f * w * (w_front - w_back);
+  }
+  st.acc_depth += w * h.t;
   // Colour: dC/dc_i = w_i, through the SH basis where the colour is not clamped at 0.
   const int stride = f.sh_stride(), nk = stride / 3;
   if (f.sh.size() >= (size_t(h.id) + 1) * size_t(stride)) {
@@ -124,7 +154,7 @@ inline void replay(const GaussianField& f, const CullSettings& cull, const Ray& 
     }
   }
   if (front) g.normal[h.id] += w * adj.normal_sum;
-  alpha_backward(f, ray, h.id, alpha, d_alpha, cull, g);
+  hit_backward(f, ray, h.id, alpha, d_alpha, d_t, cull, g);
   st.T *= 1.0f - alpha;
 }
 
@@ -134,7 +164,7 @@ SplatRaySample trace_splat(const SceneAccel& accel, const Ray& ray, Vec3 backgro
   const GaussianField& f = accel.field();
   RayState st;
   accel.walk(ray, [&](const GaussianHit& h) { return composite(f, ray, h, st), true; }, nullptr, true);
-  return {st.colour + st.T * background, st.T, st.normal_sum, st.depth_sum};
+  return {st.colour + st.T * background, st.T, st.normal_sum, st.depth_sum, st.distortion};
 }
 
 void trace_splat_backward(const SceneAccel& accel, const Ray& ray, Vec3 background, const SplatRaySample& s,
@@ -170,6 +200,8 @@ SplatRaySample sample_at(const SplatImage& im, int x, int y) {
   s.colour = Vec3(im.colour.at(x, y, 0), im.colour.at(x, y, 1), im.colour.at(x, y, 2));
   s.transmittance = 1.0f - im.opacity.at(x, y, 0);
   s.normal_sum = Vec3(im.normal.at(x, y, 0), im.normal.at(x, y, 1), im.normal.at(x, y, 2));
+  s.depth_sum = im.depth.at(x, y, 0) * (1.0f - s.transmittance);
+  s.distortion = im.distortion.at(x, y, 0);
   return s;
 }
 
@@ -189,6 +221,7 @@ SplatImage render_splat(const SceneAccel& accel, const Camera& cam, Vec3 backgro
   out.normal = Image(cam.width, cam.height, {"X", "Y", "Z"});
   out.depth = Image(cam.width, cam.height, {"Z"});
   out.median_depth = Image(cam.width, cam.height, {"Z"});
+  out.distortion = Image(cam.width, cam.height, {"Y"});
   const int rows4 = (cam.height + 3) / 4;
   tbb::parallel_for(0, rows4, [&](int br) {
     if (control.cancel && control.cancel->load()) return;
@@ -207,6 +240,7 @@ SplatImage render_splat(const SceneAccel& accel, const Camera& cam, Vec3 backgro
         out.opacity.at(x, y, 0) = o;
         out.depth.at(x, y, 0) = o > 0.0f ? st[l].depth_sum / o : 0.0f;
         out.median_depth.at(x, y, 0) = st[l].median_t;
+        out.distortion.at(x, y, 0) = st[l].distortion;
       }
     }
   });
@@ -216,11 +250,12 @@ SplatImage render_splat(const SceneAccel& accel, const Camera& cam, Vec3 backgro
 
 void render_splat_backward(const SceneAccel& accel, const Camera& cam, Vec3 background, const SplatImage& fwd,
                            const Image* d_colour, const Image* d_opacity, const Image* d_normal, SplatGradients& grads,
-                           const RenderControl& control, bool normal_to_weights) {
+                           const RenderControl& control, bool normal_to_weights, const Image* d_distortion) {
   (void)background;
   check_adjoint(d_colour, cam, 3, "colour");
   check_adjoint(d_opacity, cam, 1, "opacity");
   check_adjoint(d_normal, cam, 3, "normal");
+  check_adjoint(d_distortion, cam, 1, "distortion");
   const GaussianField& f = accel.field();
   const CullSettings& cull = accel.settings().cull;
   const int rows4 = (cam.height + 3) / 4;
@@ -243,6 +278,7 @@ void render_splat_backward(const SceneAccel& accel, const Camera& cam, Vec3 back
           if (d_colour) adj[l].colour = Vec3(d_colour->at(x, y, 0), d_colour->at(x, y, 1), d_colour->at(x, y, 2));
           if (d_opacity) adj[l].opacity = d_opacity->at(x, y, 0);
           if (d_normal) adj[l].normal_sum = Vec3(d_normal->at(x, y, 0), d_normal->at(x, y, 1), d_normal->at(x, y, 2));
+          if (d_distortion) adj[l].distortion = d_distortion->at(x, y, 0);
           adj[l].normal_to_weights = normal_to_weights;
         }
         WalkEnd ends[16];
