@@ -6,9 +6,8 @@
    (metallic 0, specular 0.5), under a synthetic sky + ground + sun HDR, and turns
    both meshes into flat Gaussians (one per face, no normals).
 2. `ptir optimize` recovers albedo, roughness and a 128x64 environment from the
-   images alone (the environment starts at a constant 0.5): 200 iterations, 8 spp,
-   2 bounces, seed 1 -- a quarter of the paper's 800 iterations, to stay within a
-   few minutes on 2 cores.
+   images alone (the environment starts at a constant 0.5): 400 iterations, 8 spp,
+   2 bounces, seed 1 -- half the paper's 800 iterations, about a minute on 2 cores.
 3. Evaluation as METHOD section 7: the recovered albedo/roughness maps are rendered
    from the training cameras (primary-hit AOVs at pixel centres); a part-ID map
    (the same AOV with one-hot "albedo" per part) keeps the pixels that see one part
@@ -25,7 +24,8 @@ Bounds, and why:
   0.88/0.90/0.91 (cube) of Cycles' mean RGB: the common part goes into the
   alignment scale, the part-to-part difference (up to ~7 %) does not; (b) the
   albedo/lighting ambiguity of the jointly recovered environment; (c) 200
-  iterations at 8 spp (measured: at most 9 %). A run that learned nothing would
+  iterations at 8 spp (measured: at most 9 %; with the decorrelated adjoint at
+  400 iterations, seeds 1-3: at most 9 %, the cube's red). A run that learned nothing would
   fail: a uniform albedo aligned to both parts is off by > 50 % on some channel.
 * Roughness of the sphere (truth 0.25, init 0.6): at least a quarter of the way
   from init to truth. Under the paper's simplified Disney BRDF and independent
@@ -33,8 +33,15 @@ Bounds, and why:
   model) with stratified samples it reaches ~0.46 in these 200 iterations (0.63
   before the inversion sampled the specular lobe at least half the time): the
   diffuse lobe's roughness-dependent retro-reflection now shares the roughness
-  signal with the highlight. Better roughness recovery is the inversion-quality
-  issue's work.
+  signal with the highlight. With the decorrelated adjoint (the default: the
+  loss's gradient from one half of the samples, the replay on the other) the
+  sphere reaches 0.58 in 200 iterations and 0.47 / 0.48 / 0.47 in 400 (seeds
+  1 / 2 / 3), hence the 400 here. The same-sample adjoint got there faster
+  (0.41 at 200, 0.31 at 400) for a biased reason: its step follows the gradient
+  of the render's variance too, which sharpens every lobe (tests/native/
+  test_decorrelated_adjoint.cpp: +34 standard errors on the roughness gradient
+  at the truth), and it took the cube below its truth (0.54 / 0.51 against
+  0.65; decorrelated 0.61).
 * Roughness of the cube: only that it comes out clearly rougher than the sphere
   (by >= 0.05) and not above the truth + 0.1. Flat faces see the sun's highlight
   in few views, so their roughness is set by the brightness of a broad lobe --
@@ -68,7 +75,7 @@ SPHERE_ROUGHNESS_MAX = 0.6 - 0.25 * (0.6 - 0.25)  # a quarter of the way from in
 # ROUGHNESS_NOTE: this check runs at PTIR's constant rates with every group learnt from the
 # first step. With the default schedules (albedo learnt after the light, rates decaying over
 # the second half; README, method notes) the uniform glossy sphere keeps a rougher value in
-# 200 iterations (per-Gaussian mean 0.62 vs 0.54 here): its highlight is partly taken by a
+# 200 iterations (per-Gaussian mean 0.62 vs 0.54 here, same-sample adjoint): its highlight is partly taken by a
 # sharper environment while the albedo is held back. Those defaults win on textured objects
 # (albedo +2.4 dB, roughness MSE 0.0050 -> 0.0028), which this scene does not have.
 
@@ -83,7 +90,7 @@ def test_recovers_known_materials_from_cycles_renders(ptir, tmp_path):
 
     out = tmp_path / "out"
     r = subprocess.run([str(CLI), "optimize", "--dataset", str(data), "--gaussians", str(data / "gaussians.ply"), "--out",
-                        str(out), "--iters", "200", "--spp", "8", "--bounces", "2", "--seed", "1", "-q",
+                        str(out), "--iters", "400", "--spp", "8", "--bounces", "2", "--seed", "1", "-q",
                         # PTIR's constant rates, everything learnt at once (see ROUGHNESS_NOTE)
                         "--lr-final", "1", "--albedo-warmup", "0"],
                        capture_output=True, text=True, timeout=900)

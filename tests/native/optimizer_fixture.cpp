@@ -1,5 +1,7 @@
 #include "optimizer_fixture.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -12,8 +14,12 @@ namespace fs = std::filesystem;
 
 namespace ptir::test {
 
+// Under a folder named after the running test: ctest runs tests as parallel
+// processes, and one must not remove the files another is reading.
 fs::path fresh_dir(const std::string& name) {
-  fs::path d = fs::path(PTIR_TEST_TMP) / "optimizer" / name;
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::string test = info ? std::string(info->test_suite_name()) + "." + info->name() : "no_test";
+  fs::path d = fs::path(PTIR_TEST_TMP) / "optimizer" / test / name;
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
