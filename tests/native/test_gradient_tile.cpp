@@ -163,14 +163,20 @@ TEST(GradientTile, ReplayIsTheSameOnAnyThreadCountAndEqualsPerPixelReplays) {
   EXPECT_NEAR(by_threads[0].mesh_base_colour[0].x, ref_mesh, 1e-5 * std::fabs(ref_mesh) + 1e-12);
 }
 
-TEST(GradientTile, ReplayWithRecordedShadowRaysGivesTheSameFloats) {
-  // The primal pass records every sample's shadow-ray outcomes; a replay that reads
-  // them instead of tracing makes the same decisions, so the gradients are equal
-  // bit for bit (with and without the stored radiance).
+// tile_scene(16, 8) with a rectangular area light above it (shadow rays to record).
+static Scene lit_tile_scene() {
   Scene s = tile_scene(16, 8);
   Affine light_xf;
   light_xf.translation = Vec3(0.6f, 0.3f, 1.5f);
   s.emitters.push_back(AreaLight::from_blender(light_xf, AreaShape::Rectangle, 0.6f, 0.6f, 60.0f, Vec3(1.0f)));
+  return s;
+}
+
+TEST(GradientTile, ReplayWithRecordedShadowRaysGivesTheSameFloats) {
+  // The primal pass records every sample's shadow-ray outcomes; a replay that reads
+  // them instead of tracing makes the same decisions, so the gradients are equal
+  // bit for bit (with and without the stored radiance).
+  Scene s = lit_tile_scene();
   PathTracer tracer(s);
   const Camera cam = tile_camera(20, 16);
   IntegratorSettings is = s.integrator;
@@ -203,10 +209,7 @@ TEST(GradientTile, BatchedSamplesGiveTheSameFloatsAsSingleSamples) {
   // as packets; every sample must come out exactly as from the one-sample calls:
   // radiance, coverage, shadow-ray record, and the gradients (aggregate and
   // discrete interactions; batches of 16 + 1 and 16 + 3 samples).
-  Scene s = tile_scene(16, 8);
-  Affine light_xf;
-  light_xf.translation = Vec3(0.6f, 0.3f, 1.5f);
-  s.emitters.push_back(AreaLight::from_blender(light_xf, AreaShape::Rectangle, 0.6f, 0.6f, 60.0f, Vec3(1.0f)));
+  Scene s = lit_tile_scene();
   PathTracer tracer(s);
   const Camera cam = tile_camera(12, 10);
   for (InteractionMode mode : {InteractionMode::Aggregate, InteractionMode::Discrete})

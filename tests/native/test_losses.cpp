@@ -181,16 +181,22 @@ TEST(Losses, SsimMatchesScikitImage) {
   std::printf("  worst |ssim - skimage| = %.2e\n", worst);
 }
 
-TEST(Losses, L1KnownValues) {
-  // 2x2, 3 channels, no SSIM, no blur: mean |pred - target| over 12 values.
-  Image p = make_image(2, 2, 3), t = make_image(2, 2, 3);
+// A 2x2, 3-channel prediction/target pair with known differences, and loss
+// settings without SSIM or blur: |diff| = .1 .2 0 | 0 .5 0 | .2 0 0 | 1 0 .25.
+static void known_pair(Image& p, Image& t, ImageLossSettings& s) {
+  p = make_image(2, 2, 3), t = make_image(2, 2, 3);
   const float pv[12] = {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 1.0f, 0.0f, 0.5f};
   const float tv[12] = {0.0f, 0.4f, 0.3f, 0.4f, 0.0f, 0.6f, 0.5f, 0.8f, 0.9f, 0.0f, 0.0f, 0.25f};
-  // |diff| = .1 .2 0 | 0 .5 0 | .2 0 0 | 1 0 .25 -> 2.25 / 12
   for (int i = 0; i < 12; ++i) p.pixels[size_t(i)] = pv[i], t.pixels[size_t(i)] = tv[i];
-  ImageLossSettings s;
   s.lambda_ssim = 0.0f;
   s.binomial_filter = false;
+}
+
+TEST(Losses, L1KnownValues) {
+  // No SSIM, no blur: mean |pred - target| over 12 values.
+  Image p, t;
+  ImageLossSettings s;
+  known_pair(p, t, s);  // |diff| sums to 2.25 over 12 values
   Image d;
   EXPECT_NEAR(image_loss(p, t, nullptr, s, &d), 2.25 / 12.0, 1e-7);
   ASSERT_EQ(d.channels, 3);
@@ -222,13 +228,9 @@ TEST(Losses, L1KnownValues) {
 TEST(Losses, HuberKnownValues) {
   // The L1KnownValues pair with a knee at 0.3: |diff| .1 .2 .2 .25 are inside
   // (x^2 / 0.6), .5 and 1 outside (|x| - 0.15).
-  Image p = make_image(2, 2, 3), t = make_image(2, 2, 3);
-  const float pv[12] = {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 1.0f, 0.0f, 0.5f};
-  const float tv[12] = {0.0f, 0.4f, 0.3f, 0.4f, 0.0f, 0.6f, 0.5f, 0.8f, 0.9f, 0.0f, 0.0f, 0.25f};
-  for (int i = 0; i < 12; ++i) p.pixels[size_t(i)] = pv[i], t.pixels[size_t(i)] = tv[i];
+  Image p, t;
   ImageLossSettings s;
-  s.lambda_ssim = 0.0f;
-  s.binomial_filter = false;
+  known_pair(p, t, s);
   s.huber_delta = 0.3f;
   const double inside = (0.01 + 0.04 + 0.04 + 0.0625) / 0.6, outside = (0.5 - 0.15) + (1.0 - 0.15);
   Image d;
