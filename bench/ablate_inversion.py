@@ -34,6 +34,8 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     lr_env3       the environment's rate 3x (--lr-env 0.105)
     fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     correlated    one set of samples for the loss and its replay (--decorrelate-adjoint 0)
+    average75     write the mean of the last quarter's iterates, not the last one (--average-from 0.75)
+    average50/90  the mean of the iterates from 50 % / 90 % of the run on (--average-from)
     huber2/5/10   Huber's function with knee 0.02 / 0.05 / 0.1 for the L1 term (--huber-delta)
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
 Extra optimize flags for every row: --extra "...".
@@ -101,6 +103,9 @@ ROWS = {
     "huber2": ["--huber-delta", "0.02"],
     "huber5": ["--huber-delta", "0.05"],
     "huber10": ["--huber-delta", "0.1"],
+    "average75": ["--average-from", "0.75"],
+    "average50": ["--average-from", "0.5"],
+    "average90": ["--average-from", "0.9"],
 }
 
 

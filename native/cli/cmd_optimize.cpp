@@ -283,6 +283,9 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--lr-decay-start", o->opt.lr_decay_start,
                   "fraction of the iterations after which the learning rate decays (exponentially)")
       ->capture_default_str();
+  cmd->add_option("--average-from", o->opt.average_from,
+                  "write the mean of the iterates from this fraction of the iterations on, not the last one (1: off)")
+      ->capture_default_str();
   cmd->add_option("--env-adam", o->opt.env_adam,
                   "environment step normalisation: shared (one Adam second moment for all texels) or texel")
       ->capture_default_str();

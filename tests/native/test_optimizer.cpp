@@ -153,9 +153,15 @@ TEST(Checkpoint, RoundTripAndCorruption) {
   l.loss = 0.25;
   l.views = "a+b";
   c.log = {l};
+  c.averaged = 3;
+  c.average_begin = 9;
+  c.average_sum = {{4.0, 5.5, -1.25}};
   const std::string path = (d / "c.bin").string();
   write_checkpoint(path, c);
   Checkpoint r = read_checkpoint(path);
+  EXPECT_EQ(r.averaged, 3u);
+  EXPECT_EQ(r.average_begin, 9);
+  EXPECT_EQ(r.average_sum, c.average_sum);
   EXPECT_EQ(r.iteration, 12u);
   EXPECT_EQ(r.fingerprint, c.fingerprint);
   ASSERT_EQ(r.groups.size(), 1u);
@@ -412,6 +418,7 @@ TEST(Optimizer, LossDecreasesAndOutputsAreWritten) {
   OptimizerSettings s = small_settings();
   s.iterations = 60;
   s.integrator.spp = 4;
+  s.average_from = 0.75f;
   Optimizer opt(input_scene(fx.n), fx.data, s);
   const fs::path d = fresh_dir("outputs");
   RunOptions ro;
@@ -427,7 +434,10 @@ TEST(Optimizer, LossDecreasesAndOutputsAreWritten) {
   GaussianField out = load_gaussians((d / "gaussians.ply").string());
   ASSERT_EQ(out.size(), fx.n);
   EXPECT_TRUE(out.normals_from_file);
-  for (size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out.albedo[i].x, opt.scene().gaussians->albedo[i].x);
+  // The outputs are the iterate average (iterations 46..60), not the live iterate.
+  EXPECT_EQ(opt.averaged_iterates(), 15);
+  const auto result = opt.result_scene();
+  for (size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out.albedo[i].x, result->gaussians->albedo[i].x);
   Image env = read_image((d / "env.exr").string());
   EXPECT_EQ(env.width, 16);
   EXPECT_EQ(env.height, 8);
@@ -440,6 +450,56 @@ TEST(Optimizer, LossDecreasesAndOutputsAreWritten) {
   EXPECT_EQ(c.iteration, 60u);
 }
 
+TEST(Optimizer, IterateAverageIsTheMeanOfTheLastIteratesAndSurvivesResume) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+  const test::OptimizerFixture& fx = fixture();
+  OptimizerSettings s = small_settings();
+  s.iterations = 8;
+  s.average_from = 0.5f;  // iterates after iterations 5, 6, 7, 8
+  const fs::path d = fresh_dir("average");
+  const std::string ckpt = (d / "checkpoint.bin").string();
+  Optimizer straight(input_scene(fx.n), fx.data, s);
+  std::vector<Parameters> iterates;
+  for (int i = 0; i < 8; ++i) {
+    straight.step();
+    EXPECT_EQ(straight.averaged_iterates(), std::max(0, i + 1 - 4)) << i;
+    iterates.push_back(straight.parameters());
+    if (i == 3) {
+      EXPECT_EQ(straight.result_parameters().groups[0].raw, straight.parameters().groups[0].raw);
+    }
+  }
+  const Parameters mean = straight.result_parameters();
+  ASSERT_EQ(mean.groups.size(), iterates[0].groups.size());
+  for (size_t g = 0; g < mean.groups.size(); ++g)
+    for (size_t j = 0; j < mean.groups[g].raw.size(); ++j) {
+      double m = 0.0;
+      for (int i = 4; i < 8; ++i) m += iterates[size_t(i)].groups[g].raw[j];
+      ASSERT_NEAR(mean.groups[g].raw[j], m / 4.0, 1e-6 * (1.0 + std::fabs(m))) << g << " " << j;
+    }
+  // The live scene keeps the last iterate; the result scene holds the mean's activations.
+  const auto result = straight.result_scene();
+  const ParameterGroup* albedo = mean.find(ParamKind::GaussianAlbedo);
+  ASSERT_NE(albedo, nullptr);
+  EXPECT_EQ(result->gaussians->albedo[3].y, sigmoid(albedo->raw[3 * 3 + 1]));
+  EXPECT_NE(result->gaussians->albedo[3].y, straight.scene().gaussians->albedo[3].y);
+  // A run resumed in the middle of the average ends with the same one, bit for bit.
+  {
+    Optimizer first(input_scene(fx.n), fx.data, s);
+    for (int i = 0; i < 6; ++i) first.step();
+    first.save_checkpoint(ckpt);
+  }
+  Optimizer resumed(input_scene(fx.n), fx.data, s);
+  resumed.load_checkpoint(ckpt);
+  EXPECT_EQ(resumed.averaged_iterates(), 2);
+  for (int i = 0; i < 2; ++i) resumed.step();
+  for (size_t g = 0; g < mean.groups.size(); ++g) ASSERT_EQ(resumed.result_parameters().groups[g].raw, mean.groups[g].raw);
+  EXPECT_EQ(resumed.environment_image().pixels, straight.environment_image().pixels);
+  // Going further moves the window: the average starts again after iteration 8.
+  resumed.set_iterations(16);
+  resumed.step();
+  EXPECT_EQ(resumed.averaged_iterates(), 1);
+  EXPECT_EQ(resumed.result_parameters().groups[0].raw, resumed.parameters().groups[0].raw);
+}
 
 TEST(Optimizer, MaterialMapsEqualTheAovRenders) {
   const test::OptimizerFixture& fx = fixture();

@@ -14,7 +14,7 @@ namespace ptir {
 namespace {
 
 constexpr char kMagic[8] = {'P', 'T', 'I', 'R', 'C', 'K', 'P', 'T'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2 added the iterate average; 1 is still read
 // The SG environment's group kind before every environment model became one group.
 constexpr uint32_t kEnvSgBeforeOneGroup = 4;
 
@@ -99,6 +99,10 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
       w.pod(d);
     w.str(l.views);
   }
+  w.pod(c.averaged);
+  w.pod(c.average_begin);
+  w.pod(uint64_t(c.average_sum.size()));
+  for (const auto& a : c.average_sum) w.vec(a);
   w.pod(fnv1a(w.buf));
   io::write_bytes_atomic(path, w.buf.data(), w.buf.size());
 }
@@ -116,7 +120,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (fnv1a(body) != stored) throw Error(path, "checkpoint is truncated or corrupt (checksum mismatch)");
   Reader r{body, path, 8};
   uint32_t version = r.pod<uint32_t>();
-  if (version != kVersion)
+  if (version != kVersion && version != 1)
     throw Error(path, "checkpoint version " + std::to_string(version) + " (this build reads " + std::to_string(kVersion) + ")");
   Checkpoint c;
   c.iteration = r.pod<uint64_t>();
@@ -150,6 +154,16 @@ Checkpoint read_checkpoint(const std::string& path) {
       *d = r.pod<double>();
     l.views = r.str();
     c.log.push_back(std::move(l));
+  }
+  if (version >= 2) {
+    c.averaged = r.pod<uint64_t>();
+    c.average_begin = r.pod<int64_t>();
+    const uint64_t na = r.pod<uint64_t>();
+    if (na > ng) throw Error(path, "checkpoint is corrupt (average groups)");
+    for (uint64_t i = 0; i < na; ++i) {
+      c.average_sum.push_back(r.vec<double>());
+      if (c.average_sum.back().size() != c.groups[i].raw.size()) throw Error(path, "checkpoint is corrupt (average sizes)");
+    }
   }
   if (r.pos != body.size()) throw Error(path, "checkpoint is corrupt (trailing data)");
   return c;

@@ -50,6 +50,12 @@ struct Checkpoint {
   std::vector<CheckpointGroup> groups;
   std::vector<Vec3> normals;
   std::vector<IterationLog> log;
+  // The iterate average (optimizer.h, average_from): iterates summed, the
+  // iteration after which it began, and per group the sum (empty: none yet).
+  // Version 1 files have none.
+  uint64_t averaged = 0;
+  int64_t average_begin = 0;
+  std::vector<std::vector<double>> average_sum;
 };
 
 void write_checkpoint(const std::string& path, const Checkpoint& c);

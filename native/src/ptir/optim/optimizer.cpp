@@ -109,6 +109,8 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   if (!(settings_.lr_final > 0.0f && settings_.lr_final <= 1.0f)) throw Error("the final learning-rate factor must be in (0, 1]");
   if (!(settings_.lr_decay_start >= 0.0f && settings_.lr_decay_start < 1.0f))
     throw Error("the learning-rate decay start must be in [0, 1)");
+  if (!(settings_.average_from >= 0.0f && settings_.average_from <= 1.0f))
+    throw Error("the start of the iterate average must be in [0, 1]");
   GaussianField& field = *scene_->gaussians;
   const size_t n = field.size();
   if (field.normal.size() != n) init_normals_shortest_axis(field);
@@ -268,8 +270,46 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   log.seconds = seconds_since(t_start);
   log.cpu_s = process_cpu_seconds() - cpu_start;
   ++iteration_;
+  update_average();
   log_.push_back(log);
   return log;
+}
+
+// The iterates after completed iteration counts begin+1 .. iterations are averaged,
+// begin = floor(average_from x iterations). A changed target (set_iterations on a
+// resumed run) moves begin: the average then starts again.
+void Optimizer::update_average() {
+  const int begin = int(std::floor(double(settings_.average_from) * double(settings_.iterations)));
+  if (iteration_ <= begin || settings_.average_from >= 1.0f) {
+    average_sum_.clear();
+    averaged_ = 0;
+    return;
+  }
+  if (averaged_ == 0 || average_begin_ != begin) {
+    average_sum_.assign(params_.groups.size(), {});
+    for (size_t i = 0; i < params_.groups.size(); ++i) average_sum_[i].assign(params_.groups[i].raw.size(), 0.0);
+    averaged_ = 0;
+    average_begin_ = begin;
+  }
+  for (size_t i = 0; i < params_.groups.size(); ++i)
+    for (size_t j = 0; j < params_.groups[i].raw.size(); ++j) average_sum_[i][j] += double(params_.groups[i].raw[j]);
+  ++averaged_;
+}
+
+Parameters Optimizer::result_parameters() const {
+  Parameters p = params_;
+  if (averaged_ == 0) return p;
+  for (size_t i = 0; i < p.groups.size(); ++i)
+    for (size_t j = 0; j < p.groups[i].raw.size(); ++j) p.groups[i].raw[j] = float(average_sum_[i][j] / double(averaged_));
+  return p;
+}
+
+std::shared_ptr<const Scene> Optimizer::result_scene() const {
+  if (averaged_ == 0) return std::shared_ptr<const Scene>(scene_.get(), [](const Scene*) {});
+  auto s = std::make_shared<Scene>(*scene_);  // copies the environment; the Gaussians are shared, so copy them too
+  s->gaussians = std::make_shared<GaussianField>(*scene_->gaussians);
+  apply_parameters(result_parameters(), settings_.params, *s);
+  return s;
 }
 
 // One view of an iteration: its camera (cropped), targets and path seed.

@@ -150,6 +150,16 @@ struct OptimizerSettings {
   // that term (for an L2 loss exactly; Mitsuba 3 decorrelates its adjoint render
   // for the same reason) at no extra cost: the same samples, split.
   bool decorrelate_adjoint = true;
+  // Iterate averaging (Polyak-Ruppert; SWA): the outputs are the mean of the raw
+  // parameters after every iteration from average_from x iterations on, not the
+  // last iterate (1: off). Per-Gaussian albedos and light texels end a stochastic
+  // run as a random walk about their optimum; the mean of the last iterates cancels
+  // most of that noise at no cost. The iterates themselves (what the run renders
+  // with and the checkpoints continue from) are unchanged. Measured (README, method
+  // notes; textured set, 400 x 8): from 75 % 28.34 dB albedo, from 50 % 28.27,
+  // against 28.37 for the last iterate -- with the rate decayed to 0.1x the last
+  // iterates are not noisy, the error is systematic -- so it is off by default.
+  float average_from = 1.0f;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
   // The primal pass keeps every sample's radiance and shadow-ray outcomes (20 bytes
   // per pixel and sample) so the replay need not recompute them, while that fits this budget; beyond it
@@ -211,9 +221,16 @@ class Optimizer {
   // (optimizer_outputs.cpp; checkpoint()/restore()/run_optimizer in
   // optimizer_checkpoint.cpp; fingerprint() in optimizer_fingerprint.cpp.)
   void write_outputs(const std::string& dir) const;
+  // The result: the iterate average (average_from) once it has begun, else the
+  // current parameters; and how many iterates it holds.
+  Parameters result_parameters() const;
+  int averaged_iterates() const { return averaged_; }
+  // The scene at result_parameters() (the live scene itself while there is no
+  // average; else a copy). write_outputs and environment_image read it.
+  std::shared_ptr<const Scene> result_scene() const;
   std::string log_csv() const;
-  // The recovered environment as a lat-long RGB image (a lat-long map's own texels;
-  // other models rasterised at env_width x env_height).
+  // The recovered environment (result_scene's) as a lat-long RGB image (a lat-long
+  // map's own texels; other models rasterised at env_width x env_height).
   Image environment_image() const;
 
   const Scene& scene() const { return *scene_; }
@@ -239,6 +256,7 @@ class Optimizer {
   Primal primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients, size_t cache_bytes,
                 const RenderControl& control, IterationLog& log) const;
   void apply();
+  void update_average();  // after a step: add the iterate to the average (average_from)
   const std::array<int, 4>& mask_box(size_t view) const;
   ViewWork view_work(int it, size_t v, const ViewPick& pick) const;
   float loss_encode(float c) const;             // linear -> loss space
@@ -259,6 +277,9 @@ class Optimizer {
   SceneGradients grads_;
   std::vector<IterationLog> log_;
   int iteration_ = 0;
+  std::vector<std::vector<double>> average_sum_;  // per group: sum of the averaged raw iterates
+  int averaged_ = 0;        // iterates in average_sum_
+  int average_begin_ = 0;   // the completed-iteration count after which the average began
   size_t nonfinite_ = 0;
   std::array<double, 3> balance_grad_{};  // dL/d balance of the image terms (light_balance.h)
   ExposureGradients exposure_grads_;  // --learn-exposure (exposure.h)

@@ -26,6 +26,9 @@ Checkpoint Optimizer::checkpoint() const {
   }
   c.normals = scene_->gaussians->normal;
   c.log = log_;
+  c.averaged = uint64_t(averaged_);
+  c.average_begin = average_begin_;
+  c.average_sum = average_sum_;
   return c;
 }
 
@@ -50,6 +53,11 @@ void Optimizer::restore(const Checkpoint& c, const std::string& path) {
   scene_->gaussians->normal = c.normals;
   iteration_ = int(c.iteration);
   log_ = c.log;
+  if (c.averaged > 0 && c.average_sum.size() != params_.groups.size())
+    throw Error(path, "checkpoint's iterate average does not match its parameter groups");
+  averaged_ = int(c.averaged);
+  average_begin_ = int(c.average_begin);
+  average_sum_ = c.average_sum;
   apply();
 }
 

@@ -34,6 +34,12 @@ std::string mesh_materials_json(const std::vector<TriangleMesh>& meshes) {
   return ojson{{"meshes", list}}.dump(2) + "\n";
 }
 
+// The scene's environment as a lat-long RGB image (black 1x1 without one).
+Image latlong_image(const Scene& scene, const ParameterSettings& ps) {
+  if (!scene.environment.present()) return Image(1, 1, {"R", "G", "B"});
+  return scene.environment->to_latlong(ps.env_width, ps.env_height);
+}
+
 }  // namespace
 
 std::string Optimizer::log_csv() const {
@@ -49,35 +55,34 @@ std::string Optimizer::log_csv() const {
   return s.str();
 }
 
-Image Optimizer::environment_image() const {
-  if (!scene_->environment.present()) return Image(1, 1, {"R", "G", "B"});
-  return scene_->environment->to_latlong(settings_.params.env_width, settings_.params.env_height);
-}
+Image Optimizer::environment_image() const { return latlong_image(*result_scene(), settings_.params); }
 
 void Optimizer::write_outputs(const std::string& dir) const {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) throw Error(dir, "cannot create the output folder");
   const fs::path out(dir);
-  save_gaussians((out / "gaussians.ply").string(), *scene_->gaussians);
-  write_image((out / "env.exr").string(), environment_image(), Encoding::Colour);
+  const auto scene = result_scene();  // the iterate average (average_from), when it has begun
+  const Parameters result = result_parameters();
+  save_gaussians((out / "gaussians.ply").string(), *scene->gaussians);
+  write_image((out / "env.exr").string(), latlong_image(*scene, settings_.params), Encoding::Colour);
   io::write_text_atomic((out / "log.csv").string(), log_csv());
   // Models whose parameters the lat-long image does not carry exactly (SGs) add env_<type>.json.
   ojson env_params;
-  if (scene_->environment.present() && scene_->environment->parameters_json(&env_params))
-    io::write_text_atomic((out / ("env_" + std::string(scene_->environment->type()) + ".json")).string(),
+  if (scene->environment.present() && scene->environment->parameters_json(&env_params))
+    io::write_text_atomic((out / ("env_" + std::string(scene->environment->type()) + ".json")).string(),
                           env_params.dump(2) + "\n");
-  if (const ParameterGroup* e = params_.find(ParamKind::Exposure)) {  // --learn-exposure: view name -> scale
+  if (const ParameterGroup* e = result.find(ParamKind::Exposure)) {  // --learn-exposure: view name -> scale
     ojson ex = ojson::object();
     for (size_t v = 0; v < e->raw.size(); ++v) ex[dataset_->views[v].camera.name] = std::exp(double(e->raw[v]));
     io::write_text_atomic((out / "exposure.json").string(), ex.dump(1) + "\n");
   }
-  if (const ParameterGroup* b = params_.find(ParamKind::LightBalance)) {  // light_balance.h: the albedos' total move
+  if (const ParameterGroup* b = result.find(ParamKind::LightBalance)) {  // light_balance.h: the albedos' total move
     ojson lb = {{"albedo_scale", {std::exp(double(b->raw[0])), std::exp(double(b->raw[1])), std::exp(double(b->raw[2]))}}};
     io::write_text_atomic((out / "light_balance.json").string(), lb.dump(1) + "\n");
   }
-  if (params_.find(ParamKind::MeshColour))
-    io::write_text_atomic((out / "mesh_materials.json").string(), mesh_materials_json(scene_->meshes));
+  if (result.find(ParamKind::MeshColour))
+    io::write_text_atomic((out / "mesh_materials.json").string(), mesh_materials_json(scene->meshes));
 }
 
 }  // namespace ptir

@@ -30,6 +30,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");
   s.lr_final = o.lr_final;
   s.lr_decay_start = o.lr_decay_start;
+  if (!(o.average_from >= 0.0f && o.average_from <= 1.0f)) throw Error(names("average_from") + " must be in [0, 1]");
+  s.average_from = o.average_from;
   if (!(o.lr_env > 0.0f)) throw Error(names("lr_env") + " must be > 0");
   s.params.lr_env = o.lr_env;
   if (!(o.init_albedo > 0.0f && o.init_albedo < 1.0f)) throw Error(names("init_albedo") + " must be in (0, 1)");

@@ -32,6 +32,7 @@ struct OptimizeOptions {
   float lambda_tv = 0.095f;
   float lr_final = OptimizerSettings{}.lr_final;
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
+  float average_from = OptimizerSettings{}.average_from;
   float init_albedo = ParameterSettings{}.init_albedo;
   bool light_balance = OptimizerSettings{}.light_balance;
   float lr_balance = ParameterSettings{}.lr_balance;
