@@ -31,9 +31,11 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     env_chroma    colour-consistency prior on the environment (--lambda-env-chroma 3); env_chroma30: 30
     init_albedo5/7  the albedo starts at 0.5 / 0.7 instead of 0.3 (--init-albedo)
     balance       learn the light-albedo balance (--light-balance 1); no_balance: without it (--light-balance 0)
+    balance10     the balance's rate 0.1 instead of 0.03 (--lr-balance 0.1)
     lr_env3       the environment's rate 3x (--lr-env 0.105)
     fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     correlated    one set of samples for the loss and its replay (--decorrelate-adjoint 0)
+    fine_rate25/50  the fine environment texels at 25 % / 50 % of the coarse level's rate (--env-fine-rate)
     average75     write the mean of the last quarter's iterates, not the last one (--average-from 0.75)
     average50/90  the mean of the iterates from 50 % / 90 % of the run on (--average-from)
     huber2/5/10   Huber's function with knee 0.02 / 0.05 / 0.1 for the L1 term (--huber-delta)
@@ -91,6 +93,7 @@ ROWS = {
     "balance": ["--light-balance", "1"],
     "no_balance": ["--light-balance", "0"],
     "balance3_s50": ["--light-balance", "1", "--lr-balance", "0.03", "--balance-start", "0.5"],
+    "balance10": ["--lr-balance", "0.1"],
     "balance3_s25": ["--light-balance", "1", "--lr-balance", "0.03", "--balance-start", "0.25"],
     "lr_env3": ["--lr-env", "0.105"],
     "lr_env_half": ["--lr-env", "0.0175"],
@@ -103,6 +106,8 @@ ROWS = {
     "huber2": ["--huber-delta", "0.02"],
     "huber5": ["--huber-delta", "0.05"],
     "huber10": ["--huber-delta", "0.1"],
+    "fine_rate25": ["--env-fine-rate", "0.25"],
+    "fine_rate50": ["--env-fine-rate", "0.5"],
     "average75": ["--average-from", "0.75"],
     "average50": ["--average-from", "0.5"],
     "average90": ["--average-from", "0.9"],

@@ -317,6 +317,9 @@ Runner add_optimize_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--lr-env", o->opt.lr_env, "the environment's Adam learning rate (its log radiance per step)")
       ->capture_default_str();
+  cmd->add_option("--env-fine-rate", o->opt.env_fine_rate,
+                  "with a coarse level: the fine texels' rate as a fraction of --lr-env (the coarse level's)")
+      ->capture_default_str();
   cmd->add_option("--lambda-env-chroma", o->opt.lambda_env_chroma,
                   "weight of the lat-long environment's colour-consistency prior (variance of its log chromaticity over the sphere; 0: off)")
       ->capture_default_str();

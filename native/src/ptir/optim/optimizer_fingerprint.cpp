@@ -94,7 +94,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
       {"exposure", ps.learn_exposure ? "learned" : "fixed"},
       {"lr", num(ps.lr_albedo) + " " + num(ps.lr_roughness) + " " + num(ps.lr_metallic) + " " + num(ps.lr_env) + " " +
-                 num(ps.lr_mesh)},
+                 num(ps.lr_mesh) + (ps.env_fine_lr_scale != 1.0f ? " fine " + num(ps.env_fine_lr_scale) : std::string())},
       {"lr_schedule", num(settings_.lr_final) + " from " + num(settings_.lr_decay_start)},
       {"env_adam", settings_.env_shared_moment ? "shared" : "texel"},
       {"env_coarse", std::to_string(ps.env_coarse_width)},

@@ -34,6 +34,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.average_from = o.average_from;
   if (!(o.lr_env > 0.0f)) throw Error(names("lr_env") + " must be > 0");
   s.params.lr_env = o.lr_env;
+  if (!(o.env_fine_rate > 0.0f && o.env_fine_rate <= 1.0f)) throw Error(names("env_fine_rate") + " must be in (0, 1]");
+  s.params.env_fine_lr_scale = o.env_fine_rate;
   if (!(o.init_albedo > 0.0f && o.init_albedo < 1.0f)) throw Error(names("init_albedo") + " must be in (0, 1)");
   s.params.init_albedo = o.init_albedo;
   if (!(o.lr_balance > 0.0f)) throw Error(names("lr_balance") + " must be > 0");

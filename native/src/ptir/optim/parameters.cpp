@@ -106,9 +106,9 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
   if (s.optimize_env && scene.environment.present()) {
     std::vector<float> raw(scene.environment.parameter_count());
     scene.environment->get_raw(raw.data());
-    p.groups.push_back({ParamKind::Environment, s.lr_env, std::move(raw)});
     const Environment* latlong = scene.environment.as<Environment>();
     const int cw = !latlong ? 0 : s.env_coarse_width >= 0 ? s.env_coarse_width : latlong->width() >= 32 ? latlong->width() / 8 : 0;
+    p.groups.push_back({ParamKind::Environment, cw > 0 ? s.lr_env * s.env_fine_lr_scale : s.lr_env, std::move(raw)});
     if (cw > 0) {
       const int ch = std::max(1, cw / 2);
       p.groups.push_back({ParamKind::EnvironmentCoarse, s.lr_env, std::vector<float>(size_t(cw) * ch * 3, 0.0f)});

@@ -60,10 +60,20 @@ struct ParameterSettings {
   // Measured (README, method notes): +1.2 to +1.9 dB albedo, environment PSNR
   // 18.5 -> 22.4 dB, at the same cost.
   int env_coarse_width = -1;
+  // With a coarse level: the fine texels learn at lr_env x this (the coarse level at
+  // lr_env). Below 1 the fine texels' random walk on converged pixels' noise
+  // (see lr_env) shrinks while the coarse level keeps the light's broad shape moving.
+  // Half, with lr_balance 0.1 (measured together, README method notes, 400 x 8):
+  // the sample +0.7 / +0.4 dB albedo on two seeds (linear +1.3 / +1.7), the
+  // textured set unchanged (+0.01 / +0.05); alone, 25 % lost 0.15 dB textured.
+  float env_fine_lr_scale = 0.5f;
   bool optimize_meshes = false;          // mesh materials of a --scene, one set per mesh
   bool learn_exposure = false;           // one log-exposure per training view (optim/exposure.h)
   float lr_exposure = 0.03f;
-  float lr_balance = 0.03f;              // the light-albedo balance's Adam rate (light_balance.h)
+  // The light-albedo balance's Adam rate (light_balance.h): 0.1 (0.03 before; with
+  // env_fine_lr_scale, above) -- the level is one number per channel whose evidence
+  // is small against the per-Gaussian steps' noise; a faster balance lands nearer it.
+  float lr_balance = 0.1f;
   // Adam learning rates (PTIR code), but the environment's at half of PTIR's 0.035: with the
   // decorrelated adjoint a converged pixel's L1 sign is noise independent of the texels its
   // replay reaches, and Adam's per-texel normalisation turns that noise into a random walk of
