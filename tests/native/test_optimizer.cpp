@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <set>
 #include <sstream>
@@ -43,6 +44,19 @@ bool same_state(const Optimizer& a, const Optimizer& b) {
     if (a.adam()[i].m != b.adam()[i].m || a.adam()[i].v != b.adam()[i].v || a.adam()[i].t != b.adam()[i].t) return false;
   }
   return a.iteration() == b.iteration();
+}
+
+// A run of `steps` iterations saved to `ckpt`, and a fresh optimiser restored from it.
+std::unique_ptr<Optimizer> resumed_from(const test::OptimizerFixture& fx, const OptimizerSettings& s, int steps,
+                                        const std::string& ckpt) {
+  {
+    Optimizer first(input_scene(fx.n), fx.data, s);
+    for (int i = 0; i < steps; ++i) first.step();
+    first.save_checkpoint(ckpt);
+  }
+  auto resumed = std::make_unique<Optimizer>(input_scene(fx.n), fx.data, s);
+  resumed->load_checkpoint(ckpt);
+  return resumed;
 }
 
 }  // namespace
@@ -330,13 +344,8 @@ TEST(Optimizer, ResumeIsBitIdenticalForTheOtherEnvironmentModels) {
     const std::string ckpt = (d / "checkpoint.bin").string();
     Optimizer straight(input_scene(fx.n), fx.data, s);
     for (int i = 0; i < 4; ++i) straight.step();
-    {
-      Optimizer first(input_scene(fx.n), fx.data, s);
-      for (int i = 0; i < 2; ++i) first.step();
-      first.save_checkpoint(ckpt);
-    }
-    Optimizer resumed(input_scene(fx.n), fx.data, s);
-    resumed.load_checkpoint(ckpt);
+    const auto held = resumed_from(fx, s, 2, ckpt);
+    Optimizer& resumed = *held;
     for (int i = 0; i < 2; ++i) resumed.step();
     EXPECT_TRUE(same_state(straight, resumed)) << env_mode_name(mode);
     EXPECT_EQ(straight.environment_image().pixels, resumed.environment_image().pixels) << env_mode_name(mode);
@@ -357,13 +366,8 @@ TEST(Optimizer, ResumeIsBitIdenticalToAnUninterruptedRun) {
   Optimizer straight(input_scene(fx.n), fx.data, s);
   for (int i = 0; i < 6; ++i) straight.step();
 
-  {
-    Optimizer first(input_scene(fx.n), fx.data, s);
-    for (int i = 0; i < 3; ++i) first.step();
-    first.save_checkpoint(ckpt);
-  }
-  Optimizer resumed(input_scene(fx.n), fx.data, s);
-  resumed.load_checkpoint(ckpt);
+  const auto held = resumed_from(fx, s, 3, ckpt);
+  Optimizer& resumed = *held;
   EXPECT_EQ(resumed.iteration(), 3);
   for (int i = 0; i < 3; ++i) resumed.step();
   EXPECT_TRUE(same_state(straight, resumed));
@@ -483,13 +487,8 @@ TEST(Optimizer, IterateAverageIsTheMeanOfTheLastIteratesAndSurvivesResume) {
   EXPECT_EQ(result->gaussians->albedo[3].y, sigmoid(albedo->raw[3 * 3 + 1]));
   EXPECT_NE(result->gaussians->albedo[3].y, straight.scene().gaussians->albedo[3].y);
   // A run resumed in the middle of the average ends with the same one, bit for bit.
-  {
-    Optimizer first(input_scene(fx.n), fx.data, s);
-    for (int i = 0; i < 6; ++i) first.step();
-    first.save_checkpoint(ckpt);
-  }
-  Optimizer resumed(input_scene(fx.n), fx.data, s);
-  resumed.load_checkpoint(ckpt);
+  const auto held = resumed_from(fx, s, 6, ckpt);
+  Optimizer& resumed = *held;
   EXPECT_EQ(resumed.averaged_iterates(), 2);
   for (int i = 0; i < 2; ++i) resumed.step();
   for (size_t g = 0; g < mean.groups.size(); ++g) ASSERT_EQ(resumed.result_parameters().groups[g].raw, mean.groups[g].raw);
