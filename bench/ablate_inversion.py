@@ -39,6 +39,10 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     average75     write the mean of the last quarter's iterates, not the last one (--average-from 0.75)
     average50/90  the mean of the iterates from 50 % / 90 % of the run on (--average-from)
     huber2/5/10   Huber's function with knee 0.02 / 0.05 / 0.1 for the L1 term (--huber-delta)
+    solve0, solve0_50, solve0_25_50, solve0_50_75  the closed-form light solve before those
+                  percentages of the run (--light-solve 0,0.5 ...), its default weights
+    no_solve      no light solve (--light-solve none)
+    ls30_0/50/75  one light solve at 0 / 50 / 75 %, ridge 0.01, smoothness 30; ls3_50: smoothness 3
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
 Extra optimize flags for every row: --extra "...".
 
@@ -111,6 +115,15 @@ ROWS = {
     "average75": ["--average-from", "0.75"],
     "average50": ["--average-from", "0.5"],
     "average90": ["--average-from", "0.9"],
+    "solve0": ["--light-solve", "0"],
+    "solve0_50": ["--light-solve", "0,0.5"],
+    "solve0_25_50": ["--light-solve", "0,0.25,0.5"],
+    "solve0_50_75": ["--light-solve", "0,0.5,0.75"],
+    "no_solve": ["--light-solve", "none"],
+    "ls30_0": ["--light-solve", "0", "--light-solve-ridge", "0.01", "--light-solve-smooth", "30"],
+    "ls30_50": ["--light-solve", "0.5", "--light-solve-ridge", "0.01", "--light-solve-smooth", "30"],
+    "ls30_75": ["--light-solve", "0.75", "--light-solve-ridge", "0.01", "--light-solve-smooth", "30"],
+    "ls3_50": ["--light-solve", "0.5", "--light-solve-ridge", "0.01", "--light-solve-smooth", "3"],
 }
 
 

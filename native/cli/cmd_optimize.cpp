@@ -286,6 +286,17 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--average-from", o->opt.average_from,
                   "write the mean of the iterates from this fraction of the iterations on, not the last one (1: off)")
       ->capture_default_str();
+  cmd->add_option("--light-solve", o->opt.light_solve,
+                  "solve the lat-long light in closed form over every training view, before these fractions of the iterations (comma-separated; none: never)")
+      ->capture_default_str();
+  cmd->add_option("--light-solve-spp", o->opt.light_solve_spp, "samples per pixel of the light solve's pass over the views")
+      ->capture_default_str();
+  cmd->add_option("--light-solve-ridge", o->opt.light_solve_ridge,
+                  "light solve: weight keeping each node's scale near 1 (relative to the normal matrix's mean diagonal)")
+      ->capture_default_str();
+  cmd->add_option("--light-solve-smooth", o->opt.light_solve_smooth,
+                  "light solve: weight of the differences between neighbouring nodes' scales (same units)")
+      ->capture_default_str();
   cmd->add_option("--env-adam", o->opt.env_adam,
                   "environment step normalisation: shared (one Adam second moment for all texels) or texel")
       ->capture_default_str();

@@ -27,6 +27,14 @@ LatlongUpsampler::Tap LatlongUpsampler::tap(int x, int y) const {
   return t;
 }
 
+void LatlongUpsampler::taps(int x, int y, int node[4], float weight[4]) const {
+  const Tap t = tap(x, y);
+  node[0] = t.y0 * cw_ + t.x0, weight[0] = (1 - t.fy) * (1 - t.fx);
+  node[1] = t.y0 * cw_ + t.x1, weight[1] = (1 - t.fy) * t.fx;
+  node[2] = t.y1 * cw_ + t.x0, weight[2] = t.fy * (1 - t.fx);
+  node[3] = t.y1 * cw_ + t.x1, weight[3] = t.fy * t.fx;
+}
+
 void LatlongUpsampler::add_up(const float* coarse, float* fine) const {
   for (int y = 0; y < h_; ++y)
     for (int x = 0; x < w_; ++x) {

@@ -26,6 +26,11 @@ class LatlongUpsampler {
   // d_coarse = up^T(d_fine) (written, not accumulated).
   void adjoint(const float* d_fine, float* d_coarse) const;
   size_t coarse_size() const { return size_t(cw_) * ch_ * 3; }
+  // The four coarse texels (y * cw + x) fine texel (x, y) is interpolated from, and
+  // their bilinear weights (summing to 1).
+  void taps(int x, int y, int node[4], float weight[4]) const;
+  int coarse_width() const { return cw_; }
+  int coarse_height() const { return ch_; }
 
  private:
   struct Tap {

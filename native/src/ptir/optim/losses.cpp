@@ -33,6 +33,17 @@
 #include "ptir/core/error.h"
 
 namespace ptir {
+
+float srgb_encode_unclamped(float c) {
+  c = std::max(c, 0.0f);
+  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+float srgb_encode_derivative(float c) {
+  c = std::max(c, 0.0f);
+  return c <= 0.0031308f ? 12.92f : (1.055f / 2.4f) * std::pow(c, 1.0f / 2.4f - 1.0f);
+}
+
 namespace {
 
 constexpr double kC1 = 0.01 * 0.01;

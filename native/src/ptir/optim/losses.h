@@ -27,6 +27,10 @@
 
 namespace ptir {
 
+// The loss space: the sRGB encoding extended above 1 (no clamp) and its derivative.
+float srgb_encode_unclamped(float c);
+float srgb_encode_derivative(float c);
+
 struct ImageLossSettings {
   float lambda_ssim = 0.2f;     // loss = (1 - lambda) L1 + lambda (1 - SSIM)
   bool binomial_filter = true;  // 3x3 normalised binomial blur of the prediction first (noise suppression)

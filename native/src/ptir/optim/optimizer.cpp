@@ -21,16 +21,6 @@
 
 namespace ptir {
 
-float srgb_encode_unclamped(float c) {
-  c = std::max(c, 0.0f);
-  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
-}
-
-float srgb_encode_derivative(float c) {
-  c = std::max(c, 0.0f);
-  return c <= 0.0031308f ? 12.92f : (1.055f / 2.4f) * std::pow(c, 1.0f / 2.4f - 1.0f);
-}
-
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -234,6 +224,7 @@ void Optimizer::set_parameters(const Parameters& p) {
 IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   const auto t_start = Clock::now();
   const double cpu_start = process_cpu_seconds();
+  if (light_solve_due(iteration_)) solve_light(cancel);
   IterationLog log = evaluate(iteration_, true, cancel);
 
   // Adam on the raw parameters (only now does the state change).

@@ -58,6 +58,7 @@
 #include "ptir/optim/adam.h"
 #include "ptir/optim/checkpoint.h"
 #include "ptir/optim/exposure.h"
+#include "ptir/optim/light_solve.h"
 #include "ptir/optim/losses.h"
 #include "ptir/optim/parameters.h"
 #include "ptir/optim/run_loop.h"
@@ -166,6 +167,10 @@ struct OptimizerSettings {
   // the replay recomputes each sample (one more primal pass, no memory).
   size_t sample_cache_bytes = size_t(256) << 20;
   AccelSettings accel;
+  // The light solve (light_solve.h): at these fractions of the run the lat-long
+  // environment is replaced by the one that best explains every training view
+  // under the current materials, in closed form (empty: never).
+  LightSolveSettings light_solve;
 };
 
 class Optimizer {
@@ -242,6 +247,8 @@ class Optimizer {
   const std::vector<Adam>& adam() const { return adam_; }
   const std::vector<IterationLog>& log() const { return log_; }
   size_t nonfinite_gradients() const { return nonfinite_; }
+  // The light solves made so far (iteration before which each ran, and its report).
+  const std::vector<std::pair<int, LightSolveReport>>& light_solves() const { return light_solves_; }
 
   // The views and crop windows iteration `it` (0-based) uses: (view index, x0, y0, w, h).
   struct ViewPick {
@@ -265,6 +272,10 @@ class Optimizer {
   // the regularisers on its primary-hit material maps; both add to `log`.
   void image_term(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control, IterationLog& log);
   void environment_smoothness_term(bool with_gradients, IterationLog& log);
+  // The light solve (light_solve.h; optimizer_light.cpp): whether one is due
+  // before (0-based) iteration it, and the solve itself.
+  bool light_solve_due(int it) const;
+  void solve_light(const std::atomic<bool>* cancel);
   void regulariser_terms(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control,
                          IterationLog& log);
 
@@ -283,6 +294,7 @@ class Optimizer {
   size_t nonfinite_ = 0;
   std::array<double, 3> balance_grad_{};  // dL/d balance of the image terms (light_balance.h)
   ExposureGradients exposure_grads_;  // --learn-exposure (exposure.h)
+  std::vector<std::pair<int, LightSolveReport>> light_solves_;
   mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
   const Communicator* comm_ = &single_process();      // data-parallel runs (set_communicator)
 };
@@ -307,9 +319,5 @@ RunResult run_optimizer(Optimizer& opt, const RunOptions& options);
 // coverage min(1, opacity) (A).
 void render_material_maps(const SceneAccel& accel, const Camera& camera, const AovSettings& settings,
                           const RenderControl& control, Image* albedo, Image* roughness, Image* coverage);
-
-// The sRGB encoding extended above 1 (no clamp) and its derivative.
-float srgb_encode_unclamped(float c);
-float srgb_encode_derivative(float c);
 
 }  // namespace ptir

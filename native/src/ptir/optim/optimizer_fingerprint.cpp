@@ -59,7 +59,7 @@ Fingerprint Optimizer::fingerprint() const {
   std::ostringstream hx, hv;
   hx << std::hex << geo;
   hv << std::hex << views;
-  return {
+  Fingerprint fp = {
       {"gaussians", std::to_string(f.size())},
       {"meshes", std::to_string(scene_->meshes.size())},
       {"lights", std::to_string(scene_->emitters.size())},
@@ -106,6 +106,15 @@ Fingerprint Optimizer::fingerprint() const {
       {"huber", num(settings_.loss.huber_delta)},
       {"orient_normals", settings_.orient_normals ? "1" : "0"},
   };
+  const LightSolveSettings& ls = settings_.light_solve;
+  if (!ls.at.empty()) {  // only then: checkpoints from before the light solve still resume
+    std::string at;
+    for (float f : ls.at) at += num(f) + " ";
+    fp.push_back({"light solve", at + "spp " + std::to_string(ls.spp) + " ridge " + num(ls.ridge) + " smooth " +
+                                     num(ls.smooth) + " range " + num(ls.min_scale) + " " + num(ls.max_scale) + " grid " +
+                                     std::to_string(ls.grid_width)});
+  }
+  return fp;
 }
 
 }  // namespace ptir

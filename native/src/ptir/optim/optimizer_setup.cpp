@@ -1,5 +1,7 @@
 #include "ptir/optim/optimizer_setup.h"
 
+#include <sstream>
+
 #include "ptir/core/error.h"
 #include "ptir/scene/scene_json.h"
 
@@ -13,6 +15,37 @@ std::string cli_option_name(const std::string& snake_case) {
 }
 
 std::string python_option_name(const std::string& snake_case) { return snake_case; }
+
+std::string light_solve_text(const std::vector<float>& at) {
+  if (at.empty()) return "none";
+  std::string t;
+  for (float f : at) {
+    std::ostringstream os;
+    os << f;
+    t += (t.empty() ? "" : ",") + os.str();
+  }
+  return t;
+}
+
+std::vector<float> parse_light_solve(const std::string& text, const std::string& what) {
+  std::vector<float> at;
+  if (text.empty() || text == "none") return at;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    size_t used = 0;
+    float f = -1.0f;
+    try {
+      f = std::stof(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size() || !(f >= 0.0f && f < 1.0f))
+      throw Error(what + " must be comma-separated fractions in [0, 1) or 'none', got '" + text + "'");
+    at.push_back(f);
+  }
+  return at;
+}
 
 OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames& names) {
   if (o.iters < 0) throw Error(names("iters") + " must be >= 0");
@@ -32,6 +65,13 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.lr_decay_start = o.lr_decay_start;
   if (!(o.average_from >= 0.0f && o.average_from <= 1.0f)) throw Error(names("average_from") + " must be in [0, 1]");
   s.average_from = o.average_from;
+  s.light_solve.at = parse_light_solve(o.light_solve, names("light_solve"));
+  if (o.light_solve_spp < 2 || o.light_solve_spp > 16) throw Error(names("light_solve_spp") + " must be in [2, 16]");
+  s.light_solve.spp = o.light_solve_spp;
+  if (!(o.light_solve_ridge > 0.0f)) throw Error(names("light_solve_ridge") + " must be > 0");
+  s.light_solve.ridge = o.light_solve_ridge;
+  if (!(o.light_solve_smooth >= 0.0f)) throw Error(names("light_solve_smooth") + " must be >= 0");
+  s.light_solve.smooth = o.light_solve_smooth;
   if (!(o.lr_env > 0.0f)) throw Error(names("lr_env") + " must be > 0");
   s.params.lr_env = o.lr_env;
   if (!(o.env_fine_rate > 0.0f && o.env_fine_rate <= 1.0f)) throw Error(names("env_fine_rate") + " must be in (0, 1]");

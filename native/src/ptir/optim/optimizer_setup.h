@@ -21,6 +21,10 @@ using OptionNames = std::function<std::string(const std::string& snake_case)>;
 std::string cli_option_name(const std::string& snake_case);     // "env_init" -> "--env-init"
 std::string python_option_name(const std::string& snake_case);  // unchanged
 
+// "0,0.5" <-> {0, 0.5}; "none" (or "") <-> {}. parse throws Error naming `what`.
+std::string light_solve_text(const std::vector<float>& at);
+std::vector<float> parse_light_solve(const std::string& text, const std::string& what);
+
 struct OptimizeOptions {
   int iters = 800;
   int spp = 32;
@@ -56,6 +60,12 @@ struct OptimizeOptions {
   bool optimize_meshes = false;
   bool learn_exposure = false;  // one exposure scale per training view (exposure.h)
   int k = AccelSettings{}.k;     // k-buffer size of the tracer
+  // The light solve (light_solve.h): comma-separated fractions of the iterations
+  // before which it runs ("none" or "": never), its samples per pixel and weights.
+  std::string light_solve = light_solve_text(OptimizerSettings{}.light_solve.at);
+  int light_solve_spp = LightSolveSettings{}.spp;
+  float light_solve_ridge = LightSolveSettings{}.ridge;
+  float light_solve_smooth = LightSolveSettings{}.smooth;
 };
 
 // The checked settings; throws Error naming the offending option.

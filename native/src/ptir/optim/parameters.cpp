@@ -132,15 +132,6 @@ void check_size(const ParameterGroup& g, size_t n) {
                 " values, the scene needs " + std::to_string(n));
 }
 
-// The upsampler of a coarse environment group (its width from its size: cw x max(1, cw/2) x 3).
-LatlongUpsampler coarse_upsampler(const ParameterGroup& coarse, const Scene& scene) {
-  const Environment* env = scene.environment.as<Environment>();
-  if (!env) throw Error("a coarse environment level needs the lat-long environment model");
-  for (int cw = 1; size_t(cw) * std::max(1, cw / 2) * 3 <= coarse.raw.size(); ++cw)
-    if (size_t(cw) * std::max(1, cw / 2) * 3 == coarse.raw.size()) return LatlongUpsampler(cw, std::max(1, cw / 2), env->width(), env->height());
-  throw Error("parameter group 'environment_coarse' has " + std::to_string(coarse.raw.size()) + " values, not a w x w/2 RGB grid");
-}
-
 // The environment model's raw numbers: the fine group plus the upsampled coarse one.
 std::vector<float> environment_raw(const Parameters& p, const ParameterGroup& fine, const Scene& scene) {
   std::vector<float> raw = fine.raw;
@@ -149,6 +140,15 @@ std::vector<float> environment_raw(const Parameters& p, const ParameterGroup& fi
 }
 
 }  // namespace
+
+// The upsampler of a coarse environment group (its width from its size: cw x max(1, cw/2) x 3).
+LatlongUpsampler coarse_upsampler(const ParameterGroup& coarse, const Scene& scene) {
+  const Environment* env = scene.environment.as<Environment>();
+  if (!env) throw Error("a coarse environment level needs the lat-long environment model");
+  for (int cw = 1; size_t(cw) * std::max(1, cw / 2) * 3 <= coarse.raw.size(); ++cw)
+    if (size_t(cw) * std::max(1, cw / 2) * 3 == coarse.raw.size()) return LatlongUpsampler(cw, std::max(1, cw / 2), env->width(), env->height());
+  throw Error("parameter group 'environment_coarse' has " + std::to_string(coarse.raw.size()) + " values, not a w x w/2 RGB grid");
+}
 
 void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& scene) {
   GaussianField& f = *scene.gaussians;

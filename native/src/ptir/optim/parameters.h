@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "ptir/math/vec.h"
+#include "ptir/optim/env_pyramid.h"
 #include "ptir/scene/scene.h"
 #include "ptir/transport/gradients.h"
 
@@ -137,6 +138,10 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s);
 // texels or SG amplitudes with their sampling rebuilt, mesh materials). Fixed
 // metallic is set to s.init_metallic.
 void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& scene);
+
+// The upsampler of a coarse environment group (a cw x max(1, cw/2) RGB grid)
+// onto the scene's lat-long environment; throws Error for other models or sizes.
+LatlongUpsampler coarse_upsampler(const ParameterGroup& coarse, const Scene& scene);
 
 // dLoss/d(raw) for every group, from the adjoints w.r.t. activated values; same
 // shapes as the groups' raw vectors. Reads the current activated values from raw;

@@ -39,6 +39,16 @@ class GradientTile {
   size_t gaussian_entries() const { return count_; }
   size_t bytes() const;  // heap held by the tile
 
+  // One environment adjoint call: the adjoint d_Le of the radiance seen along d.
+  struct EnvRecord {
+    Vec3 d, d_Le;
+  };
+  // Environment only, call by call: from now on Gaussian and mesh adjoints are
+  // dropped and every environment adjoint call is logged in order, never summed
+  // (the light solve, optim/light_solve.h, reads one sample's calls at a time).
+  void log_environment_only();
+  const std::vector<EnvRecord>& environment_log() const { return env_log_; }
+
  private:
   struct Entry {  // 24 bytes
     uint32_t id;   // kEmpty: a free slot of the table
@@ -46,9 +56,6 @@ class GradientTile {
     float roughness, metallic;
   };
   static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
-  struct EnvRecord {
-    Vec3 d, d_Le;
-  };
   void grow();
 
   const SceneEnvironment* env_ = nullptr;
@@ -65,6 +72,7 @@ class GradientTile {
   std::vector<float> env_dense_;
   std::vector<EnvRecord> env_log_;
   bool env_touched_ = false;
+  bool environment_only_ = false;
 };
 
 }  // namespace ptir
