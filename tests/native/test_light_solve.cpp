@@ -52,22 +52,36 @@ TEST(LightSolve, TransportRowsReproduceTheRender) {
   const IntegratorSettings is = settings(6, 11);
   const Image render = render_path(tracer, cam, is);
   const std::vector<float>& texels = scene.environment.as<Environment>()->texels();
-  int pixels = 0, with_lookups = 0;
-  double worst = 0.0, worst_render = 0.0;
-  render_env_transport(tracer, cam, is, 4, [&](int, const EnvTransportPixel& px) {
-    ++pixels;
+  // Bands run in parallel: each keeps its own tallies (5 bands of 4 rows).
+  struct Tally {
+    int pixels = 0, with_lookups = 0;
+    double worst = 0.0, worst_render = 0.0;
+  };
+  std::vector<Tally> bands(5);
+  render_env_transport(tracer, cam, is, 4, [&](int band, const EnvTransportPixel& px) {
+    Tally& t = bands[size_t(band)];
+    ++t.pixels;
     for (int h = 0; h < 2; ++h) {
       Vec3 sum(0.0f);
       for (const EnvLookup& l : px.lookups[h])
         sum += l.weight * Vec3(texels[3 * l.texel], texels[3 * l.texel + 1], texels[3 * l.texel + 2]);
-      with_lookups += !px.lookups[h].empty();
-      for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(sum[c]) - px.L[h][c]) / (1e-3 + px.L[h][c]));
+      t.with_lookups += !px.lookups[h].empty();
+      for (int c = 0; c < 3; ++c) t.worst = std::max(t.worst, std::abs(double(sum[c]) - px.L[h][c]) / (1e-3 + px.L[h][c]));
     }
     for (int c = 0; c < 3; ++c) {
       const double mean = 0.5 * (double(px.L[0][c]) + px.L[1][c]);
-      worst_render = std::max(worst_render, std::abs(mean - render.at(px.x, px.y, c)) / (1e-3 + render.at(px.x, px.y, c)));
+      t.worst_render =
+          std::max(t.worst_render, std::abs(mean - render.at(px.x, px.y, c)) / (1e-3 + render.at(px.x, px.y, c)));
     }
   });
+  int pixels = 0, with_lookups = 0;
+  double worst = 0.0, worst_render = 0.0;
+  for (const Tally& t : bands) {
+    pixels += t.pixels;
+    with_lookups += t.with_lookups;
+    worst = std::max(worst, t.worst);
+    worst_render = std::max(worst_render, t.worst_render);
+  }
   EXPECT_EQ(pixels, 20 * 20);
   EXPECT_GT(with_lookups, 2 * 20 * 20 * 9 / 10);  // escaped camera rays and shaded paths alike
   EXPECT_LT(worst, 2e-5);
