@@ -9,14 +9,17 @@ sample object (Suzanne on a pedestal, scripts/make_sample_splat.py; --subdiv 4 g
 ~130K surface Gaussians) as flat Gaussians, a mesh floor and two mesh walls, a
 rectangular area light and a lat-long environment; 256 x 256, 32 spp, 2 bounces.
 
-Measured, all in one run on this machine:
+Measured, all in one run on this machine (ours and Cycles --repeat times each, medians):
   - ours on the heterogeneous scene (Gaussians + meshes): render seconds and path
     samples per second (pixels x spp / render time; BVH build and loading are
     reported separately);
-  - Cycles (blender -b, CPU, same threads) on the mesh-only version of the scene
-    (the object as its triangle mesh) at the same resolution, spp and bounces, and
-    ours on that same mesh-only scene: ratio of render times ours / Cycles; also the
-    mean-image difference ours(mesh) vs Cycles as a sanity check (same materials);
+  - Cycles (blender -b, CPU, same threads; its whole render operation: sync, BVH
+    build, path tracing, EXR written) on the mesh-only version of the scene (the
+    object as its triangle mesh, Principled BSDFs) at the same resolution, spp and
+    bounces, and ours on that same mesh-only scene: ratio of render times ours /
+    Cycles; also the mean-image difference ours(mesh) vs Cycles as a sanity check;
+  - ours with the inversion's estimator (every light at every vertex, no Russian
+    roulette) against the default, Cycles' (one light per vertex, roulette);
   - the cost of the BSDF: the heterogeneous scene with the default Principled
     BSDF against the paper's simplified Disney BRDF (--brdf disney-simplified);
   - spp scaling (8, 16, 32, 64) and bounce scaling (0, 1, 2, 4, 8) of ours on the
@@ -54,17 +57,29 @@ def make_environment(ptir, path, width=128, height=64):
     ptir.write_image(str(path), img.astype(np.float32))
 
 
-def ours(cli, scene, out_dir, tag, spp, bounces, threads, brdf=None):
+def ours(cli, scene, out_dir, tag, spp, bounces, threads, brdf=None, repeat=1):
+    """`ptir render` `repeat` times: the stats of the run with the median render time, plus
+    every run's render seconds ("render_all")."""
     out = out_dir / ("ours_%s.exr" % tag)
     stats = out_dir / ("ours_%s.json" % tag)
     cmd = [str(cli), "render", str(scene), "-o", str(out), "--spp", str(spp), "--bounces", str(bounces),
            "--threads", str(threads), "--stats-json", str(stats), "-q"] + (["--brdf", brdf] if brdf else [])
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit("bench_path: error: ptir render failed:\n" + r.stderr[-3000:])
-    s = json.loads(stats.read_text())
+    runs = []
+    for _ in range(max(1, repeat)):
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            sys.exit("bench_path: error: ptir render failed:\n" + r.stderr[-3000:])
+        runs.append(json.loads(stats.read_text()))
+    runs.sort(key=lambda s: s["render_s"])
+    s = runs[len(runs) // 2]
+    s["render_all"] = [x["render_s"] for x in runs]
     s["image"] = out
     return s
+
+
+def spread(values):
+    """'min-max' of a list of seconds."""
+    return "%.2f-%.2f" % (min(values), max(values))
 
 
 def main():
@@ -78,6 +93,8 @@ def main():
     p.add_argument("--out", default=str(ROOT / "out" / "bench_path"))
     p.add_argument("--quick", action="store_true", help="skip the spp and bounce scaling")
     p.add_argument("--no-cycles", action="store_true")
+    p.add_argument("--repeat", type=int, default=3,
+                   help="timed runs of ours and of Cycles for the comparison (the median is reported)")
     args = p.parse_args()
 
     build = Path(args.build)
@@ -102,7 +119,8 @@ def main():
     cmd = [blender, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1",
            "-P", str(ROOT / "bench" / "bench_path_blender.py"), "--", "--out", str(out), "--env", str(env),
            "--subdiv", str(args.subdiv), "--res", str(args.res), "--spp", str(args.spp),
-           "--bounces", str(args.bounces), "--threads", str(args.threads)] + (["--no-cycles"] if args.no_cycles else [])
+           "--bounces", str(args.bounces), "--threads", str(args.threads), "--repeat", str(args.repeat)] + \
+        (["--no-cycles"] if args.no_cycles else [])
     t0 = time.time()
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
@@ -117,15 +135,24 @@ def main():
 
     def row(label, s):
         rows.append((label, s["gaussians"], s["triangles"], s["spp"], s["bounces"], s["render_s"],
-                     s["path_samples"] / s["render_s"], s["build_s"], s["load_s"]))
+                     spread(s["render_all"]), s["path_samples"] / s["render_s"], s["build_s"], s["load_s"]))
         print("  %-34s %6.2f s" % (label, s["render_s"]), flush=True)
 
-    main_run = ours(cli, hetero, out, "hetero", args.spp, args.bounces, args.threads)
+    main_run = ours(cli, hetero, out, "hetero", args.spp, args.bounces, args.threads, repeat=args.repeat)
     row("ours: Gaussians + meshes", main_run)
-    mesh_run = ours(cli, mesh, out, "mesh", args.spp, args.bounces, args.threads)
+    mesh_run = ours(cli, mesh, out, "mesh", args.spp, args.bounces, args.threads, repeat=args.repeat)
     row("ours: mesh-only version", mesh_run)
     disney_run = ours(cli, hetero, out, "hetero_disney", args.spp, args.bounces, args.threads, "disney-simplified")
     row("ours: Gaussians + meshes, paper BRDF", disney_run)
+    # The inversion's estimator (every light at every vertex, no Russian roulette) on
+    # the same scene: what Cycles' one-light pick and roulette save.
+    doc = json.loads(hetero.read_text())
+    doc.setdefault("integrator", {}).update({"light_selection": "all", "russian_roulette": False})
+    every_light = hetero.with_name("scene_every_light.json")
+    every_light.write_text(json.dumps(doc, indent=1))
+    every_run = ours(cli, every_light, out, "hetero_every_light", args.spp, args.bounces, args.threads,
+                     repeat=args.repeat)
+    row("ours: Gaussians + meshes, every light, no roulette", every_run)
     scaling = []
     if not args.quick:
         for spp in (8, 16, 32, 64):
@@ -139,22 +166,28 @@ def main():
     print("Heterogeneous sample scene, %d x %d, %d spp, %d bounces, %d threads (%s)"
           % (args.res, args.res, args.spp, args.bounces, args.threads, os.uname().nodename))
     print()
-    print("| renderer / scene | Gaussians | triangles | spp | bounces | render s | path samples/s | BVH+setup s |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
-    for label, g, t, spp, b, secs, rate, build_s, _ in rows:
-        print("| %s | %d | %d | %d | %d | %.2f | %.3g | %.2f |" % (label, g, t, spp, b, secs, rate, build_s))
+    print("| renderer / scene | Gaussians | triangles | spp | bounces | render s (median) | min-max | path samples/s"
+          " | BVH+setup s |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for label, g, t, spp, b, secs, mm, rate, build_s, _ in rows:
+        print("| %s | %d | %d | %d | %d | %.2f | %s | %.3g | %.2f |" % (label, g, t, spp, b, secs, mm, rate, build_s))
     if not args.no_cycles:
-        cyc = info["cycles_seconds_second"]
+        cycles_all = sorted(info["cycles_seconds"])
+        cyc = cycles_all[len(cycles_all) // 2]
         tris_mesh = mesh_run["triangles"]
-        print("| Cycles 3.4 (CPU): mesh-only version | 0 | %d | %d | %d | %.2f | %.3g | (first render: %.2f s) |"
-              % (tris_mesh, args.spp, args.bounces, cyc, pixels * args.spp / cyc, info["cycles_seconds_first"]))
+        print("| Cycles 3.4 (CPU): mesh-only version, whole render operation (sync, BVH, EXR) | 0 | %d | %d | %d | %.2f"
+              " | %s | %.3g | (first render: %.2f s) |"
+              % (tris_mesh, args.spp, args.bounces, cyc, spread(cycles_all), pixels * args.spp / cyc,
+                 info["cycles_seconds_first"]))
         print()
-        print("ratio ours / Cycles (render time): Gaussians + meshes %.2f, mesh-only %.2f"
-              % (main_run["render_s"] / cyc, mesh_run["render_s"] / cyc))
+        print("ratio ours / Cycles (render time, medians of %d): Gaussians + meshes %.2f, mesh-only %.2f"
+              % (len(cycles_all), main_run["render_s"] / cyc, mesh_run["render_s"] / cyc))
+        print("ratio ours (BVH build + render) / Cycles' whole render: Gaussians + meshes %.2f, mesh-only %.2f"
+              % ((main_run["build_s"] + main_run["render_s"]) / cyc, (mesh_run["build_s"] + mesh_run["render_s"]) / cyc))
         ref = np.load(out / "cycles.npy")
         img = ptir.read_image(str(mesh_run["image"]))[..., :3]
         cl = lambda a: np.minimum(a, 1.0)  # noqa: E731
-        print("sanity: mean image ours(mesh) / Cycles = %.4f (both %d spp; same matched materials)"
+        print("sanity: mean image ours(mesh) / Cycles = %.4f (both %d spp; same Principled materials)"
               % (float(cl(img).mean()) / float(cl(ref).mean()), args.spp))
     print()
     t_ratio = main_run["render_s"] / disney_run["render_s"]

@@ -71,6 +71,9 @@ py::dict integrator_dict(const IntegratorSettings& s) {
   d["fixed_offset"] = s.fixed_offset;
   d["fixed_range"] = s.fixed_range;
   d["min_throughput"] = s.min_throughput;
+  d["light_selection"] = light_selection_name(s.light_selection);
+  d["russian_roulette"] = s.russian_roulette;
+  d["min_light_bounces"] = s.min_light_bounces;
   return d;
 }
 

@@ -175,7 +175,8 @@ def test_export_lights_world_gaussians_integrator(exported):
     assert len(doc["gaussians"]) == 1 and doc["gaussians"][0]["file"] == "holder.ply"
     assert np.allclose(doc["gaussians"][0]["transform"], exported["splats_matrix"], atol=1e-6)
     # The caller's settings plus the film's pixel filter (factory settings: Blackman-Harris 1.5 px).
-    assert doc["integrator"] == {"spp": 3, "bounces": 1, "pixel_filter": "blackman_harris", "filter_width": 1.5}
+    assert doc["integrator"] == {"spp": 3, "bounces": 1, "pixel_filter": "blackman_harris", "filter_width": 1.5,
+                                 "min_light_bounces": 0}
 
 
 def test_export_camera_projects_like_blender(exported):

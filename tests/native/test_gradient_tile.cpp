@@ -32,6 +32,7 @@ Scene tile_scene(int env_width, int env_height) {
       for (int c = 0; c < 3; ++c) map.at(x, y, c) = 0.2f + 0.6f * float((x + 3 * y + c) % 7) / 7.0f;
   s.environment = Environment(map, 1.0f);
   s.integrator.max_bounces = 2;
+  s.integrator.russian_roulette = false;  // path replay's requirement
   return s;
 }
 
@@ -202,6 +203,10 @@ TEST(GradientTile, ReplayWithRecordedShadowRaysGivesTheSameFloats) {
   // Wrong-sized records are refused.
   std::vector<uint64_t> short_record(3);
   EXPECT_THROW(render_path_backward(tracer, cam, is, weights, read, {}, &radiance, nullptr, &short_record), Error);
+  // So is Russian roulette (its survival probability depends on the materials).
+  IntegratorSettings roulette = is;
+  roulette.russian_roulette = true;
+  EXPECT_THROW(render_path_backward(tracer, cam, roulette, weights, read), Error);
 }
 
 TEST(GradientTile, BatchedSamplesGiveTheSameFloatsAsSingleSamples) {

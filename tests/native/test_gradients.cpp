@@ -106,6 +106,7 @@ double central_difference(const GradientScene& gs, const IntegratorSettings& set
 
 IntegratorSettings settings_with(int spp) {
   IntegratorSettings s;
+  s.russian_roulette = false;  // path replay's requirement (render_path_backward)
   s.spp = spp;
   s.max_bounces = 2;
   s.seed = 3;

@@ -78,7 +78,8 @@ const char* kExample = R"({
   ],
   "integrator": {"spp": 7, "bounces": 4, "seed": 123456789012, "interaction": "discrete", "tau_g": 0.4,
                  "geometric_criterion": false, "self_intersection": "fixed", "self_range_scale": 2.5,
-                 "fixed_offset": 0.01, "fixed_range": 0.05, "min_throughput": 0.001}
+                 "fixed_offset": 0.01, "fixed_range": 0.05, "min_throughput": 0.001,
+                 "light_selection": "all", "russian_roulette": false, "min_light_bounces": 3}
 })";
 
 TEST(SceneJson, FullExampleRoundTrip) {
@@ -183,6 +184,9 @@ TEST(SceneJson, FullExampleRoundTrip) {
   EXPECT_NEAR(it.fixed_offset, 0.01f, 1e-7f);
   EXPECT_NEAR(it.fixed_range, 0.05f, 1e-7f);
   EXPECT_NEAR(it.min_throughput, 0.001f, 1e-9f);
+  EXPECT_EQ(it.light_selection, LightSelection::All);
+  EXPECT_FALSE(it.russian_roulette);
+  EXPECT_EQ(it.min_light_bounces, 3);
 }
 
 TEST(SceneJson, DefaultsAndOtherEnvironments) {
@@ -195,6 +199,10 @@ TEST(SceneJson, DefaultsAndOtherEnvironments) {
   EXPECT_EQ(s.integrator.spp, def.spp);
   EXPECT_EQ(s.integrator.max_bounces, def.max_bounces);
   EXPECT_TRUE(std::isinf(s.integrator.self_range_scale) == std::isinf(def.self_range_scale));
+  // Cycles' estimator by default: one light per vertex, Russian roulette from the second vertex.
+  EXPECT_EQ(s.integrator.light_selection, LightSelection::One);
+  EXPECT_TRUE(s.integrator.russian_roulette);
+  EXPECT_EQ(s.integrator.min_light_bounces, 0);
   EXPECT_EQ(s.gaussians->size(), 0u);
   EXPECT_TRUE(s.cameras.empty());
 
@@ -390,6 +398,7 @@ INSTANTIATE_TEST_SUITE_P(
                   "cameras has two cameras named 'a'"},
         ErrorCase{R"({"cameras": [{"transforms": "assets/none.json"}]})", "cameras[0].transforms: "},
         ErrorCase{R"({"integrator": {"spp": 0}})", "integrator.spp must be in [1, "},
+        ErrorCase{R"({"integrator": {"light_selection": "some"}})", "integrator.light_selection must be one of 'one', 'all'"},
         ErrorCase{R"({"integrator": {"bounce": 2}})", "integrator.bounce is not a known key"},
         ErrorCase{R"({"integrator": {"interaction": "mean"}})", "integrator.interaction must be one of 'aggregate', 'discrete', got 'mean'"},
         ErrorCase{R"({"integrator": {"geometric_criterion": 1}})", "integrator.geometric_criterion must be true or false"},

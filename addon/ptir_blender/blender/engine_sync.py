@@ -224,7 +224,7 @@ class EngineSession:
         warnings = []
         light_entries = [e for e in (scene_export.light_entry(o, warnings) for o in lights) if e is not None]
         return {"lights": light_entries,
-                "integrator": {**scene_export.film_filter(depsgraph.scene), **(integrator or {})}}
+                "integrator": {**scene_export.cycles_integrator(depsgraph.scene), **(integrator or {})}}
 
     def sync(self, depsgraph, integrator, changed=None, world_changed=True, exact=False, data_changed=None):
         """Brings the engine's scene up to date; returns {"load": bool, "sent": [commands]}.

@@ -453,6 +453,21 @@ def film_filter(scene):
             "filter_width": float(cy.filter_width)}
 
 
+def light_paths(scene):
+    """Cycles' Light Paths settings the integrator follows beyond the bounce count: Min Light
+    Bounces (the vertices before Russian roulette starts)."""
+    cy = getattr(scene, "cycles", None)
+    if cy is None or not hasattr(cy, "min_light_bounces"):
+        return {}
+    return {"min_light_bounces": int(cy.min_light_bounces)}
+
+
+def cycles_integrator(scene):
+    """The integrator settings a scene's Cycles settings imply (pixel filter, Min Light Bounces);
+    what an export writes before the caller's own settings."""
+    return {**film_filter(scene), **light_paths(scene)}
+
+
 def export_scene(context_or_scene, out_dir, scene_name="scene.json", integrator=None, objects=None,
                  warnings=None, include_cameras=True):
     """Exports the Blender scene to out_dir (created); returns the scene file's path.
@@ -509,7 +524,7 @@ def export_scene(context_or_scene, out_dir, scene_name="scene.json", integrator=
             doc["cameras"] = cams
         else:
             warnings.append("no (perspective) camera: the scene file has none")
-    integrator = {**film_filter(scene), **(integrator or {})}
+    integrator = {**cycles_integrator(scene), **(integrator or {})}
     if integrator:
         doc["integrator"] = integrator
     path = scene_file.write_scene(os.path.join(out_dir, scene_name), doc)

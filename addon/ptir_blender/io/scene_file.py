@@ -14,7 +14,8 @@ from .atomic_file import write_atomic
 FORMAT_VERSION = 1
 TOP_LEVEL_KEYS = ("version", "comment", "gaussians", "meshes", "lights", "environment", "cameras", "integrator")
 INTEGRATOR_KEYS = ("spp", "bounces", "seed", "interaction", "tau_g", "geometric_criterion", "self_intersection",
-                   "self_range_scale", "fixed_offset", "fixed_range", "min_throughput", "pixel_filter", "filter_width")
+                   "self_range_scale", "fixed_offset", "fixed_range", "min_throughput", "pixel_filter", "filter_width",
+                   "light_selection", "russian_roulette", "min_light_bounces")
 
 
 def matrix_rows(m):

@@ -235,6 +235,10 @@ void build_tracer(EvalRun& run) {
   if (!field.normals_from_file && field.size() > 0) orient_normals_to_cameras(field, run.tracer->accel(), run.scene.cameras);
   run.build_s = seconds_since(t_build);
   run.is = run.scene.integrator;
+  // Scores with every light sampled at every vertex and no Russian roulette: less
+  // noise per sample than Cycles' estimator, for ours and the oracle alike.
+  run.is.light_selection = LightSelection::All;
+  run.is.russian_roulette = false;
   run.is.spp = s.spp;
   run.is.max_bounces = s.bounces;
   if (s.brdf) run.is.brdf = *s.brdf;

@@ -73,6 +73,10 @@ namespace ptir {
 inline IntegratorSettings inversion_integrator() {
   IntegratorSettings s;
   s.min_specular_probability = 0.5f;
+  // Every light at every vertex: each light's gradients (the environment's above all)
+  // from every path vertex, rather than from the 1 / N of them that pick it.
+  s.light_selection = LightSelection::All;
+  s.russian_roulette = false;
   return s;
 }
 

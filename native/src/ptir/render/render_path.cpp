@@ -101,6 +101,11 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
                           const Image& d_image, SceneGradients& grads, const RenderControl& control,
                           const std::vector<Vec3>* sample_radiance, TileReduceStats* tile_stats,
                           const std::vector<uint64_t>* sample_shadows) {
+  // Roulette's survival probability depends on the materials through beta: its
+  // 1 / q has a derivative the replay (every sampling decision held fixed) omits.
+  if (settings.russian_roulette)
+    throw Error("path replay needs Russian roulette off (IntegratorSettings::russian_roulette = false, as the "
+                "inversion's integrator has it): its survival probability depends on the materials");
   if (d_image.width != camera.width || d_image.height != camera.height || d_image.channels < 3)
     throw Error("image adjoint must be " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
                 " with at least 3 channels");

@@ -20,4 +20,12 @@ SelfIntersection parse_self_intersection(const std::string& name, const std::str
   throw Error(what + " must be 'backface' or 'fixed', got '" + name + "'");
 }
 
+const char* light_selection_name(LightSelection s) { return s == LightSelection::All ? "all" : "one"; }
+
+LightSelection parse_light_selection(const std::string& name, const std::string& what) {
+  for (LightSelection s : {LightSelection::One, LightSelection::All})
+    if (name == light_selection_name(s)) return s;
+  throw Error(what + " must be 'one' or 'all', got '" + name + "'");
+}
+
 }  // namespace ptir

@@ -24,13 +24,22 @@ enum class SelfIntersection {
   FixedOffset,    // PTIR code: origin + offset d, skip hits t <= range with n_i.d > 0.1 (world units)
 };
 
+// Which lights next-event estimation samples at a vertex.
+enum class LightSelection {
+  One,  // one light, picked uniformly among the emitters and the environment (Cycles 3.x: every
+        // lamp, the world included, has probability 1/N when no mesh emits): one shadow ray
+  All,  // a sample of every light: N shadow rays, every light's gradients at every vertex
+};
+
 // The names used by scene files, the CLI, the Python module and checkpoints:
-// "aggregate"/"discrete" and "backface"/"fixed". parse_* throws Error
+// "aggregate"/"discrete", "backface"/"fixed" and "one"/"all". parse_* throws Error
 // "<what> must be 'a' or 'b', got 'x'".
 const char* interaction_mode_name(InteractionMode m);
 InteractionMode parse_interaction_mode(const std::string& name, const std::string& what = "interaction");
 const char* self_intersection_name(SelfIntersection s);
 SelfIntersection parse_self_intersection(const std::string& name, const std::string& what = "self_intersection");
+const char* light_selection_name(LightSelection s);
+LightSelection parse_light_selection(const std::string& name, const std::string& what = "light_selection");
 
 struct IntegratorSettings {
   int spp = 32;
@@ -52,6 +61,14 @@ struct IntegratorSettings {
   float fixed_offset = 0.02f;            // fixed-offset variant: origin offset (world units)
   float fixed_range = 0.08f;             // fixed-offset variant: skip range (world units)
   float min_throughput = 1e-4f;          // end a path when max(beta) falls below this
+  LightSelection light_selection = LightSelection::One;  // renders as Cycles; the inversion samples all
+  // Russian roulette as Cycles plays it: at every vertex past the first
+  // min_light_bounces ones (Cycles' "Min Light Bounces", default 0), the path goes on
+  // with probability q = min(sqrt(max_c beta_c), 1) and beta /= q. The emission
+  // reaching the vertex is counted either way. Off in the inversion: q depends on
+  // the materials, and the replay holds every sampling decision fixed.
+  bool russian_roulette = true;
+  int min_light_bounces = 0;
 };
 
 }  // namespace ptir

@@ -366,7 +366,8 @@ void parse_cameras(const Node& n, std::vector<Camera>& cams) {
 void parse_integrator(const Node& n, IntegratorSettings& s) {
   if (n.j.is_null()) return;
   n.check_keys({"spp", "bounces", "seed", "interaction", "tau_g", "geometric_criterion", "self_intersection",
-                "self_range_scale", "fixed_offset", "fixed_range", "min_throughput", "pixel_filter", "filter_width"});
+                "self_range_scale", "fixed_offset", "fixed_range", "min_throughput", "pixel_filter", "filter_width",
+                "light_selection", "russian_roulette", "min_light_bounces"});
   s.spp = int(n.integer_in("spp", s.spp, 1, 1 << 20));
   s.max_bounces = int(n.integer_in("bounces", s.max_bounces, 0, 1024));
   if (n.has("seed")) {
@@ -399,6 +400,11 @@ void parse_integrator(const Node& n, IntegratorSettings& s) {
   s.min_throughput = n.non_negative("min_throughput", s.min_throughput);
   s.filter.type = parse_pixel_filter(n.choice("pixel_filter", "blackman_harris", {"blackman_harris", "gaussian", "box"}));
   s.filter.width = n.non_negative("filter_width", s.filter.width);
+  s.russian_roulette = n.boolean("russian_roulette", s.russian_roulette);
+  s.min_light_bounces = int(n.integer_in("min_light_bounces", s.min_light_bounces, 0, 1024));
+  s.light_selection = parse_light_selection(
+      n.choice("light_selection", light_selection_name(s.light_selection),
+               {light_selection_name(LightSelection::One), light_selection_name(LightSelection::All)}));
 }
 
 Scene parse_scene(const json& root, const Ctx& ctx) {

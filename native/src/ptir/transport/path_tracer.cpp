@@ -30,8 +30,9 @@ namespace {
 // finite point lights, suns with an angle; none are in the Embree scene and, as in
 // Cycles, rays pass through them), MIS-weighted against the light sampling that
 // next-event estimation did at the previous vertex (weight 1 for camera rays, which
-// see only lights visible to the camera).
-Vec3 lights_crossed(const Scene& scene, const Ray& ray, float max_t, float prev_brdf_pdf) {
+// see only lights visible to the camera); `pick`: the probability that next-event
+// estimation samples a given light.
+Vec3 lights_crossed(const Scene& scene, const Ray& ray, float max_t, float prev_brdf_pdf, float pick) {
   Vec3 sum(0.0f);
   const bool camera_ray = !(prev_brdf_pdf > 0.0f);
   for (size_t i = 0; i < scene.emitters.size(); ++i) {
@@ -40,7 +41,7 @@ Vec3 lights_crossed(const Scene& scene, const Ray& ray, float max_t, float prev_
     Ray r = ray;
     r.tmax = max_t;
     if (!light_hit(scene.emitters[i], r, &h) || !(h.t < max_t)) continue;
-    float w = camera_ray ? 1.0f : power_heuristic(1, prev_brdf_pdf, 1, h.pdf);
+    float w = camera_ray ? 1.0f : power_heuristic(1, prev_brdf_pdf, 1, pick * h.pdf);
     sum += h.Le * w;
   }
   return sum;
@@ -174,7 +175,8 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     // next-event estimation samples d, from one lookup.
     float env_pdf = 0.0f;
     const Vec3 Le = prev_brdf_pdf > 0.0f ? scene.environment.eval_pdf(ray.d, &env_pdf) : scene.environment.eval(ray.d);
-    float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, env_pdf) : 1.0f;
+    float w = prev_brdf_pdf > 0.0f ? power_heuristic(1, prev_brdf_pdf, 1, scatterer.light_pick_probability() * env_pdf)
+                                   : 1.0f;
     add(beta * Le * w);
     if (adj && adj->grads) adj->grads->add_environment(ray.d, adj->dL * beta * w);
   };
@@ -202,7 +204,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     if (bounce == 0 && coverage) *coverage = (ev.kind == NextEvent::Gaussian || ev.kind == NextEvent::Mesh) ? 1.0f : 0.0f;
 
     // Lights the ray crosses before the event (it goes on through them).
-    add(beta * lights_crossed(scene, ray, ev.t, prev_brdf_pdf));
+    add(beta * lights_crossed(scene, ray, ev.t, prev_brdf_pdf, scatterer.light_pick_probability()));
     if (ev.kind == NextEvent::Absorbed) break;
     if (ev.kind == NextEvent::Escape) {
       escape();
@@ -211,6 +213,15 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     // Emissive meshes are reached by BRDF sampling only (no MIS partner).
     if (ev.kind == NextEvent::Mesh) add(beta * ev.emission);
     if (bounce > settings.max_bounces) break;
+    // Russian roulette (Cycles' rule): past the first min_light_bounces vertices the
+    // path goes on with probability q = min(sqrt(max beta), 1), carrying beta / q.
+    if (settings.russian_roulette && bounce > settings.min_light_bounces) {
+      const float q = std::min(std::sqrt(max_component(beta)), 1.0f);
+      if (q < 1.0f) {
+        if (!(PathRng(path_key, uint64_t(bounce), kStreamRoulette).at(0) < q)) break;
+        beta *= 1.0f / q;
+      }
+    }
 
     // Shade the interaction in its local frame.
     if (stats) stats->vertices++;

@@ -1,5 +1,6 @@
 #include "ptir/transport/scattering.h"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -24,7 +25,10 @@ Vec3 mesh_emission(const TriangleMesh& mesh, const MeshHit& hit, Vec3 d) {
 }  // namespace
 
 Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const IntegratorSettings& settings, float mesh_epsilon)
-    : scene_(scene), accel_(accel), field_(accel.field()), settings_(settings), mesh_epsilon_(mesh_epsilon) {}
+    : scene_(scene), accel_(accel), field_(accel.field()), settings_(settings), mesh_epsilon_(mesh_epsilon) {
+  lights_ = uint32_t(scene.emitters.size()) + (scene.environment.present() ? 1u : 0u);
+  light_pick_ = settings.light_selection == LightSelection::One && lights_ > 1 ? 1.0f / float(lights_) : 1.0f;
+}
 
 bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const {
   if (from.kind != SpawnContext::Gaussian) return false;
@@ -178,45 +182,47 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
                              uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint, ShadowLog* shadows) const {
   Vec3 Ld(0.0f);
   const auto& emitters = scene_.emitters;
-  // Emitters: light sample, MIS against the BRDF density (delta lights: weight 1).
-  for (uint32_t l = 0; l < emitters.size(); ++l) {
-    const LightSlot slot(shadows);
-    if (slot.skip()) continue;
-    slot.record([&] {
-      PathRng rng(path_key, bounce, kStreamLight + l);
-      LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
-      if (!ls.valid()) return false;
-      Vec3 wi_local = frame.to_local(ls.wi);
-      BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
-      const Vec3 f = fp.f;
-      if (max_component(f) <= 0.0f) return false;
-      if (stats && !slot.known) stats->shadow_rays++;
-      if (!slot.unoccluded([&] { return unoccluded(from, ls.wi, ls.distance, path_key, bounce, l); })) return false;
-      float w = ls.delta ? 1.0f : power_heuristic(1, ls.pdf, 1, fp.pdf);
-      Ld += f * ls.Li * (w / ls.pdf);
-      // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
-      if (adjoint) bsdf.eval_grad(wi_local, adjoint->dL * adjoint->beta * ls.Li * (w / ls.pdf), *adjoint->brdf);
-      return true;
-    }());
-  }
-  // Environment: importance-sampled direction, MIS against the BRDF density.
   const SceneEnvironment& env = scene_.environment;
-  if (!env.present()) return Ld;
-  const LightSlot slot(shadows);
-  if (slot.skip()) return Ld;
-  slot.record([&] {
-    const uint32_t l = uint32_t(emitters.size());
+  // The lights sampled here: all of them, or one picked uniformly (stratified over
+  // the pixel's samples) whose estimate is divided by the pick's probability.
+  uint32_t first = 0, last = lights_;
+  const float pick = light_pick_;
+  if (pick < 1.0f) {
+    first = std::min(uint32_t(PathRng(path_key, bounce, kStreamLightPick).at(0) * float(lights_)), lights_ - 1);
+    last = first + 1;
+  }
+
+  // Emitter l: light sample, MIS against the BRDF density (delta lights: weight 1).
+  const auto emitter = [&](uint32_t l, const LightSlot& slot) {
+    PathRng rng(path_key, bounce, kStreamLight + l);
+    LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
+    if (!ls.valid()) return false;
+    Vec3 wi_local = frame.to_local(ls.wi);
+    BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
+    const Vec3 f = fp.f;
+    if (max_component(f) <= 0.0f) return false;
+    if (stats && !slot.known) stats->shadow_rays++;
+    if (!slot.unoccluded([&] { return unoccluded(from, ls.wi, ls.distance, path_key, bounce, l); })) return false;
+    const float pdf = pick * ls.pdf;
+    float w = ls.delta ? 1.0f : power_heuristic(1, pdf, 1, fp.pdf);
+    Ld += f * ls.Li * (w / pdf);
+    // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
+    if (adjoint) bsdf.eval_grad(wi_local, adjoint->dL * adjoint->beta * ls.Li * (w / pdf), *adjoint->brdf);
+    return true;
+  };
+  // The environment (light index N - 1): importance-sampled direction, MIS against the BRDF density.
+  const auto environment = [&](uint32_t l, const LightSlot& slot) {
     PathRng rng(path_key, bounce, kStreamLight + l);
     const EnvLightSample es = env->sample_li(rng.at(0), rng.at(1), rng.at(2));
     const Vec3 wi = es.wi, Li = es.Li;
-    const float pdf = es.pdf;
-    if (!(pdf > 0.0f)) return false;
+    if (!(es.pdf > 0.0f)) return false;
     Vec3 wi_local = frame.to_local(wi);
     BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
     const Vec3 f = fp.f;
     if (!(max_component(f) > 0.0f)) return false;
     if (stats && !slot.known) stats->shadow_rays++;
     if (!slot.unoccluded([&] { return unoccluded(from, wi, INFINITY, path_key, bounce, l); })) return false;
+    const float pdf = pick * es.pdf;
     float w = power_heuristic(1, pdf, 1, fp.pdf);
     Ld += f * Li * (w / pdf);
     // Adjoint: into the BRDF (through f~) and into the environment (through Li).
@@ -226,7 +232,13 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
       if (adjoint->grads) adjoint->grads->add_environment(wi, scale * f);
     }
     return true;
-  }());
+  };
+
+  for (uint32_t l = first; l < last; ++l) {
+    const LightSlot slot(shadows);
+    if (slot.skip()) continue;
+    slot.record(l < emitters.size() ? emitter(l, slot) : environment(l, slot));
+  }
   return Ld;
 }
 

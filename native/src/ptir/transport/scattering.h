@@ -62,6 +62,8 @@ struct ShadowLog {
 constexpr uint64_t kStreamPass = 1;      // chi_pass: xi < T_ray
 constexpr uint64_t kStreamPick = 2;      // discrete interaction pick
 constexpr uint64_t kStreamBrdf = 3;      // BRDF sample (3 dimensions)
+constexpr uint64_t kStreamLightPick = 4; // which light next-event estimation samples (LightSelection::One)
+constexpr uint64_t kStreamRoulette = 5;  // Russian roulette
 constexpr uint64_t kStreamLight = 16;    // + light index: light sample (2 dimensions)
 constexpr uint64_t kStreamShadow = 1024; // + light index: shadow-ray occlusion hashes
 
@@ -115,12 +117,20 @@ class Scatterer {
   bool unoccluded(const SpawnContext& from, Vec3 wi, float distance, uint64_t path_key, uint32_t bounce,
                   uint32_t light) const;
 
-  // One light sample of every emitter and of the environment, each MIS-weighted
-  // against BSDF sampling; returns the sum of f~ Li w / pdf (beta not applied).
-  // shadows: records or replays the shadow-ray outcomes (may be null: traced).
+  // Next-event estimation: a light sample of one light picked uniformly among the
+  // emitters and the environment, or of every one of them (IntegratorSettings::
+  // light_selection), each MIS-weighted against BSDF sampling with the light's
+  // density times light_pick_probability(); returns the sum of f~ Li w / pdf
+  // (beta not applied). shadows: records or replays the shadow-ray outcomes (may
+  // be null: traced).
   Vec3 direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key,
                     uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr,
                     ShadowLog* shadows = nullptr) const;
+
+  // The probability with which next-event estimation samples a given light: 1 / N
+  // of the N lights (emitters and environment) with LightSelection::One, else 1.
+  // BSDF-sampled rays that reach a light weigh their MIS against its density times this.
+  float light_pick_probability() const { return light_pick_; }
 
   // Whether hit h (t_peak, Gaussian) on a ray spawned from `from` along d is the
   // surface just left, to be skipped.
@@ -137,6 +147,8 @@ class Scatterer {
   const GaussianField& field_;
   IntegratorSettings settings_;
   float mesh_epsilon_;  // offset of rays leaving a mesh, scaled to the scene
+  uint32_t lights_;     // emitters + the environment when present
+  float light_pick_;    // light_pick_probability()
 };
 
 }  // namespace ptir
