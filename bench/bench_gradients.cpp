@@ -2,8 +2,9 @@
 //
 // For each thread count: the primal render keeping every sample's radiance
 // (render_path), then the replay (render_path_backward) of a fixed image adjoint
-// (1 / pixels on every channel), the replay reading the shadow-ray outcomes the
-// primal recorded (as the optimiser does; "replay traced s": tracing them again). Prints primal and replay seconds, path samples
+// (1 / pixels on every channel), the replay reading the ray outcomes and the walks
+// the primal kept (as the optimiser does; --walk-mb; "replay traced s": tracing
+// them again), with the inversion's estimator (every light, no roulette). Prints primal and replay seconds, path samples
 // per second (pixels x spp / (primal + replay)), replay / primal, the tile
 // reduction's figures (tiles, Gaussian entries, largest tile buffer, buffers in
 // flight, seconds in the in-order stage) and checks that every thread count gives
@@ -12,8 +13,9 @@
 // zeroed and summed serially) against the tiles (kTokensPerThread buffers per thread x the
 // largest tile buffer; the in-order stage bounds the speed-up at
 // (primal-free replay CPU time) / (stage time)).
-// The last three columns are process CPU time / threads (primal, replay) and the
-// samples/s they give: on a shared machine, what the passes cost on idle cores.
+// Then process CPU time / threads (primal, replay) and the samples/s they give:
+// on a shared machine, what the passes cost on idle cores; last, the walks kept
+// (MB of chunks, % of samples).
 // A benchmark, not a test: compare within one run.
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
@@ -26,6 +28,7 @@
 #include <vector>
 
 #include "ptir/core/error.h"
+#include "ptir/optim/optimizer.h"
 #include "ptir/render/render_path.h"
 #include "ptir/render/tile_reduce.h"
 #include "ptir/scene/scene_json.h"
@@ -54,6 +57,7 @@ struct Options {
   bool traced = true;  // also time the replay that traces the shadow rays again
   std::vector<int> threads = {1, 2};
   std::vector<int> model_threads = {16, 64};
+  int walk_mb = 256;
 };
 
 int run(const Options& o) {
@@ -64,7 +68,13 @@ int run(const Options& o) {
     const int w = std::min(o.size, cam.width), h = std::min(o.size, cam.height);
     cam = cam.crop((cam.width - w) / 2, (cam.height - h) / 2, w, h);
   }
+  // The inversion's estimator (every light at every vertex, no roulette: path replay
+  // needs it), with the scene's geometry settings, as `ptir optimize` sets it up.
   IntegratorSettings is = scene.integrator;
+  const IntegratorSettings inv = inversion_integrator();
+  is.light_selection = inv.light_selection;
+  is.russian_roulette = inv.russian_roulette;
+  is.min_specular_probability = inv.min_specular_probability;
   is.spp = o.spp;
   is.max_bounces = o.bounces;
   PathTracer tracer(scene);
@@ -74,8 +84,9 @@ int run(const Options& o) {
   std::printf("bench_gradients: %s, %zu Gaussians, %zu meshes, %dx%d, %d spp, %d bounces, env %zu parameters\n",
               o.scene.c_str(), n, scene.meshes.size(), cam.width, cam.height, o.spp, o.bounces,
               scene.environment.parameter_count());
-  std::printf("%7s %9s %9s %16s %8s %13s %7s %9s %11s %7s %9s %9s %9s %9s %8s\n", "threads", "primal s", "replay s", "replay traced s",
-              "Msps", "replay/primal", "tiles", "entries", "tile KB max", "buffers", "stage s", "gradients", "cpu/t pr", "cpu/t re", "cpu Msps");
+  std::printf("%7s %9s %9s %16s %8s %13s %7s %9s %11s %7s %9s %9s %9s %9s %8s %9s %7s\n", "threads", "primal s", "replay s",
+              "replay traced s", "Msps", "replay/primal", "tiles", "entries", "tile KB max", "buffers", "stage s", "gradients",
+              "cpu/t pr", "cpu/t re", "cpu Msps", "walks MB", "kept %");
   SceneGradients reference;
   double stage_s = 0.0, replay_cpu_s = 0.0;
   size_t peak_tile = 0;
@@ -83,13 +94,14 @@ int run(const Options& o) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(t));
     std::vector<Vec3> radiance;
     std::vector<uint64_t> shadows;
+    WalkStore walks(size_t(o.walk_mb) << 20);
     double t0 = wall(), c0 = cpu();
-    render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows);
+    render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows, o.walk_mb > 0 ? &walks : nullptr);
     double primal = wall() - t0, primal_cpu = cpu() - c0;
     SceneGradients g = SceneGradients::zeros_like(scene), traced = g;
     TileReduceStats st;
     t0 = wall(), c0 = cpu();
-    render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, &st, &shadows);
+    render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, &st, &shadows, o.walk_mb > 0 ? &walks : nullptr);
     double replay = wall() - t0, replay_cpu = cpu() - c0;
     double replay_traced = 0.0;
     if (o.traced) {
@@ -101,10 +113,11 @@ int run(const Options& o) {
     }
     bool same = same_floats(g, traced) && (reference.gaussian_albedo.empty() || same_floats(g, reference));
     if (reference.gaussian_albedo.empty()) reference = g;
-    std::printf("%7d %9.3f %9.3f %16.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %9s %9.3f %9.3f %8.3f\n", t, primal,
+    std::printf("%7d %9.3f %9.3f %16.3f %8.3f %13.2f %7zu %9zu %11.1f %7zu %9.4f %9s %9.3f %9.3f %8.3f %9.1f %7.1f\n", t, primal,
                 replay, replay_traced, double(pixels) * o.spp / (primal + replay) * 1e-6, replay / primal, st.tiles,
                 st.entries, st.peak_tile_bytes / 1024.0, st.buffers, st.stage_seconds, same ? "identical" : "DIFFERENT",
-                primal_cpu / t, replay_cpu / t, double(pixels) * o.spp / ((primal_cpu + replay_cpu) / t) * 1e-6);
+                primal_cpu / t, replay_cpu / t, double(pixels) * o.spp / ((primal_cpu + replay_cpu) / t) * 1e-6,
+                walks.bytes() / 1e6, walks.size() ? 100.0 * double(walks.kept()) / double(walks.size()) : 0.0);
     if (t == 1) replay_cpu_s = replay, stage_s = st.stage_seconds;
     peak_tile = std::max(peak_tile, st.peak_tile_bytes);
   }
@@ -139,6 +152,7 @@ int main(int argc, char** argv) {
   app.add_option("--size", o.size, "crop the camera to its central size x size (0: whole image)");
   app.add_option("--threads", o.threads);
   app.add_option("--model-threads", o.model_threads);
+  app.add_option("--walk-mb", o.walk_mb, "budget of the primal's kept walks (WalkStore; 0: the replay walks again)");
   app.add_flag("!--no-traced", o.traced, "skip the replay that traces the shadow rays again (for profiles)");
   CLI11_PARSE(app, argc, argv);
   try {

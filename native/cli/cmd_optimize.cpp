@@ -283,6 +283,10 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--lr-decay-start", o->opt.lr_decay_start,
                   "fraction of the iterations after which the learning rate decays (exponentially)")
       ->capture_default_str();
+  cmd->add_option("--sample-cache-mb", o->opt.sample_cache_mb,
+                  "memory for what each sample's replay reuses from its primal (radiance, ray outcomes, walks); "
+                  "beyond it the replay traces again (same results)")
+      ->capture_default_str();
   cmd->add_option("--average-from", o->opt.average_from,
                   "write the mean of the iterates from this fraction of the iterations on, not the last one (1: off)")
       ->capture_default_str();

@@ -321,3 +321,60 @@ TEST(GradientTile, RenderPathEqualsItsSamplesOneByOne) {
     expect_same_floats(grads, ref);
   }
 }
+
+TEST(GradientTile, ReplayFromKeptWalksGivesTheSameFloats) {
+  // The primal keeps each path's walks (the hits handed to the interaction
+  // builder, the mesh that ended them, the escapes); a replay that reads them
+  // instead of walking rebuilds the same interactions, so the gradients are equal
+  // bit for bit: with every path kept, with only some (a budget of a few small
+  // chunks), and in both interaction modes. Meshes end walks (the floor), rays
+  // escape to the environment, and paths reach 3 bounces.
+  for (InteractionMode mode : {InteractionMode::Aggregate, InteractionMode::Discrete}) {
+    Scene s = lit_tile_scene();
+    s.integrator.max_bounces = 3;
+    s.integrator.interaction.mode = mode;
+    PathTracer tracer(s);
+    const Camera cam = tile_camera(20, 16);
+    IntegratorSettings is = s.integrator;
+    is.spp = 3;
+    std::vector<Vec3> radiance;
+    std::vector<uint64_t> shadows;
+    WalkStore all, some(size_t(12) << 10, size_t(2) << 10);  // 6 chunks of 2 KB
+    render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows, &all);
+    const Image again = render_path(tracer, cam, is, {}, nullptr, nullptr, false, 0, nullptr, &some);
+    const size_t samples = size_t(cam.width) * cam.height * is.spp;
+    ASSERT_EQ(all.size(), samples);
+    EXPECT_EQ(all.kept(), samples);
+    EXPECT_GT(some.kept(), samples / 50);
+    EXPECT_LT(some.kept(), samples / 2);
+    EXPECT_LE(some.bytes(), size_t(12) << 10);
+    // Kept paths hold hits and mesh ends (not only escapes).
+    size_t hits = 0, meshes = 0;
+    for (size_t i = 0; i < samples; ++i) {
+      PathWalkReader r = all.path(i);
+      std::vector<GaussianHit> h;
+      WalkEnd end;
+      if (r.next(&h, &end)) hits += h.size(), meshes += end.mesh.valid;
+    }
+    EXPECT_GT(hits, samples);
+    EXPECT_GT(meshes, samples / 10);
+
+    Image weights(cam.width, cam.height, {"R", "G", "B"});
+    for (size_t i = 0; i < weights.pixels.size(); ++i) weights.pixels[i] = float(i % 5) - 2.0f;
+    SceneGradients traced = SceneGradients::zeros_like(s), kept = traced, partly = traced, walks_only = traced;
+    render_path_backward(tracer, cam, is, weights, traced, {}, &radiance, nullptr, &shadows);
+    render_path_backward(tracer, cam, is, weights, kept, {}, &radiance, nullptr, &shadows, &all);
+    render_path_backward(tracer, cam, is, weights, partly, {}, &radiance, nullptr, &shadows, &some);
+    render_path_backward(tracer, cam, is, weights, walks_only, {}, &radiance, nullptr, nullptr, &all);
+    expect_same_floats(traced, kept);
+    expect_same_floats(traced, partly);
+    expect_same_floats(traced, walks_only);
+    double sum = 0.0;
+    for (const Vec3& a : traced.gaussian_albedo) sum += std::fabs(a.x);
+    EXPECT_GT(sum, 0.0);
+    // A store of another render's size is refused.
+    WalkStore other;
+    other.reset(7);
+    EXPECT_THROW(render_path_backward(tracer, cam, is, weights, kept, {}, &radiance, nullptr, &shadows, &other), Error);
+  }
+}

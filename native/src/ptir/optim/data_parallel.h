@@ -36,15 +36,19 @@
 namespace ptir {
 
 // render_path of the whole view on every rank; each rank renders its bands (and,
-// with `cache`, keeps their samples' radiance, one vector per band, for the replay).
+// with `cache`, keeps their samples' radiance, one vector per band, for the replay;
+// likewise their shadow-ray outcomes and, into walks[band] (one store per band of
+// rank_row_bands, or fewer: none for the rest), their walks).
 Image render_path_ranks(const Communicator& comm, const PathTracer& tracer, const Camera& camera,
                         const IntegratorSettings& settings, const RenderControl& control,
-                        std::vector<std::vector<Vec3>>* cache, std::vector<std::vector<uint64_t>>* shadows = nullptr);
+                        std::vector<std::vector<Vec3>>* cache, std::vector<std::vector<uint64_t>>* shadows = nullptr,
+                        const std::vector<WalkStore*>* walks = nullptr);
 // render_path_backward of this rank's bands of d_image (whole-image size); adds to grads.
 void render_path_backward_ranks(const Communicator& comm, const PathTracer& tracer, const Camera& camera,
                                 const IntegratorSettings& settings, const Image& d_image, SceneGradients& grads,
                                 const RenderControl& control, const std::vector<std::vector<Vec3>>* cache,
-                                const std::vector<std::vector<uint64_t>>* shadows = nullptr);
+                                const std::vector<std::vector<uint64_t>>* shadows = nullptr,
+                                const std::vector<WalkStore*>* walks = nullptr);
 // render_material_maps (optimizer.h) of the whole view on every rank.
 void render_material_maps_ranks(const Communicator& comm, const SceneAccel& accel, const Camera& camera,
                                 const AovSettings& settings, const RenderControl& control, Image* albedo,

@@ -17,6 +17,7 @@
 #include "ptir/render/aov.h"
 #include "ptir/render/aov_backward.h"
 #include "ptir/render/render_path.h"
+#include "ptir/render/row_bands.h"
 #include "ptir/transport/orient_normals.h"
 
 namespace ptir {
@@ -343,17 +344,29 @@ struct Optimizer::Primal {
   bool cache = false;
   std::vector<std::vector<Vec3>> radiance;
   std::vector<std::vector<uint64_t>> shadows;
+  std::vector<WalkStore*> walks;  // per band (Optimizer::walk_stores_)
 };
 
 Optimizer::Primal Optimizer::primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients,
-                                    size_t cache_bytes, const RenderControl& control, IterationLog& log) const {
+                                    size_t cache_bytes, int part, const RenderControl& control,
+                                    IterationLog& log) const {
   auto t0 = Clock::now();
   double c0 = process_cpu_seconds();
   Primal r;
   r.is = is;
-  r.cache = with_gradients && w.px * size_t(is.spp) * (sizeof(Vec3) + sizeof(uint64_t)) <= cache_bytes;
+  const size_t sample_bytes = w.px * size_t(is.spp) * (sizeof(Vec3) + sizeof(uint64_t));
+  r.cache = with_gradients && sample_bytes <= cache_bytes;
+  if (r.cache) {  // the rest of the budget keeps walks, shared by the bands
+    auto& stores = walk_stores_[size_t(part)];
+    const size_t bands = rank_row_bands(w.cam.height, *comm_).size();
+    while (stores.size() < bands) stores.push_back(std::make_unique<WalkStore>(0));
+    for (size_t b = 0; b < bands; ++b) {
+      stores[b]->set_budget((cache_bytes - sample_bytes) / bands);
+      r.walks.push_back(stores[b].get());
+    }
+  }
   r.render = render_path_ranks(*comm_, *tracer_, w.cam, is, control, r.cache ? &r.radiance : nullptr,
-                               r.cache ? &r.shadows : nullptr);
+                               r.cache ? &r.shadows : nullptr, r.cache ? &r.walks : nullptr);
   ExposureGradients::expose(r.render, ExposureGradients::scale(params_, w.pick.view));  // the loss sees s_v x render
   log.primal_s += seconds_since(t0);
   log.primal_cpu_s += process_cpu_seconds() - c0;
@@ -373,10 +386,10 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     b.spp = w.is.spp - a.spp;
     a.seed = hash_combine(w.is.seed, kTagHalfA);
     b.seed = hash_combine(w.is.seed, kTagHalfB);
-    parts.push_back(primal(w, a, true, settings_.sample_cache_bytes / 2, control, log));
-    parts.push_back(primal(w, b, true, settings_.sample_cache_bytes / 2, control, log));
+    parts.push_back(primal(w, a, true, settings_.sample_cache_bytes / 2, 0, control, log));
+    parts.push_back(primal(w, b, true, settings_.sample_cache_bytes / 2, 1, control, log));
   } else {
-    parts.push_back(primal(w, w.is, with_gradients, settings_.sample_cache_bytes, control, log));
+    parts.push_back(primal(w, w.is, with_gradients, settings_.sample_cache_bytes, 0, control, log));
   }
   // The whole render (the halves' sample-weighted mean): the mask and the logged loss.
   Image render = parts[0].render;
@@ -448,7 +461,7 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     if (all_zero(d)) continue;
     const Primal& q = parts[i];
     render_path_backward_ranks(*comm_, *tracer_, w.cam, q.is, d, grads_, control, q.cache ? &q.radiance : nullptr,
-                               q.cache ? &q.shadows : nullptr);
+                               q.cache ? &q.shadows : nullptr, q.cache ? &q.walks : nullptr);
   }
   log.backward_s += seconds_since(t0);
   log.backward_cpu_s += process_cpu_seconds() - c0;

@@ -168,7 +168,9 @@ struct OptimizerSettings {
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
   // The primal pass keeps every sample's radiance and shadow-ray outcomes (20 bytes
   // per pixel and sample) so the replay need not recompute them, while that fits this budget; beyond it
-  // the replay recomputes each sample (one more primal pass, no memory).
+  // the replay recomputes each sample (one more primal pass, no memory). What the
+  // budget leaves keeps the samples' walks (~100 bytes a sample; walk_store.h), so
+  // that the replay need not walk them again; the samples beyond it walk.
   size_t sample_cache_bytes = size_t(256) << 20;
   AccelSettings accel;
   // The light solve (light_solve.h): at these fractions of the run the lat-long
@@ -264,7 +266,8 @@ class Optimizer {
  private:
   struct ViewWork;  // one view of an iteration (optimizer.cpp)
   struct Primal;    // one primal render and its replay cache (optimizer.cpp)
-  Primal primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients, size_t cache_bytes,
+  // part: which of the view's primal renders (0, or 1 for the second decorrelated half).
+  Primal primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients, size_t cache_bytes, int part,
                 const RenderControl& control, IterationLog& log) const;
   void apply();
   void update_average();  // after a step: add the iterate to the average (average_from)
@@ -300,6 +303,9 @@ class Optimizer {
   ExposureGradients exposure_grads_;  // --learn-exposure (exposure.h)
   std::vector<std::pair<int, LightSolveReport>> light_solves_;
   mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
+  // The primal renders' kept walks, per part and row band (memory reused from one
+  // iteration to the next; walk_store.h).
+  mutable std::array<std::vector<std::unique_ptr<WalkStore>>, 2> walk_stores_;
   const Communicator* comm_ = &single_process();      // data-parallel runs (set_communicator)
 };
 

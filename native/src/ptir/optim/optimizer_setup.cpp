@@ -65,6 +65,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.lr_decay_start = o.lr_decay_start;
   if (!(o.average_from >= 0.0f && o.average_from <= 1.0f)) throw Error(names("average_from") + " must be in [0, 1]");
   s.average_from = o.average_from;
+  if (o.sample_cache_mb < 0) throw Error(names("sample_cache_mb") + " must be >= 0");
+  s.sample_cache_bytes = size_t(o.sample_cache_mb) << 20;
   s.light_solve.at = parse_light_solve(o.light_solve, names("light_solve"));
   if (o.light_solve_spp < 2 || o.light_solve_spp > 16) throw Error(names("light_solve_spp") + " must be in [2, 16]");
   s.light_solve.spp = o.light_solve_spp;

@@ -60,6 +60,8 @@ struct OptimizeOptions {
   bool optimize_meshes = false;
   bool learn_exposure = false;  // one exposure scale per training view (exposure.h)
   int k = AccelSettings{}.k;     // k-buffer size of the tracer
+  // What the primal keeps for the replay (OptimizerSettings::sample_cache_bytes), MB.
+  int sample_cache_mb = int(OptimizerSettings{}.sample_cache_bytes >> 20);
   // The light solve (light_solve.h): comma-separated fractions of the iterations
   // before which it runs ("none" or "": never), its samples per pixel and weights.
   std::string light_solve = light_solve_text(OptimizerSettings{}.light_solve.at);

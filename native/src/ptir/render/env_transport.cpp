@@ -47,20 +47,22 @@ void render_env_transport(const PathTracer& tracer, const Camera& camera, const 
     Vec3 L[SceneAccel::kMaxPacket];
     float coverage[SceneAccel::kMaxPacket];
     PathAdjoint adjoint[SceneAccel::kMaxPacket];
+    PathWalkWriter walks[SceneAccel::kMaxPacket];
     EnvTransportPixel out;
     const int y1 = std::min(camera.height, (band + 1) * band_rows);
     for (int y = band * band_rows; y < y1; ++y)
       for (int x = 0; x < camera.width; ++x) {
-        // The pixel's samples: primal (radiance, shadow-ray outcomes), then the
-        // replay with a unit adjoint into one recorder per sample.
+        // The pixel's samples: primal (radiance, shadow-ray outcomes, walks), then
+        // the replay with a unit adjoint into one recorder per sample.
         for (int s = 0; s < spp; ++s) {
           index[s] = uint32_t(s);
           rays[s] = camera_sample(camera, filter, settings.seed, x, y, s, &pixel[s]);
         }
-        tracer.sample_radiance_batch(rays, spp, pixel, index, settings, L, coverage, nullptr, shadows);
+        tracer.sample_radiance_batch(rays, spp, pixel, index, settings, L, coverage, nullptr, shadows, walks);
         for (int s = 0; s < spp; ++s) {
           recorders[s]->clear();
-          adjoint[s] = PathAdjoint{L[s], Vec3(1.0f), recorders[s].get(), &shadows[s]};
+          const PathWalkReader kept(walks[s].words.empty() ? nullptr : walks[s].words.data());
+          adjoint[s] = PathAdjoint{L[s], Vec3(1.0f), recorders[s].get(), &shadows[s], kept};
         }
         tracer.sample_adjoint_batch(rays, spp, pixel, index, settings, adjoint);
         // Per half: mean radiance and coverage, lookups weighted by 1 / its samples.

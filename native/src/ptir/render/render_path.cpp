@@ -25,7 +25,8 @@ constexpr int kBatch = SceneAccel::kMaxPacket;
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control, PathStats* stats, std::vector<Vec3>* sample_radiance,
-                  bool transparent_film, uint32_t first_sample, std::vector<uint64_t>* sample_shadows) {
+                  bool transparent_film, uint32_t first_sample, std::vector<uint64_t>* sample_shadows,
+                  WalkStore* sample_walks) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
   if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
   const PixelFilterSampler filter(settings.filter);
@@ -33,6 +34,7 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
   const size_t pixels = size_t(camera.width) * size_t(camera.height);
   if (sample_radiance) sample_radiance->assign(pixels * size_t(settings.spp), Vec3(0.0f));
   if (sample_shadows) sample_shadows->assign(pixels * size_t(settings.spp), 0u);
+  if (sample_walks) sample_walks->reset(pixels * size_t(settings.spp));
   std::atomic<size_t> done{0};
   std::atomic<uint64_t> paths{0}, vertices{0}, shadow_rays{0};
   std::mutex progress_mutex;
@@ -62,8 +64,11 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
             rays[j] = camera_sample(camera, filter, settings.seed, x + (s0 + j) / settings.spp, y, int(index[j]), &pixel[j]);
           }
           const size_t at = (size_t(y) * camera.width + x) * settings.spp + s0;
+          thread_local PathWalkWriter walks[kBatch];
           tracer.sample_radiance_batch(rays, n, pixel, index, settings, L, c, &local,
-                                       sample_shadows ? &(*sample_shadows)[at] : nullptr);
+                                       sample_shadows ? &(*sample_shadows)[at] : nullptr, sample_walks ? walks : nullptr);
+          if (sample_walks)
+            for (int j = 0; j < n; ++j) sample_walks->keep(at + j, walks[j]);
           for (int j = 0; j < n; ++j) {
             const int p = (s0 + j) / settings.spp;
             if (sample_radiance) (*sample_radiance)[at + j] = L[j];
@@ -100,7 +105,7 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control,
                           const std::vector<Vec3>* sample_radiance, TileReduceStats* tile_stats,
-                          const std::vector<uint64_t>* sample_shadows) {
+                          const std::vector<uint64_t>* sample_shadows, const WalkStore* sample_walks) {
   // Roulette's survival probability depends on the materials through beta: its
   // 1 / q has a derivative the replay (every sampling decision held fixed) omits.
   if (settings.russian_roulette)
@@ -113,6 +118,8 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
     throw Error("stored sample radiance does not match the camera and sample count");
   if (sample_shadows && sample_shadows->size() != size_t(camera.width) * camera.height * settings.spp)
     throw Error("stored shadow-ray outcomes do not match the camera and sample count");
+  if (sample_walks && sample_walks->size() != size_t(camera.width) * camera.height * settings.spp)
+    throw Error("stored walks do not match the camera and sample count");
   const PixelFilterSampler filter(settings.filter);
   const float inv_spp = 1.0f / float(settings.spp);
   reduce_gradient_tiles(camera.width, camera.height, tracer.scene().environment, grads, control,
@@ -142,7 +149,8 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
           // Primal radiance of this sample (stored or recomputed), then its replay (pixel = mean of samples).
           const size_t at = (size_t(y) * camera.width + x) * settings.spp + s;
           Vec3 L = sample_radiance ? (*sample_radiance)[at] : tracer.sample_radiance(rays[n], pixel[n], index[n], settings);
-          adjoint[n] = PathAdjoint{L, dI * inv_spp, &g, sample_shadows ? &(*sample_shadows)[at] : nullptr};
+          adjoint[n] = PathAdjoint{L, dI * inv_spp, &g, sample_shadows ? &(*sample_shadows)[at] : nullptr,
+                                   sample_walks ? sample_walks->path(at) : PathWalkReader()};
           ++n;
         }
       }

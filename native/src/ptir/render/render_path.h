@@ -24,10 +24,13 @@ struct TileReduceStats;
 // [0, a) and [a, b) weighted by their counts is the b-sample render, up to float rounding).
 // sample_shadows (same layout as sample_radiance, 8 bytes a sample) receives every
 // sample's shadow-ray outcomes, so that render_path_backward need not trace them again.
+// sample_walks (reset to one slot per sample) keeps, within its budget, the walks
+// of each sample's path that its replay would trace again (transport/walk_store.h).
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                   const RenderControl& control = {}, PathStats* stats = nullptr,
                   std::vector<Vec3>* sample_radiance = nullptr, bool transparent_film = false,
-                  uint32_t first_sample = 0, std::vector<uint64_t>* sample_shadows = nullptr);
+                  uint32_t first_sample = 0, std::vector<uint64_t>* sample_shadows = nullptr,
+                  WalkStore* sample_walks = nullptr);
 
 // Path replay backpropagation of a whole image: d_image (same size as the image,
 // >= 3 channels: the adjoint dLoss/dI of each pixel's RGB) is pushed through every
@@ -37,7 +40,8 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
 // render_path with the same camera and settings) or recomputed just before its
 // replay; nothing per vertex is stored, so memory does not grow with bounces.
 // With `sample_shadows` (filled by the same render_path) the replay reads each
-// shadow ray's outcome instead of tracing it: the same decisions, bit for bit.
+// shadow ray's outcome instead of tracing it, and with `sample_walks` the kept
+// walks instead of walking them: the same decisions and floats, bit for bit.
 // Pixels are replayed in fixed tiles (16 x 16 on large images), each into a sparse buffer of the
 // parameters it touched, added in tile order (render/tile_reduce.h): the result
 // is deterministic for a seed and the same on any thread count, and memory does
@@ -45,6 +49,7 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control = {},
                           const std::vector<Vec3>* sample_radiance = nullptr, TileReduceStats* tile_stats = nullptr,
-                          const std::vector<uint64_t>* sample_shadows = nullptr);
+                          const std::vector<uint64_t>* sample_shadows = nullptr,
+                          const WalkStore* sample_walks = nullptr);
 
 }  // namespace ptir

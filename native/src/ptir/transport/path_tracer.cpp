@@ -71,34 +71,48 @@ void scatter_vertex_adjoint(const NextEvent& ev, const std::vector<WeightedHit>&
 
 Vec3 PathTracer::sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                                  float* coverage, PathStats* stats, uint64_t* shadow_bits) const {
-  return trace(camera_ray, pixel, sample, settings, nullptr, coverage, stats, shadow_bits);
+  TraceIO io;
+  io.coverage = coverage;
+  io.stats = stats;
+  io.shadow_bits = shadow_bits;
+  return trace(camera_ray, pixel, sample, settings, nullptr, io);
 }
 
 void PathTracer::sample_adjoint(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                                 const PathAdjoint& adjoint) const {
-  trace(camera_ray, pixel, sample, settings, &adjoint, nullptr, nullptr, nullptr);
+  trace(camera_ray, pixel, sample, settings, &adjoint, TraceIO{});
 }
 
 void PathTracer::sample_radiance_batch(const Ray* camera_rays, int n, const uint64_t* pixels, const uint32_t* samples,
                                        const IntegratorSettings& settings, Vec3* L, float* coverage, PathStats* stats,
-                                       uint64_t* shadow_bits) const {
+                                       uint64_t* shadow_bits, PathWalkWriter* walks) const {
   constexpr int P = SceneAccel::kMaxPacket;
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
+  thread_local WalkCapture captures[P];
   for (int first = 0; first < n; first += P) {
     const int m = std::min(P, n - first);
+    const auto io = [&](int i) {
+      TraceIO t;
+      t.coverage = coverage ? &coverage[i] : nullptr;
+      t.stats = stats;
+      t.shadow_bits = shadow_bits ? &shadow_bits[i] : nullptr;
+      t.walks = walks ? &walks[i] : nullptr;
+      return t;
+    };
     if (m == 1) {  // nothing to trace together
-      L[first] = trace(camera_rays[first], pixels[first], samples[first], settings, nullptr,
-                       coverage ? &coverage[first] : nullptr, stats, shadow_bits ? &shadow_bits[first] : nullptr);
+      L[first] = trace(camera_rays[first], pixels[first], samples[first], settings, nullptr, io(first));
       continue;
     }
     uint64_t keys[P];
     NextEvent events[P];
     for (int l = 0; l < m; ++l) keys[l] = make_path_key(settings.seed, pixels[first + l], samples[first + l]);
-    scatterer.camera_events(camera_rays + first, m, keys, events);
+    scatterer.camera_events(camera_rays + first, m, keys, events, nullptr, walks ? captures : nullptr);
     for (int l = 0; l < m; ++l) {
       const int i = first + l;
-      L[i] = trace(camera_rays[i], pixels[i], samples[i], settings, nullptr, coverage ? &coverage[i] : nullptr, stats,
-                   shadow_bits ? &shadow_bits[i] : nullptr, &events[l]);
+      TraceIO t = io(i);
+      t.first = &events[l];
+      t.first_walk = walks ? &captures[l] : nullptr;
+      L[i] = trace(camera_rays[i], pixels[i], samples[i], settings, nullptr, t);
     }
   }
 }
@@ -110,15 +124,16 @@ void PathTracer::sample_adjoint_batch(const Ray* camera_rays, int n, const uint6
   thread_local std::vector<WeightedHit> records[P];
   for (int first = 0; first < n; first += P) {
     const int m = std::min(P, n - first);
-    // The lanes whose camera ray leads to a vertex: a replay that knows from the
-    // primal's record that the ray escaped walks nothing (trace's first recall).
+    // The lanes whose camera ray must be walked: not those the primal's record
+    // says escaped (trace's first recall), nor those whose walks it kept (trace
+    // reads them).
     int lane_of[P], walked = 0;
     Ray rays[P];
     uint64_t keys[P];
     for (int l = 0; l < m; ++l) {
       const PathAdjoint& a = adjoints[first + l];
       lane_of[l] = -1;
-      if (a.shadow_bits && (*a.shadow_bits & 1u)) continue;
+      if ((a.shadow_bits && (*a.shadow_bits & 1u)) || a.walks.recorded()) continue;
       lane_of[l] = walked;
       rays[walked] = camera_rays[first + l];
       keys[walked++] = make_path_key(settings.seed, pixels[first + l], samples[first + l]);
@@ -130,15 +145,21 @@ void PathTracer::sample_adjoint_batch(const Ray* camera_rays, int n, const uint6
     }
     for (int l = 0; l < m; ++l) {
       const int i = first + l, w = walked > 1 ? lane_of[l] : -1;
-      trace(camera_rays[i], pixels[i], samples[i], settings, &adjoints[i], nullptr, nullptr, nullptr,
-            w >= 0 ? &events[w] : nullptr, w >= 0 ? &records[w] : nullptr);
+      TraceIO t;
+      if (w >= 0) {
+        t.first = &events[w];
+        t.first_hits = &records[w];
+      }
+      trace(camera_rays[i], pixels[i], samples[i], settings, &adjoints[i], t);
     }
   }
 }
 
 Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-                       const PathAdjoint* adj, float* coverage, PathStats* stats, uint64_t* shadow_bits,
-                       const NextEvent* first, const std::vector<WeightedHit>* first_hits) const {
+                       const PathAdjoint* adj, const TraceIO& io) const {
+  float* coverage = io.coverage;
+  PathStats* stats = io.stats;
+  uint64_t* shadow_bits = io.shadow_bits;
   const Scene& scene = scene_;
   const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
@@ -151,6 +172,12 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     else L += contribution;
   };
   thread_local std::vector<WeightedHit> vertex_hits;  // the current vertex's Gaussians (replay only)
+  // Walks: the primal records those the replay will need (bounce <= max_bounces),
+  // the replay reads them back instead of walking (walk_store.h).
+  thread_local WalkCapture walk;
+  PathWalkWriter* walks_out = adj || (io.first && !io.first_walk) ? nullptr : io.walks;
+  if (io.walks) io.walks->clear();  // (empty: nothing kept)
+  PathWalkReader walks_in = adj ? adj->walks : PathWalkReader();
   // Ray outcomes (shadow rays, escapes): recorded by the primal pass, read back by
   // the replay (same rays, same order).
   ShadowLog shadow_log;
@@ -196,10 +223,26 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     }
     // Next event along the ray: a Gaussian interaction, a mesh, or an escape (the
     // camera ray's may be given, found with others in a packet).
-    const bool given = bounce == 0 && first;
-    const std::vector<WeightedHit>& hits = given && first_hits ? *first_hits : vertex_hits;
+    const bool given = bounce == 0 && io.first;
+    const bool walk_kept = bounce <= settings.max_bounces;  // a walk the replay needs
+    const std::vector<WeightedHit>& hits = given && io.first_hits ? *io.first_hits : vertex_hits;
     vertex_hits.clear();
-    NextEvent ev = given ? *first : scatterer.next_event(ray, spawn, path_key, uint32_t(bounce), adj ? &vertex_hits : nullptr);
+    NextEvent ev;
+    if (given) {
+      ev = *io.first;
+    } else if (walks_in.recorded() && walk_kept) {
+      if (walks_in.next(&walk.hits, &walk.end))
+        ev = scatterer.recorded_event(ray, walk.hits, walk.end, path_key, uint32_t(bounce), &vertex_hits);
+      else
+        ev.kind = NextEvent::Escape;
+    } else {
+      ev = scatterer.next_event(ray, spawn, path_key, uint32_t(bounce), adj ? &vertex_hits : nullptr,
+                                walks_out && walk_kept ? &walk : nullptr);
+    }
+    if (walks_out && walk_kept) {
+      const WalkCapture& w = given ? *io.first_walk : walk;
+      walks_out->add(w.hits.data(), w.hits.size(), w.end, ev.kind == NextEvent::Escape);
+    }
     if (shadows && !shadows->replay) shadows->record(ev.kind == NextEvent::Escape);
     if (bounce == 0 && coverage) *coverage = (ev.kind == NextEvent::Gaussian || ev.kind == NextEvent::Mesh) ? 1.0f : 0.0f;
 

@@ -14,11 +14,13 @@
 
 #include "ptir/accel/scene_accel.h"
 #include "ptir/scene/scene.h"
+#include "ptir/transport/walk_store.h"
 
 namespace ptir {
 
 class GradientTile;
 struct NextEvent;
+struct WalkCapture;
 struct WeightedHit;
 
 // Inputs of the adjoint (replay) mode of one sample: the sample's primal
@@ -29,6 +31,8 @@ struct PathAdjoint {
   GradientTile* grads = nullptr;  // receives the parameter adjoints
   // The sample's shadow-ray outcomes recorded by its primal pass (or null: traced again).
   const uint64_t* shadow_bits = nullptr;
+  // The sample's walks recorded by its primal pass (WalkStore; else traced again).
+  PathWalkReader walks{};
 };
 
 struct PathStats {
@@ -63,10 +67,12 @@ class PathTracer {
   // pixel, or any coherent rays): their first walks are traced as packets of up
   // to SceneAccel::kMaxPacket rays (about twice as fast as one by one), the rest
   // of each path alone. Each sample gets exactly the result of the single call
-  // (same hits, same floats). coverage and shadow_bits may be null, else n long.
+  // (same hits, same floats). coverage, shadow_bits and walks may be null, else n
+  // long; walks[i] receives the walks of sample i's path for its replay (WalkStore).
   void sample_radiance_batch(const Ray* camera_rays, int n, const uint64_t* pixels, const uint32_t* samples,
                              const IntegratorSettings& settings, Vec3* L, float* coverage = nullptr,
-                             PathStats* stats = nullptr, uint64_t* shadow_bits = nullptr) const;
+                             PathStats* stats = nullptr, uint64_t* shadow_bits = nullptr,
+                             PathWalkWriter* walks = nullptr) const;
   void sample_adjoint_batch(const Ray* camera_rays, int n, const uint64_t* pixels, const uint32_t* samples,
                             const IntegratorSettings& settings, const PathAdjoint* adjoints) const;
 
@@ -74,12 +80,22 @@ class PathTracer {
   const SceneAccel& accel() const { return *accel_; }
 
  private:
+  // What one path reads and writes besides its radiance (all optional).
+  struct TraceIO {
+    float* coverage = nullptr;
+    PathStats* stats = nullptr;
+    uint64_t* shadow_bits = nullptr;   // primal: the ray outcomes
+    PathWalkWriter* walks = nullptr;   // primal: the walks the replay needs
+    // The camera ray's event, already found (camera_events), with its Gaussians
+    // (replay) or its walk (primal recording walks).
+    const NextEvent* first = nullptr;
+    const std::vector<WeightedHit>* first_hits = nullptr;
+    const WalkCapture* first_walk = nullptr;
+  };
   // The path in either mode: primal (adjoint == nullptr) returns L; replay
   // accumulates gradients (one routine, so the two can never disagree).
-  // first (and first_hits, replay): the camera ray's event, already found (camera_events).
   Vec3 trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
-             const PathAdjoint* adjoint, float* coverage, PathStats* stats, uint64_t* shadow_bits,
-             const NextEvent* first = nullptr, const std::vector<WeightedHit>* first_hits = nullptr) const;
+             const PathAdjoint* adjoint, const TraceIO& io) const;
 
   const Scene& scene_;
   std::unique_ptr<SceneAccel> accel_;

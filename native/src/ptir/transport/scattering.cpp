@@ -47,27 +47,49 @@ InteractionBuilder Scatterer::interaction_builder(uint64_t path_key, uint32_t bo
 }
 
 NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
-                                std::vector<WeightedHit>* record) const {
+                                std::vector<WeightedHit>* record, WalkCapture* capture) const {
   InteractionBuilder builder = interaction_builder(path_key, bounce, record);
   // Composite the Gaussians front to back, skipping the surface the ray leaves
   // (dropped inside the traversal, so that the walk can stop where the ray turns
   // opaque and prune the BVH behind it: the same hits reach the builder).
   const auto self_hit = [&](const GaussianHit& h) { return is_self_hit(from, ray.d, h); };
   const HitTest skip = hit_test(self_hit);
-  WalkEnd end = accel_.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, /*stop_when_opaque=*/true,
+  if (capture) capture->hits.clear();
+  const auto visit = [&](const GaussianHit& h) {
+    if (capture) capture->hits.push_back(h);
+    return builder.add(h);
+  };
+  WalkEnd end = accel_.walk(ray, visit, nullptr, /*stop_when_opaque=*/true,
                             from.kind == SpawnContext::Gaussian ? &skip : nullptr);
+  if (capture) capture->end = end;
+  return classify(ray, builder.finish(ray), end, path_key, bounce);
+}
+
+NextEvent Scatterer::recorded_event(const Ray& ray, const std::vector<GaussianHit>& hits, const WalkEnd& end,
+                                    uint64_t path_key, uint32_t bounce, std::vector<WeightedHit>* record) const {
+  InteractionBuilder builder = interaction_builder(path_key, bounce, record);
+  for (const GaussianHit& h : hits) builder.add(h);  // the walk's own hits, in its order
   return classify(ray, builder.finish(ray), end, path_key, bounce);
 }
 
 void Scatterer::camera_events(const Ray* rays, int n, const uint64_t* path_keys, NextEvent* events,
-                              std::vector<WeightedHit>* records) const {
+                              std::vector<WeightedHit>* records, WalkCapture* captures) const {
   std::optional<InteractionBuilder> builders[SceneAccel::kMaxPacket];
-  for (int l = 0; l < n; ++l) builders[l].emplace(interaction_builder(path_keys[l], 0, records ? &records[l] : nullptr));
+  for (int l = 0; l < n; ++l) {
+    builders[l].emplace(interaction_builder(path_keys[l], 0, records ? &records[l] : nullptr));
+    if (captures) captures[l].hits.clear();
+  }
   // The same walk per lane as next_event's (a camera ray skips nothing), the rays traced together.
   WalkEnd ends[SceneAccel::kMaxPacket];
-  accel_.walk_packet(rays, n, [&](int l, const GaussianHit& h) { return builders[l]->add(h); }, ends, nullptr,
-                     /*stop_when_opaque=*/true);
-  for (int l = 0; l < n; ++l) events[l] = classify(rays[l], builders[l]->finish(rays[l]), ends[l], path_keys[l], 0);
+  const auto visit = [&](int l, const GaussianHit& h) {
+    if (captures) captures[l].hits.push_back(h);
+    return builders[l]->add(h);
+  };
+  accel_.walk_packet(rays, n, visit, ends, nullptr, /*stop_when_opaque=*/true);
+  for (int l = 0; l < n; ++l) {
+    if (captures) captures[l].end = ends[l];
+    events[l] = classify(rays[l], builders[l]->finish(rays[l]), ends[l], path_keys[l], 0);
+  }
 }
 
 NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, const WalkEnd& end, uint64_t path_key,

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "ptir/accel/scene_accel.h"
 #include "ptir/material/bsdf.h"
@@ -89,6 +90,13 @@ struct SpawnContext {
   float self_range = 0.0f; // Gaussian, backface-aware: skip range (inf: the paper's rule)
 };
 
+// What a walk handed to the interaction builder, in order, and how it ended: all
+// the event depends on (WalkStore keeps it for the replay; Scatterer::recorded_event).
+struct WalkCapture {
+  std::vector<GaussianHit> hits;
+  WalkEnd end;
+};
+
 class Scatterer {
  public:
   // mesh_epsilon: offset of rays leaving a mesh (scaled to the scene's size).
@@ -98,14 +106,19 @@ class Scatterer {
   // interaction; else, with probability T_ray, what lies behind (mesh or escape);
   // else the path is absorbed.
   // With `record`, the Gaussians composited are appended with their weights.
+  // With `capture`, the walk's hits and end are kept for recorded_event.
   NextEvent next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
-                       std::vector<WeightedHit>* record = nullptr) const;
+                       std::vector<WeightedHit>* record = nullptr, WalkCapture* capture = nullptr) const;
+  // The event next_event gave when its walk handed over `hits` and ended at `end`
+  // (a capture of it): the same floats, nothing traced.
+  NextEvent recorded_event(const Ray& ray, const std::vector<GaussianHit>& hits, const WalkEnd& end, uint64_t path_key,
+                           uint32_t bounce, std::vector<WeightedHit>* record = nullptr) const;
   // next_event of n <= SceneAccel::kMaxPacket camera rays (bounce 0, leaving no
   // surface) at once, traced as one packet (SceneAccel::walk_packet): events[l] and
   // records[l] (when records is given) are exactly what next_event(rays[l], {},
   // path_keys[l], 0, &records[l]) gives. For coherent rays (the samples of one pixel).
   void camera_events(const Ray* rays, int n, const uint64_t* path_keys, NextEvent* events,
-                     std::vector<WeightedHit>* records = nullptr) const;
+                     std::vector<WeightedHit>* records = nullptr, WalkCapture* captures = nullptr) const;
 
   SpawnContext spawn_context(const NextEvent& ev, const Ray& incoming) const;
   // The ray leaving `from` along unit direction wi (offsets applied).
