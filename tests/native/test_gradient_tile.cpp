@@ -173,28 +173,37 @@ static Scene lit_tile_scene() {
   return s;
 }
 
+// A replay set-up on a scene: its tracer, a 20 x 16 view at 3 spp, and an image
+// adjoint of mixed signs.
+struct ReplaySetup {
+  Scene s;
+  PathTracer tracer;  // holds a reference to s (declared first)
+  Camera cam = tile_camera(20, 16);
+  IntegratorSettings is;
+  Image weights;
+  std::vector<Vec3> radiance;     // the primal's records, when a test keeps them
+  std::vector<uint64_t> shadows;
+  explicit ReplaySetup(Scene scene) : s(std::move(scene)), tracer(s), is(s.integrator) {
+    is.spp = 3;
+    weights = Image(cam.width, cam.height, {"R", "G", "B"});
+    for (size_t i = 0; i < weights.pixels.size(); ++i) weights.pixels[i] = float(i % 5) - 2.0f;
+  }
+};
+
 TEST(GradientTile, ReplayWithRecordedShadowRaysGivesTheSameFloats) {
   // The primal pass records every sample's shadow-ray outcomes; a replay that reads
   // them instead of tracing makes the same decisions, so the gradients are equal
   // bit for bit (with and without the stored radiance).
-  Scene s = lit_tile_scene();
-  PathTracer tracer(s);
-  const Camera cam = tile_camera(20, 16);
-  IntegratorSettings is = s.integrator;
-  is.spp = 3;
-  std::vector<Vec3> radiance;
-  std::vector<uint64_t> shadows;
-  render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows);
+  ReplaySetup r(lit_tile_scene());
+  render_path(r.tracer, r.cam, r.is, {}, nullptr, &r.radiance, false, 0, &r.shadows);
   size_t recorded = 0, visible = 0;
-  for (uint64_t b : shadows) recorded += b != 0, visible += size_t(__builtin_popcountll(b));
-  EXPECT_GT(recorded, shadows.size() / 4);
-  EXPECT_GT(visible, shadows.size() / 2);
-  Image weights(cam.width, cam.height, {"R", "G", "B"});
-  for (size_t i = 0; i < weights.pixels.size(); ++i) weights.pixels[i] = float(i % 5) - 2.0f;
-  SceneGradients traced = SceneGradients::zeros_like(s), read = traced, read_only = traced;
-  render_path_backward(tracer, cam, is, weights, traced, {}, &radiance);
-  render_path_backward(tracer, cam, is, weights, read, {}, &radiance, nullptr, &shadows);
-  render_path_backward(tracer, cam, is, weights, read_only, {}, nullptr, nullptr, &shadows);
+  for (uint64_t b : r.shadows) recorded += b != 0, visible += size_t(__builtin_popcountll(b));
+  EXPECT_GT(recorded, r.shadows.size() / 4);
+  EXPECT_GT(visible, r.shadows.size() / 2);
+  SceneGradients traced = SceneGradients::zeros_like(r.s), read = traced, read_only = traced;
+  render_path_backward(r.tracer, r.cam, r.is, r.weights, traced, {}, &r.radiance);
+  render_path_backward(r.tracer, r.cam, r.is, r.weights, read, {}, &r.radiance, nullptr, &r.shadows);
+  render_path_backward(r.tracer, r.cam, r.is, r.weights, read_only, {}, nullptr, nullptr, &r.shadows);
   expect_same_floats(traced, read);
   expect_same_floats(traced, read_only);
   double sum = 0.0;
@@ -202,11 +211,11 @@ TEST(GradientTile, ReplayWithRecordedShadowRaysGivesTheSameFloats) {
   EXPECT_GT(sum, 0.0);
   // Wrong-sized records are refused.
   std::vector<uint64_t> short_record(3);
-  EXPECT_THROW(render_path_backward(tracer, cam, is, weights, read, {}, &radiance, nullptr, &short_record), Error);
+  EXPECT_THROW(render_path_backward(r.tracer, r.cam, r.is, r.weights, read, {}, &r.radiance, nullptr, &short_record), Error);
   // So is Russian roulette (its survival probability depends on the materials).
-  IntegratorSettings roulette = is;
+  IntegratorSettings roulette = r.is;
   roulette.russian_roulette = true;
-  EXPECT_THROW(render_path_backward(tracer, cam, roulette, weights, read), Error);
+  EXPECT_THROW(render_path_backward(r.tracer, r.cam, roulette, r.weights, read), Error);
 }
 
 TEST(GradientTile, BatchedSamplesGiveTheSameFloatsAsSingleSamples) {
@@ -330,19 +339,14 @@ TEST(GradientTile, ReplayFromKeptWalksGivesTheSameFloats) {
   // chunks), and in both interaction modes. Meshes end walks (the floor), rays
   // escape to the environment, and paths reach 3 bounces.
   for (InteractionMode mode : {InteractionMode::Aggregate, InteractionMode::Discrete}) {
-    Scene s = lit_tile_scene();
-    s.integrator.max_bounces = 3;
-    s.integrator.interaction.mode = mode;
-    PathTracer tracer(s);
-    const Camera cam = tile_camera(20, 16);
-    IntegratorSettings is = s.integrator;
-    is.spp = 3;
-    std::vector<Vec3> radiance;
-    std::vector<uint64_t> shadows;
+    Scene scene = lit_tile_scene();
+    scene.integrator.max_bounces = 3;
+    scene.integrator.interaction.mode = mode;
+    ReplaySetup r(std::move(scene));
     WalkStore all, some(size_t(12) << 10, size_t(2) << 10);  // 6 chunks of 2 KB
-    render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows, &all);
-    const Image again = render_path(tracer, cam, is, {}, nullptr, nullptr, false, 0, nullptr, &some);
-    const size_t samples = size_t(cam.width) * cam.height * is.spp;
+    render_path(r.tracer, r.cam, r.is, {}, nullptr, &r.radiance, false, 0, &r.shadows, &all);
+    render_path(r.tracer, r.cam, r.is, {}, nullptr, nullptr, false, 0, nullptr, &some);
+    const size_t samples = size_t(r.cam.width) * r.cam.height * r.is.spp;
     ASSERT_EQ(all.size(), samples);
     EXPECT_EQ(all.kept(), samples);
     EXPECT_GT(some.kept(), samples / 50);
@@ -351,21 +355,19 @@ TEST(GradientTile, ReplayFromKeptWalksGivesTheSameFloats) {
     // Kept paths hold hits and mesh ends (not only escapes).
     size_t hits = 0, meshes = 0;
     for (size_t i = 0; i < samples; ++i) {
-      PathWalkReader r = all.path(i);
+      PathWalkReader reader = all.path(i);
       std::vector<GaussianHit> h;
       WalkEnd end;
-      if (r.next(&h, &end)) hits += h.size(), meshes += end.mesh.valid;
+      if (reader.next(&h, &end)) hits += h.size(), meshes += end.mesh.valid;
     }
     EXPECT_GT(hits, samples);
     EXPECT_GT(meshes, samples / 10);
 
-    Image weights(cam.width, cam.height, {"R", "G", "B"});
-    for (size_t i = 0; i < weights.pixels.size(); ++i) weights.pixels[i] = float(i % 5) - 2.0f;
-    SceneGradients traced = SceneGradients::zeros_like(s), kept = traced, partly = traced, walks_only = traced;
-    render_path_backward(tracer, cam, is, weights, traced, {}, &radiance, nullptr, &shadows);
-    render_path_backward(tracer, cam, is, weights, kept, {}, &radiance, nullptr, &shadows, &all);
-    render_path_backward(tracer, cam, is, weights, partly, {}, &radiance, nullptr, &shadows, &some);
-    render_path_backward(tracer, cam, is, weights, walks_only, {}, &radiance, nullptr, nullptr, &all);
+    SceneGradients traced = SceneGradients::zeros_like(r.s), kept = traced, partly = traced, walks_only = traced;
+    render_path_backward(r.tracer, r.cam, r.is, r.weights, traced, {}, &r.radiance, nullptr, &r.shadows);
+    render_path_backward(r.tracer, r.cam, r.is, r.weights, kept, {}, &r.radiance, nullptr, &r.shadows, &all);
+    render_path_backward(r.tracer, r.cam, r.is, r.weights, partly, {}, &r.radiance, nullptr, &r.shadows, &some);
+    render_path_backward(r.tracer, r.cam, r.is, r.weights, walks_only, {}, &r.radiance, nullptr, nullptr, &all);
     expect_same_floats(traced, kept);
     expect_same_floats(traced, partly);
     expect_same_floats(traced, walks_only);
@@ -375,6 +377,6 @@ TEST(GradientTile, ReplayFromKeptWalksGivesTheSameFloats) {
     // A store of another render's size is refused.
     WalkStore other;
     other.reset(7);
-    EXPECT_THROW(render_path_backward(tracer, cam, is, weights, kept, {}, &radiance, nullptr, &shadows, &other), Error);
+    EXPECT_THROW(render_path_backward(r.tracer, r.cam, r.is, r.weights, kept, {}, &r.radiance, nullptr, &r.shadows, &other), Error);
   }
 }
