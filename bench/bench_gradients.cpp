@@ -15,7 +15,8 @@
 // (primal-free replay CPU time) / (stage time)).
 // Then process CPU time / threads (primal, replay) and the samples/s they give:
 // on a shared machine, what the passes cost on idle cores; last, the walks kept
-// (MB of chunks, % of samples).
+// (MB of chunks, % of samples). Timed passes reuse the buffers of an untimed
+// first one, as the optimiser's iterations do (--cold: time the first).
 // A benchmark, not a test: compare within one run.
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
@@ -55,6 +56,7 @@ struct Options {
   std::string scene;
   int spp = 16, bounces = 2, size = 0;
   bool traced = true;  // also time the replay that traces the shadow rays again
+  bool cold = false;   // time the first pass (fresh buffers)
   std::vector<int> threads = {1, 2};
   std::vector<int> model_threads = {16, 64};
   int walk_mb = 256;
@@ -90,11 +92,19 @@ int run(const Options& o) {
   SceneGradients reference;
   double stage_s = 0.0, replay_cpu_s = 0.0;
   size_t peak_tile = 0;
+  // The buffers of an iteration (radiance, ray outcomes, kept walks) live across
+  // the runs, as in the optimiser, which reuses them every iteration; a first
+  // untimed pass touches their pages (--cold: time the first pass instead).
+  std::vector<Vec3> radiance;
+  std::vector<uint64_t> shadows;
+  WalkStore walks(size_t(o.walk_mb) << 20);
+  if (!o.cold) {
+    SceneGradients g = SceneGradients::zeros_like(scene);
+    render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows, o.walk_mb > 0 ? &walks : nullptr);
+    render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, nullptr, &shadows, o.walk_mb > 0 ? &walks : nullptr);
+  }
   for (int t : o.threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(t));
-    std::vector<Vec3> radiance;
-    std::vector<uint64_t> shadows;
-    WalkStore walks(size_t(o.walk_mb) << 20);
     double t0 = wall(), c0 = cpu();
     render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows, o.walk_mb > 0 ? &walks : nullptr);
     double primal = wall() - t0, primal_cpu = cpu() - c0;
@@ -153,6 +163,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", o.threads);
   app.add_option("--model-threads", o.model_threads);
   app.add_option("--walk-mb", o.walk_mb, "budget of the primal's kept walks (WalkStore; 0: the replay walks again)");
+  app.add_flag("--cold", o.cold, "time the first pass (fresh buffers: page faults included) instead of a warm one");
   app.add_flag("!--no-traced", o.traced, "skip the replay that traces the shadow rays again (for profiles)");
   CLI11_PARSE(app, argc, argv);
   try {

@@ -149,7 +149,14 @@ PrincipledBsdf::SpecularTerms PrincipledBsdf::specular_terms(Vec3 wi) const {
   t.D = D;
   // Plain GGX: separable G1(wo) G1(wi); Multiscatter GGX's single-scattering part:
   // height-correlated G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (Cycles' multi-GGX).
-  const float G = multiscatter_ ? 1.0f / (1.0f + lambda_o_ + smith_lambda(wi, alpha_)) : G1o_ * ggx_smith_G1(wi, alpha_);
+  float G;
+  if (multiscatter_) {
+    G = 1.0f / (1.0f + lambda_o_ + smith_lambda(wi, alpha_));
+  } else {
+    t.G1i = ggx_smith_G1(wi, alpha_);
+    G = G1o_ * t.G1i;
+  }
+  t.G = G;
   t.S = D * G * 0.25f / wo_.z;
   t.FH = (fresnel_dielectric(dot(wi, t.h), eta_) - F0_) * inv_1m_F0_;
   return t;
@@ -218,10 +225,34 @@ BsdfSample PrincipledBsdf::sample(float u1, float u2, float u3) const {
   return s;
 }
 
-Vec3 PrincipledBsdf::eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
-  if (!above_ || !(wi.z > 0.0f)) return Vec3(0.0f);
+const PrincipledBsdf::GradConstants& PrincipledBsdf::grad_constants() const {
+  if (grad_set_) return grad_;
   const float m = p_.metallic, s = p_.specular, t = p_.specular_tint;
   const Vec3 b = p_.albedo;
+  const float L = kTintLumR * b.x + kTintLumG * b.y + kTintLumB * b.z;
+  const Vec3 tint = L > 0.0f ? b / L : Vec3(1.0f);
+  const Vec3 q = (0.08f * s) * (Vec3(1.0f - t) + tint * t) * (1.0f - m) + b * m;
+  const float lum_w[3] = {kTintLumR, kTintLumG, kTintLumB};
+  for (int c = 0; c < 3; ++c) {
+    grad_.free[c] = q[c] > 0.0f && q[c] < 1.0f;  // d cspec0 / d q is 0 where clamped
+    // dq_c / db_k: the metallic mix (diagonal) and the tint (couples the channels).
+    for (int k = 0; k < 3; ++k) {
+      float dq = (c == k ? m : 0.0f);
+      if (L > 0.0f) dq += 0.08f * s * t * (1.0f - m) * ((c == k ? 1.0f / L : 0.0f) - b[c] * lum_w[k] / (L * L));
+      grad_.dq[c][k] = dq;
+    }
+    grad_.dq_dm[c] = -0.08f * s * ((1.0f - t) + t * tint[c]) + b[c];
+  }
+  grad_.wo_dalpha = multiscatter_ ? smith_lambda_dalpha(wo_, alpha_) : smith_G1_dalpha(wo_, alpha_);
+  grad_set_ = true;
+  return grad_;
+}
+
+Vec3 PrincipledBsdf::eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
+  if (!above_ || !(wi.z > 0.0f)) return Vec3(0.0f);
+  const float m = p_.metallic;
+  const Vec3 b = p_.albedo;
+  const GradConstants& gc = grad_constants();
 
   // Values.
   const Terms& tm = terms(wi);
@@ -233,33 +264,19 @@ Vec3 PrincipledBsdf::eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
   const Vec3 f = diffuse_weight_ * Kd + F * M * S;
 
   // d f~_c / d cspec0_c, zero where cspec0 is clamped.
-  const float L = kTintLumR * b.x + kTintLumG * b.y + kTintLumB * b.z;
-  const Vec3 tint = L > 0.0f ? b / L : Vec3(1.0f);
-  const Vec3 q = (0.08f * s) * (Vec3(1.0f - t) + tint * t) * (1.0f - m) + b * m;
   Vec3 P;
-  for (int c = 0; c < 3; ++c) {
-    const bool free = q[c] > 0.0f && q[c] < 1.0f;
-    P[c] = free ? S * ((1.0f - FH) * M[c] + F[c] * ms_k_) : 0.0f;
-  }
+  for (int c = 0; c < 3; ++c) P[c] = gc.free[c] ? S * ((1.0f - FH) * M[c] + F[c] * ms_k_) : 0.0f;
 
   // Albedo: diffuse (diagonal) + specular through cspec0 (the tint couples channels).
-  const float lum_w[3] = {kTintLumR, kTintLumG, kTintLumB};
   for (int k = 0; k < 3; ++k) {
     float acc = d_f[k] * (1.0f - m) * Kd;
-    for (int c = 0; c < 3; ++c) {
-      float dq = (c == k ? m : 0.0f);
-      if (L > 0.0f) dq += 0.08f * s * t * (1.0f - m) * ((c == k ? 1.0f / L : 0.0f) - b[c] * lum_w[k] / (L * L));
-      acc += d_f[c] * P[c] * dq;
-    }
+    for (int c = 0; c < 3; ++c) acc += d_f[c] * P[c] * gc.dq[c][k];
     g.d_albedo[k] += acc;
   }
 
   // Metallic.
   float dm = 0.0f;
-  for (int c = 0; c < 3; ++c) {
-    const float dq_dm = -0.08f * s * ((1.0f - t) + t * tint[c]) + b[c];
-    dm += d_f[c] * (-b[c] * Kd + P[c] * dq_dm);
-  }
+  for (int c = 0; c < 3; ++c) dm += d_f[c] * (-b[c] * Kd + P[c] * gc.dq_dm[c]);
   g.d_metallic += dm;
 
   // Roughness: the diffuse retro-reflection term and the specular lobe.
@@ -278,16 +295,10 @@ Vec3 PrincipledBsdf::eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
     const float d = s2 + a2 * tt;
     const float D = a2 / (kPi * d * d);
     const float dD = 2.0f * a * (s2 - a2 * tt) / (kPi * d * d * d);
-    float G, dG;
-    if (multiscatter_) {
-      const float G2 = 1.0f / (1.0f + lambda_o_ + smith_lambda(wi, a));
-      G = G2;
-      dG = -G2 * G2 * (smith_lambda_dalpha(wo_, a) + smith_lambda_dalpha(wi, a));
-    } else {
-      const float G1i = ggx_smith_G1(wi, a);
-      G = G1o_ * G1i;
-      dG = smith_G1_dalpha(wo_, a) * G1i + G1o_ * smith_G1_dalpha(wi, a);
-    }
+    // G and G1(wi) as S took them (terms); their alpha slopes.
+    const float G = st.G;
+    const float dG = multiscatter_ ? -G * G * (gc.wo_dalpha + smith_lambda_dalpha(wi, a))
+                                   : gc.wo_dalpha * st.G1i + G1o_ * smith_G1_dalpha(wi, a);
     const float dS_da = (dD * G + D * dG) * 0.25f / wo_.z;
     dS_dr = dS_da * 2.0f * r_;
   }

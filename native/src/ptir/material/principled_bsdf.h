@@ -87,6 +87,8 @@ class PrincipledBsdf {
     float S = 0.0f;   // D G1(wo) G1(wi) / (4 n.wo)   (cosine-weighted, F = 1)
     float D = 0.0f;   // GGX D(h)
     float FH = 0.0f;  // interpolation factor of the Fresnel colour
+    float G = 0.0f;   // the shadowing-masking term in S
+    float G1i = 0.0f; // plain GGX: G1(wi) (G = G1(wo) G1(wi))
     Vec3 h;
   };
   SpecularTerms specular_terms(Vec3 wi) const;
@@ -116,6 +118,18 @@ class PrincipledBsdf {
   float ms_k_ = 0.0f;         // (1 - E) / E at n.wo
   float ms_dk_dr_ = 0.0f;
   float p_spec_ = 0.5f;
+  // What eval_grad needs that depends on the vertex alone (its first call fills it):
+  // d cspec0_c / d b_k (dq[c][k]), d cspec0_c / d m, where cspec0 is not clamped,
+  // and the alpha slope of wo's shadowing (Lambda(wo) or G1(wo)).
+  struct GradConstants {
+    float dq[3][3];
+    float dq_dm[3];
+    bool free[3];
+    float wo_dalpha;
+  };
+  const GradConstants& grad_constants() const;
+  mutable bool grad_set_ = false;
+  mutable GradConstants grad_;
   mutable bool memo_set_ = false;
   mutable Vec3 memo_wi_;
   mutable Terms memo_;

@@ -108,9 +108,25 @@ void GradientTile::finish() {
   // The entries move to the front of the table, by id: a finished tile takes no
   // more adds until clear(), which empties every slot.
   size_t n = 0;
+  uint32_t max_id = 0;
   for (size_t i = 0; i < table_.size(); ++i)
-    if (table_[i].id != kEmpty) table_[n++] = table_[i];
-  std::sort(table_.begin(), table_.begin() + n, [](const Entry& a, const Entry& b) { return a.id < b.id; });
+    if (table_[i].id != kEmpty) {
+      max_id = std::max(max_id, table_[i].id);
+      table_[n++] = table_[i];
+    }
+  // LSD radix sort, a byte of the id per pass (ids are unique in a tile: the order
+  // is std::sort's), ping-ponging between the entries [0, n) and the free slots
+  // [n, 2n) behind them (the load factor is <= 1/2).
+  Entry* from = table_.data();
+  Entry* to = from + n;
+  for (uint32_t shift = 0; shift < 32 && (max_id >> shift) != 0; shift += 8) {
+    size_t start[257] = {};
+    for (size_t i = 0; i < n; ++i) ++start[((from[i].id >> shift) & 255u) + 1];
+    for (int b = 0; b < 256; ++b) start[b + 1] += start[b];
+    for (size_t i = 0; i < n; ++i) to[start[(from[i].id >> shift) & 255u]++] = from[i];
+    std::swap(from, to);
+  }
+  if (from != table_.data()) std::copy(from, from + n, table_.data());
 }
 
 void GradientTile::add_to(SceneGradients& g) const {

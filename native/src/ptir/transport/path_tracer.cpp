@@ -221,6 +221,16 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
       }
       if (bounce > settings.max_bounces) break;
     }
+    // The last ray (past the last vertex) brings only what it escapes to, and the
+    // lights it crosses: when none lies along it and no mesh emits, whether it
+    // escapes is all that is asked (an occlusion query, not a walk).
+    if (bounce > settings.max_bounces && scatterer.escape_query_applies() &&
+        max_component(lights_crossed(scene, ray, INFINITY, prev_brdf_pdf, scatterer.light_pick_probability())) <= 0.0f) {
+      escaped = scatterer.escapes(ray, spawn, path_key, uint32_t(bounce));
+      if (shadows && !shadows->replay) shadows->record(escaped);
+      if (escaped) escape();
+      break;
+    }
     // Next event along the ray: a Gaussian interaction, a mesh, or an escape (the
     // camera ray's may be given, found with others in a packet).
     const bool given = bounce == 0 && io.first;
@@ -276,12 +286,20 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
 
     // Next-event estimation: one sample of every light and of the environment.
     DirectAdjoint direct_adj{beta, adj ? adj->dL : Vec3(0.0f), &vertex_grad, adj ? adj->grads : nullptr};
+    // (A kept path's light samples are kept with its walks, and read back by its replay.)
+    const LightSampleLog light_samples{walks_out, walks_in.recorded() ? &walks_in : nullptr};
     add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr,
-                                      shadows));
+                                      shadows, light_samples));
 
-    // Continue with a BSDF sample.
-    PathRng rng(path_key, uint64_t(bounce), kStreamBrdf);
-    BsdfSample bs = bsdf.sample(rng.at(0), rng.at(1), rng.at(2));
+    // Continue with a BSDF sample (a kept path's replay reads the primal's).
+    BsdfSample bs;
+    if (walks_in.recorded()) {
+      bs = walks_in.next_bsdf();
+    } else {
+      PathRng rng(path_key, uint64_t(bounce), kStreamBrdf);
+      bs = bsdf.sample(rng.at(0), rng.at(1), rng.at(2));
+    }
+    if (walks_out) walks_out->add_bsdf(bs);
     if (adj && bs.valid) {
       // Everything still remaining arrives through this BRDF value:
       // d L_rem / d f~ = L_rem / f~ (the L f / detach(f) trick), channel by channel.

@@ -8,6 +8,7 @@
 #include "ptir/math/sampling.h"
 #include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/path_tracer.h"
+#include "ptir/transport/walk_store.h"
 
 namespace ptir {
 
@@ -28,6 +29,8 @@ Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const Integrat
     : scene_(scene), accel_(accel), field_(accel.field()), settings_(settings), mesh_epsilon_(mesh_epsilon) {
   lights_ = uint32_t(scene.emitters.size()) + (scene.environment.present() ? 1u : 0u);
   light_pick_ = settings.light_selection == LightSelection::One && lights_ > 1 ? 1.0f / float(lights_) : 1.0f;
+  emissive_meshes_ = false;
+  for (const TriangleMesh& m : accel.meshes()) emissive_meshes_ |= max_component(m.material.emission) > 0.0f;
 }
 
 bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const {
@@ -70,6 +73,22 @@ NextEvent Scatterer::recorded_event(const Ray& ray, const std::vector<GaussianHi
   InteractionBuilder builder = interaction_builder(path_key, bounce, record);
   for (const GaussianHit& h : hits) builder.add(h);  // the walk's own hits, in its order
   return classify(ray, builder.finish(ray), end, path_key, bounce);
+}
+
+bool Scatterer::escapes(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce) const {
+  // next_event escapes when O = 1 - T <= tau_g (no valid interaction; classify), then
+  // when chi_pass's uniform xi < T (or nothing was hit), and no triangle ends the walk.
+  const float tau = settings_.geometric_criterion ? settings_.interaction.tau_g : 0.0f;
+  const float xi = PathRng(path_key, bounce, kStreamPass).at(0);
+  float T = 1.0f;
+  // Each accepted hit (the walk's own, skipping the surface left) lowers T; the
+  // query ends at the first hit after which the ray can no longer escape.
+  const auto ends_escape = [&](const GaussianHit& h) {
+    if (is_self_hit(from, ray.d, h)) return false;
+    T *= 1.0f - h.alpha;
+    return 1.0f - T > tau || !(xi < T);
+  };
+  return !accel_.occluded(ray, hit_test(ends_escape));
 }
 
 void Scatterer::camera_events(const Ray* rays, int n, const uint64_t* path_keys, NextEvent* events,
@@ -201,7 +220,8 @@ struct LightSlot {
 }  // namespace
 
 Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key,
-                             uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint, ShadowLog* shadows) const {
+                             uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint, ShadowLog* shadows,
+                             LightSampleLog samples) const {
   Vec3 Ld(0.0f);
   const auto& emitters = scene_.emitters;
   const SceneEnvironment& env = scene_.environment;
@@ -214,52 +234,65 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
     last = first + 1;
   }
 
-  // Emitter l: light sample, MIS against the BRDF density (delta lights: weight 1).
-  const auto emitter = [&](uint32_t l, const LightSlot& slot) {
-    PathRng rng(path_key, bounce, kStreamLight + l);
-    LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
-    if (!ls.valid()) return false;
-    Vec3 wi_local = frame.to_local(ls.wi);
-    BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
-    const Vec3 f = fp.f;
-    if (max_component(f) <= 0.0f) return false;
-    if (stats && !slot.known) stats->shadow_rays++;
-    if (!slot.unoccluded([&] { return unoccluded(from, ls.wi, ls.distance, path_key, bounce, l); })) return false;
-    const float pdf = pick * ls.pdf;
-    float w = ls.delta ? 1.0f : power_heuristic(1, pdf, 1, fp.pdf);
-    Ld += f * ls.Li * (w / pdf);
-    // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
-    if (adjoint) bsdf.eval_grad(wi_local, adjoint->dL * adjoint->beta * ls.Li * (w / pdf), *adjoint->brdf);
-    return true;
-  };
-  // The environment (light index N - 1): importance-sampled direction, MIS against the BRDF density.
-  const auto environment = [&](uint32_t l, const LightSlot& slot) {
-    PathRng rng(path_key, bounce, kStreamLight + l);
-    const EnvLightSample es = env->sample_li(rng.at(0), rng.at(1), rng.at(2));
-    const Vec3 wi = es.wi, Li = es.Li;
-    if (!(es.pdf > 0.0f)) return false;
-    Vec3 wi_local = frame.to_local(wi);
-    BsdfEvalPdf fp = bsdf.eval_pdf(wi_local);
-    const Vec3 f = fp.f;
-    if (!(max_component(f) > 0.0f)) return false;
-    if (stats && !slot.known) stats->shadow_rays++;
-    if (!slot.unoccluded([&] { return unoccluded(from, wi, INFINITY, path_key, bounce, l); })) return false;
-    const float pdf = pick * es.pdf;
-    float w = power_heuristic(1, pdf, 1, fp.pdf);
-    Ld += f * Li * (w / pdf);
-    // Adjoint: into the BRDF (through f~) and into the environment (through Li).
-    if (adjoint) {
-      Vec3 scale = adjoint->dL * adjoint->beta * (w / pdf);
-      bsdf.eval_grad(wi_local, scale * Li, *adjoint->brdf);
+  // A contributing sample of light l: direction wi, radiance Li, MIS weight / pdf
+  // (what the walk store keeps); adds f~ Li w / pdf and, in the replay, the adjoints.
+  const auto contribute = [&](uint32_t l, Vec3 wi, Vec3 Li, float w_pdf, Vec3 wi_local, const Vec3* f_known) {
+    const bool environment = l >= emitters.size();
+    Vec3 f;
+    if (!adjoint) {
+      f = f_known ? *f_known : bsdf.eval(wi_local);
+    } else if (!environment) {
+      // Adjoint: d(contribution)/d f~ = beta Li w / pdf (pdfs and weights fixed).
+      f = bsdf.eval_grad(wi_local, adjoint->dL * adjoint->beta * Li * w_pdf, *adjoint->brdf);
+    } else {
+      // Adjoint: into the BRDF (through f~) and into the environment (through Li).
+      const Vec3 scale = adjoint->dL * adjoint->beta * w_pdf;
+      f = bsdf.eval_grad(wi_local, scale * Li, *adjoint->brdf);
       if (adjoint->grads) adjoint->grads->add_environment(wi, scale * f);
     }
+    Ld += f * Li * w_pdf;
+  };
+
+  // Light l's sample; returns whether it contributed (valid, f~ > 0, unoccluded),
+  // with its direction, radiance and MIS weight / pdf. Emitters: MIS against the
+  // BRDF density (delta lights: weight 1); the environment (light index N - 1):
+  // importance-sampled direction, MIS against the BRDF density.
+  const auto sample = [&](uint32_t l, const LightSlot& slot, Vec3* wi, Vec3* Li, float* w_pdf, BsdfEvalPdf* fp) {
+    PathRng rng(path_key, bounce, kStreamLight + l);
+    float light_pdf, distance = INFINITY;
+    bool delta = false;
+    if (l < emitters.size()) {
+      const LightSample ls = sample_li(emitters[l], from.p, rng.at(0), rng.at(1));
+      if (!ls.valid()) return false;
+      *wi = ls.wi, *Li = ls.Li, light_pdf = ls.pdf, distance = ls.distance, delta = ls.delta;
+    } else {
+      const EnvLightSample es = env->sample_li(rng.at(0), rng.at(1), rng.at(2));
+      if (!(es.pdf > 0.0f)) return false;
+      *wi = es.wi, *Li = es.Li, light_pdf = es.pdf;
+    }
+    *fp = bsdf.eval_pdf(frame.to_local(*wi));
+    if (!(max_component(fp->f) > 0.0f)) return false;
+    if (stats && !slot.known) stats->shadow_rays++;
+    if (!slot.unoccluded([&] { return unoccluded(from, *wi, distance, path_key, bounce, l); })) return false;
+    const float pdf = pick * light_pdf;
+    *w_pdf = (delta ? 1.0f : power_heuristic(1, pdf, 1, fp->pdf)) / pdf;
     return true;
   };
 
   for (uint32_t l = first; l < last; ++l) {
     const LightSlot slot(shadows);
+    Vec3 wi, Li;
+    float w_pdf;
+    if (samples.in) {  // replay of a kept path: the primal's sample, as it was
+      if (samples.in->next_light(&wi, &Li, &w_pdf)) contribute(l, wi, Li, w_pdf, frame.to_local(wi), nullptr);
+      continue;
+    }
     if (slot.skip()) continue;
-    slot.record(l < emitters.size() ? emitter(l, slot) : environment(l, slot));
+    BsdfEvalPdf fp;
+    const bool contributed = sample(l, slot, &wi, &Li, &w_pdf, &fp);
+    if (contributed) contribute(l, wi, Li, w_pdf, frame.to_local(wi), &fp.f);
+    slot.record(contributed);
+    if (samples.out) samples.out->add_light(contributed, wi, Li, w_pdf);
   }
   return Ld;
 }

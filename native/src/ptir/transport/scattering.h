@@ -22,6 +22,16 @@ namespace ptir {
 
 struct PathStats;
 class GradientTile;
+struct PathWalkWriter;
+class PathWalkReader;
+
+// A path's light samples kept with its walks (walk_store.h): the primal appends
+// each one's outcome, direction, radiance and weight; the replay reads them back
+// instead of sampling the lights again (the same floats).
+struct LightSampleLog {
+  PathWalkWriter* out = nullptr;  // primal: append
+  PathWalkReader* in = nullptr;   // replay: read
+};
 
 // Adjoint inputs of direct_light during gradient replay (METHOD §6): the path
 // throughput beta and the adjoint dL of the sample's radiance. Light sampling
@@ -113,6 +123,17 @@ class Scatterer {
   // (a capture of it): the same floats, nothing traced.
   NextEvent recorded_event(const Ray& ray, const std::vector<GaussianHit>& hits, const WalkEnd& end, uint64_t path_key,
                            uint32_t bounce, std::vector<WeightedHit>* record = nullptr) const;
+  // Whether next_event(ray, from, path_key, bounce) escapes, for a ray whose event
+  // matters for nothing else (the path's last ray, when no mesh emits and no light
+  // lies along it: escape_query_applies). Escape needs every hit's opacity but not
+  // their order: T = prod(1 - alpha) must stay >= 1 - tau_g (no valid interaction)
+  // and above the chi_pass uniform, and no triangle may be hit; so it is an
+  // occlusion query that stops as soon as the answer is no, without a k-buffer.
+  // The same event as next_event's up to the rounding of T in another order.
+  bool escapes(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce) const;
+  // Whether escapes() can stand for next_event on a last ray: no mesh emits.
+  bool escape_query_applies() const { return !emissive_meshes_; }
+
   // next_event of n <= SceneAccel::kMaxPacket camera rays (bounce 0, leaving no
   // surface) at once, traced as one packet (SceneAccel::walk_packet): events[l] and
   // records[l] (when records is given) are exactly what next_event(rays[l], {},
@@ -135,10 +156,10 @@ class Scatterer {
   // light_selection), each MIS-weighted against BSDF sampling with the light's
   // density times light_pick_probability(); returns the sum of f~ Li w / pdf
   // (beta not applied). shadows: records or replays the shadow-ray outcomes (may
-  // be null: traced).
+  // be null: traced). samples: keeps or replays the light samples themselves.
   Vec3 direct_light(const SpawnContext& from, const Frame& frame, const Bsdf& bsdf, uint64_t path_key,
                     uint32_t bounce, PathStats* stats, const DirectAdjoint* adjoint = nullptr,
-                    ShadowLog* shadows = nullptr) const;
+                    ShadowLog* shadows = nullptr, LightSampleLog samples = {}) const;
 
   // The probability with which next-event estimation samples a given light: 1 / N
   // of the N lights (emitters and environment) with LightSelection::One, else 1.
@@ -162,6 +183,7 @@ class Scatterer {
   float mesh_epsilon_;  // offset of rays leaving a mesh, scaled to the scene
   uint32_t lights_;     // emitters + the environment when present
   float light_pick_;    // light_pick_probability()
+  bool emissive_meshes_;  // some mesh emits (a last ray must then find what it hits)
 };
 
 }  // namespace ptir

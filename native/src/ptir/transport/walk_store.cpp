@@ -44,6 +44,48 @@ void PathWalkWriter::add(const GaussianHit* hits, size_t n, const WalkEnd& end, 
   }
 }
 
+void PathWalkWriter::add_light(bool contributed, Vec3 wi, Vec3 Li, float weight) {
+  if (!contributed) {
+    words.push_back(0u);
+    return;
+  }
+  const uint32_t w[8] = {1u,          float_bits(wi.x), float_bits(wi.y), float_bits(wi.z),
+                         float_bits(Li.x), float_bits(Li.y), float_bits(Li.z), float_bits(weight)};
+  words.insert(words.end(), w, w + 8);
+}
+
+bool PathWalkReader::next_light(Vec3* wi, Vec3* Li, float* weight) {
+  if (*at_++ == 0u) return false;
+  *wi = Vec3(bits_float(at_[0]), bits_float(at_[1]), bits_float(at_[2]));
+  *Li = Vec3(bits_float(at_[3]), bits_float(at_[4]), bits_float(at_[5]));
+  *weight = bits_float(at_[6]);
+  at_ += 7;
+  return true;
+}
+
+void PathWalkWriter::add_bsdf(const BsdfSample& bs) {
+  if (!bs.valid) {
+    words.push_back(0u);
+    return;
+  }
+  const uint32_t w[8] = {1u,
+                         float_bits(bs.wi.x),     float_bits(bs.wi.y),     float_bits(bs.wi.z),
+                         float_bits(bs.weight.x), float_bits(bs.weight.y), float_bits(bs.weight.z),
+                         float_bits(bs.pdf)};
+  words.insert(words.end(), w, w + 8);
+}
+
+BsdfSample PathWalkReader::next_bsdf() {
+  BsdfSample bs;
+  if (*at_++ == 0u) return bs;
+  bs.wi = Vec3(bits_float(at_[0]), bits_float(at_[1]), bits_float(at_[2]));
+  bs.weight = Vec3(bits_float(at_[3]), bits_float(at_[4]), bits_float(at_[5]));
+  bs.pdf = bits_float(at_[6]);
+  bs.valid = true;
+  at_ += 7;
+  return bs;
+}
+
 bool PathWalkReader::next(std::vector<GaussianHit>* hits, WalkEnd* end) {
   const uint32_t header = *at_++;
   hits->clear();

@@ -12,7 +12,12 @@
 // for every walk at bounce <= max_bounces (the ones the replay needs), a header
 // word -- hit count (bits 0..27), kEscaped, kStopped, kMesh -- then 3 words per
 // hit (t, alpha, id) unless escaped (an escape needs no hits), then 5 words of
-// mesh hit (t, mesh, prim, u, v) when kMesh. Paths are kept whole or not at all,
+// mesh hit (t, mesh, prim, u, v) when kMesh. After the walk that found a vertex,
+// the vertex's light samples (next-event estimation, in the order it takes
+// them): one word, 1 when the sample contributed, then 7 words (wi, Li, w / pdf)
+// when it did, so the replay neither samples the light nor evaluates its density
+// again; then the vertex's BSDF sample: one word, 1 when valid, then 7 words
+// (wi, weight, pdf). Paths are kept whole or not at all,
 // in fixed chunks, within a byte budget: a path over budget is simply not kept,
 // and its replay traces (the same result either way).
 #pragma once
@@ -28,6 +33,8 @@
 #include <tbb/enumerable_thread_specific.h>
 
 #include "ptir/accel/scene_accel.h"
+#include "ptir/material/material_params.h"
+#include "ptir/math/vec.h"
 
 namespace ptir {
 
@@ -43,6 +50,10 @@ struct PathWalkWriter {
   void clear() { words.clear(); }
   // One walk: the hits handed to the builder, in order, and how it ended.
   void add(const GaussianHit* hits, size_t n, const WalkEnd& end, bool escaped);
+  // One light sample: whether it contributed, and then its direction, radiance and MIS weight / pdf.
+  void add_light(bool contributed, Vec3 wi, Vec3 Li, float weight);
+  // The vertex's BSDF sample (the direction the path goes on in).
+  void add_bsdf(const BsdfSample& bs);
 };
 
 // Reads a recorded path's walks back in order (replay).
@@ -53,6 +64,10 @@ class PathWalkReader {
   bool recorded() const { return at_ != nullptr; }
   // The next walk: its hits (into *hits), its end; returns false when it escaped.
   bool next(std::vector<GaussianHit>* hits, WalkEnd* end);
+  // The next light sample: false when it did not contribute, else its wi, Li, w / pdf.
+  bool next_light(Vec3* wi, Vec3* Li, float* weight);
+  // The next BSDF sample.
+  BsdfSample next_bsdf();
 
  private:
   const uint32_t* at_ = nullptr;
