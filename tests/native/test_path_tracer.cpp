@@ -7,6 +7,7 @@
 
 #include "ptir/material/bsdf.h"
 #include "ptir/render/render_path.h"
+#include "ptir/transport/scattering.h"
 #include "test_scenes.h"
 
 using namespace ptir;
@@ -239,4 +240,49 @@ TEST(PathTracer, OneLightAndRouletteKeepTheExpectation) {
   EXPECT_GT(all_per_vertex, 2.0);
   EXPECT_LE(one_per_vertex, 1.0);
   EXPECT_LT(double(one_stats.vertices), 0.995 * double(all_stats.vertices));
+}
+
+TEST(PathTracer, EscapeQueryMatchesTheNextEvent) {
+  // Scatterer::escapes (the last ray's occlusion query, any hit order) against
+  // next_event's kind == Escape (the ordered walk and the interaction rules): rays
+  // from outside and inside a random field over two (non-emitting) quads, leaving
+  // nothing or a Gaussian interaction (its back-facing hits skipped), with and
+  // without the geometric criterion.
+  Scene scene;
+  *scene.gaussians = test::random_field(150, 53, 0.02f, 0.1f);
+  scene.meshes = {test::quad_z(0.1f, 0.6f), test::quad_z(-0.5f, 0.4f)};
+  SceneAccel accel(*scene.gaussians, scene.meshes);
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  const auto direction = [&] { return normalize(Vec3(u(rng), u(rng), u(rng))); };
+  for (bool criterion : {true, false}) {
+    IntegratorSettings settings;
+    settings.geometric_criterion = criterion;
+    Scatterer scatterer(scene, accel, settings, 1e-5f);
+    ASSERT_TRUE(scatterer.escape_query_applies());
+    int escaped = 0, stopped = 0, from_gaussian = 0;
+    for (int i = 0; i < 3000; ++i) {
+      Ray r;
+      const bool inside = i % 2 == 0;
+      r.o = inside ? Vec3(u(rng), u(rng), u(rng)) * 0.8f : direction() * 3.0f;
+      r.d = inside ? direction() : normalize(Vec3(u(rng), u(rng), u(rng)) * 0.7f - r.o);
+      SpawnContext from;
+      const uint64_t key = uint64_t(i) * 7919u + (criterion ? 1u : 0u);
+      // Every third ray leaves the interaction the first one met.
+      if (i % 3 == 0) {
+        const NextEvent first = scatterer.next_event(r, from, key, 0);
+        if (first.kind == NextEvent::Gaussian) {
+          from = scatterer.spawn_context(first, r);
+          r = scatterer.spawn_ray(from, direction());
+          from_gaussian++;
+        }
+      }
+      const bool expected = scatterer.next_event(r, from, key, 3).kind == NextEvent::Escape;
+      EXPECT_EQ(scatterer.escapes(r, from, key, 3), expected) << "ray " << i << (criterion ? "" : ", no criterion");
+      (expected ? escaped : stopped)++;
+    }
+    EXPECT_GT(escaped, 500);
+    EXPECT_GT(stopped, 500);
+    EXPECT_GT(from_gaussian, 100) << escaped << " escaped, " << stopped << " stopped";
+  }
 }
