@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 
 #include "ptir/core/error.h"
@@ -328,7 +329,8 @@ void PrintTo(const ErrorCase& c, std::ostream* os) { *os << c.json; }
 class SceneJsonErrors : public ::testing::TestWithParam<ErrorCase> {};
 
 TEST_P(SceneJsonErrors, NameFileAndPath) {
-  fs::path dir = test_dir() / "errors";
+  // A folder per case: ctest -j runs the cases as separate processes at once.
+  fs::path dir = test_dir() / ("errors_" + std::to_string(std::hash<std::string>{}(GetParam().json)));
   write_assets(dir);
   write_text(dir / "scene.json", GetParam().json);
   try {
