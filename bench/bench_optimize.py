@@ -10,6 +10,8 @@ Sweeps (each point is one `ptir optimize` process on a synthetic dataset):
   bounces  1 / 2 / 4 / 9 bounces at 100K and 1M Gaussians, 256x256, 8 spp (memory must stay flat)
   threads  1 thread .. --threads at 100K Gaussians, 256x256, 8 spp, 2 bounces: speed-up and peak RSS
            (the gradients are reduced over fixed pixel tiles, so memory should not grow with threads)
+  walls    the speed issue's case: the same 100K Gaussians standing in a room of four mesh walls
+           (`ptir optimize --scene`), 256x256, 8 spp, 2 bounces, 1 thread .. --threads
 and prints, per point, wall-clock AND process-CPU-time / threads figures (the
 machine is shared: CPU time is what the work costs on that many idle cores):
 s/iter (median over iterations 2..N), the split primal /
@@ -26,7 +28,9 @@ Gaussians at 2 bounces; replay <= 2x primal; peak RSS <= 1 GB for 1M Gaussians a
 The dataset: N flat Gaussians (degree-0 SH): 80 % on a unit sphere (Fibonacci
 lattice; warm top, cool bottom), 20 % on a 5 x 5 floor just below it (so that
 light bounces between the two), under a sky with a sun; 2 views rendered by ptir
-itself at each size. A benchmark, not a test; the machine is shared, so compare within a run.
+itself at each size. The walls variant adds four diffuse mesh walls 3 units from the
+centre, 4 high, open to the sky (rays that miss the object end on a wall instead of
+in the sky, as in a room), in the images and in the optimisation. A benchmark, not a test; the machine is shared, so compare within a run.
 """
 
 import argparse
@@ -96,28 +100,52 @@ def write_ply(path, n):
     return p
 
 
-def dataset_paths(root, n, res):
-    return root / ("g%d.ply" % n), root / ("ds_%d_%d" % (n, res))
+def dataset_paths(root, n, res, walls=False):
+    return root / ("g%d.ply" % n), root / ("ds_%d_%d%s" % (n, res, "_walls" if walls else ""))
 
 
-def make_dataset(build, root, n, res):
+# The walls variant's room: four quads around the object, from the floor's height up.
+WALL_HALF, WALL_LOW, WALL_HIGH = 3.0, -1.02, 3.0
+
+
+def write_walls(ds):
+    """ds/wall.ply (four inward-facing quads) and ds/scene.json naming it, with a diffuse
+    Principled material; returns the scene file."""
+    h, lo, hi = WALL_HALF, WALL_LOW, WALL_HIGH
+    quads = [[(h, -h), (h, h)], [(-h, h), (-h, -h)], [(h, h), (-h, h)], [(-h, -h), (h, -h)]]
+    verts, faces = [], []
+    for (x0, y0), (x1, y1) in quads:
+        b = len(verts)
+        verts += [(x0, y0, lo), (x1, y1, lo), (x1, y1, hi), (x0, y0, hi)]
+        faces += [(b, b + 1, b + 2), (b, b + 2, b + 3)]
+    header = ("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+              "element face %d\nproperty list uchar int vertex_indices\nend_header\n" % (len(verts), len(faces)))
+    body = "".join("%g %g %g\n" % v for v in verts) + "".join("3 %d %d %d\n" % f for f in faces)
+    (ds / "wall.ply").write_text(header + body)
+    scene = {"version": 1, "meshes": [{"name": "walls", "file": "wall.ply", "material": {
+        "shader": "principled", "base_color": [0.6, 0.55, 0.5], "roughness": 1.0, "metallic": 0.0}}]}
+    (ds / "scene.json").write_text(json.dumps(scene, indent=1))
+    return ds / "scene.json"
+
+
+def make_dataset(build, root, n, res, walls=False):
     """root/g<n>.ply (shared by sizes) and root/ds_<n>_<res>/ (2 views), made in a child
     process so that this one stays small (a forked child's peak RSS counts the parent's
     pages until it execs)."""
-    ply, ds = dataset_paths(root, n, res)
+    ply, ds = dataset_paths(root, n, res, walls)
     if (ds / "transforms_train.json").exists() and ply.exists():
         return ply, ds
-    r = subprocess.run([sys.executable, __file__, "--build", str(build), "--data", str(root), "--make", str(n), str(res)],
-                       capture_output=True, text=True)
+    r = subprocess.run([sys.executable, __file__, "--build", str(build), "--data", str(root), "--make", str(n), str(res),
+                        str(int(walls))], capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit("bench_optimize: error: making the %d-Gaussian %dx%d dataset failed:\n%s" % (n, res, res, r.stderr[-2000:]))
     return ply, ds
 
 
-def make_dataset_here(build, root, n, res):
+def make_dataset_here(build, root, n, res, walls=False):
     sys.path.insert(0, str(build / "python"))
     import ptir
-    ply, ds = dataset_paths(root, n, res)
+    ply, ds = dataset_paths(root, n, res, walls)
     ds.mkdir(parents=True, exist_ok=True)
     p = write_ply(ply, n) if not ply.exists() else positions(n)[0]
     floor = np.arange(n) >= positions(n)[1]
@@ -133,8 +161,11 @@ def make_dataset_here(build, root, n, res):
         frames.append({"file_path": "./train_%03d/rgba" % i,
                        "transform_matrix": look_at((2.2 * math.cos(phi), 2.2 * math.sin(phi), 0.8), (0, 0, 0)).tolist()})
     (ds / "transforms_train.json").write_text(json.dumps({"camera_angle_x": 0.9, "w": res, "h": res, "frames": frames}))
-    scene = ptir.scene_from_dict({"gaussians": [{"file": str(ply)}], "environment": {"type": "latlong", "file": "env.exr"},
-                                  "cameras": [{"transforms": "transforms_train.json"}]}, base_dir=str(ds))
+    desc = {"gaussians": [{"file": str(ply)}], "environment": {"type": "latlong", "file": "env.exr"},
+            "cameras": [{"transforms": "transforms_train.json"}]}
+    if walls:
+        desc["meshes"] = json.loads(write_walls(ds).read_text())["meshes"]
+    scene = ptir.scene_from_dict(desc, base_dir=str(ds))
     g = scene.gaussians
     albedo = np.where(p[:, 2:3] > 0, [[0.7, 0.3, 0.2]], [[0.2, 0.5, 0.7]])
     albedo[floor] = 0.5
@@ -149,6 +180,8 @@ def make_dataset_here(build, root, n, res):
 def run_point(cli, ply, ds, out, iters, spp, bounces, threads):
     cmd = [str(cli), "optimize", "--dataset", str(ds), "--gaussians", str(ply), "--out", str(out), "--iters", str(iters),
            "--spp", str(spp), "--bounces", str(bounces), "--threads", str(threads), "--checkpoint-every", "0", "-q"]
+    if (ds / "scene.json").exists():
+        cmd += ["--scene", str(ds / "scene.json")]
     t0 = time.time()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -190,7 +223,7 @@ def main():
     ap.add_argument("--only", default="counts,pixels,bounces")
     ap.add_argument("--data", default=str(ROOT / "out" / "bench_optimize"))
     ap.add_argument("--data-build", help="build whose Python module makes the datasets (default: --build)")
-    ap.add_argument("--make", nargs=2, type=int, metavar=("N", "RES"), help=argparse.SUPPRESS)
+    ap.add_argument("--make", nargs=3, type=int, metavar=("N", "RES", "WALLS"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     build = Path(args.build) if Path(args.build).is_absolute() else Path.cwd() / args.build
     root = Path(args.data)
@@ -206,9 +239,9 @@ def main():
 
     results = []
 
-    def point(sweep, n, res, spp, bounces, threads=None):
+    def point(sweep, n, res, spp, bounces, threads=None, walls=False):
         threads = threads or args.threads
-        ply, ds = make_dataset(data_build, root, n, res)
+        ply, ds = make_dataset(data_build, root, n, res, walls)
         out = root / "runs" / ("%s_%d_%d_%d_%d_t%d" % (sweep, n, res, spp, bounces, threads))
         rows, rss, wall = run_point(cli, ply, ds, out, args.iters, spp, bounces, threads)
         _, rss0, _ = run_point(cli, ply, ds, root / "runs" / "load_only", 0, spp, bounces, threads)
@@ -243,6 +276,9 @@ def main():
         for s in sel:
             print("threads %2d: speed-up (wall) %.2f, (CPU-time model: cpu s/it on idle cores) %.2f; peak RSS %.1f MB"
                   % (s["threads"], sel[0]["s_iter"] / s["s_iter"], sel[0]["cpu_s_iter"] / s["cpu_s_iter"], s["rss_mb"]))
+    if "walls" in only:
+        for t in sorted({1, args.threads}):
+            point("walls", 100_000, 256, 8, 2, t, walls=True)
     (root / "results.json").write_text(json.dumps(results, indent=1))
     print("bench_optimize: results in %s" % (root / "results.json"))
 

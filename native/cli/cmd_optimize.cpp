@@ -332,6 +332,10 @@ Runner add_optimize_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--lr-env", o->opt.lr_env, "the environment's Adam learning rate (its log radiance per step)")
       ->capture_default_str();
+  cmd->add_option("--lr-albedo", o->opt.lr_albedo, "the Gaussians' albedo Adam learning rate (logit per step)")
+      ->capture_default_str();
+  cmd->add_option("--lr-roughness", o->opt.lr_roughness, "the Gaussians' roughness Adam learning rate (logit per step)")
+      ->capture_default_str();
   cmd->add_option("--env-fine-rate", o->opt.env_fine_rate,
                   "with a coarse level: the fine texels' rate as a fraction of --lr-env (the coarse level's)")
       ->capture_default_str();

@@ -42,6 +42,8 @@ struct OptimizeOptions {
   float lr_balance = ParameterSettings{}.lr_balance;
   float balance_start = OptimizerSettings{}.balance_start;
   float lr_env = ParameterSettings{}.lr_env;  // the environment's Adam rate (both levels)
+  float lr_albedo = ParameterSettings{}.lr_albedo;        // the Gaussians' albedo logits' Adam rate
+  float lr_roughness = ParameterSettings{}.lr_roughness;  // the Gaussians' roughness logits' Adam rate
   float env_fine_rate = ParameterSettings{}.env_fine_lr_scale;  // the fine texels' share of it
   std::string env_adam = OptimizerSettings{}.env_shared_moment ? "shared" : "texel";
   int env_coarse = ParameterSettings{}.env_coarse_width;
