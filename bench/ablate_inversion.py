@@ -36,6 +36,10 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     correlated    one set of samples for the loss and its replay (--decorrelate-adjoint 0)
     fine_rate25/50  the fine environment texels at 25 % / 50 % of the coarse level's rate (--env-fine-rate)
+    no_ssim       the image loss without its D-SSIM term (--lambda-ssim 0)
+    no_blur       the render not blurred before the loss (--loss-blur 0); no_ssim_blur: both
+    blur_both     the target blurred like the render (--loss-blur-target 1); blur_both_no_ssim: and no D-SSIM
+    l2            the L1 term quadratic (Huber knee 1: L2 for every residual); l2_plain: L2 alone, no blur
     average75     write the mean of the last quarter's iterates, not the last one (--average-from 0.75)
     average50/90  the mean of the iterates from 50 % / 90 % of the run on (--average-from)
     huber2/5/10   Huber's function with knee 0.02 / 0.05 / 0.1 for the L1 term (--huber-delta)
@@ -112,6 +116,13 @@ ROWS = {
     "huber10": ["--huber-delta", "0.1"],
     "fine_rate25": ["--env-fine-rate", "0.25"],
     "fine_rate50": ["--env-fine-rate", "0.5"],
+    "no_ssim": ["--lambda-ssim", "0"],
+    "no_blur": ["--loss-blur", "0"],
+    "l2": ["--huber-delta", "1"],
+    "blur_both": ["--loss-blur-target", "1"],
+    "blur_both_no_ssim": ["--loss-blur-target", "1", "--lambda-ssim", "0"],
+    "no_ssim_blur": ["--lambda-ssim", "0", "--loss-blur", "0"],
+    "l2_plain": ["--huber-delta", "1", "--lambda-ssim", "0", "--loss-blur", "0"],
     "average75": ["--average-from", "0.75"],
     "average50": ["--average-from", "0.5"],
     "average90": ["--average-from", "0.9"],

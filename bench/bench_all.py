@@ -8,7 +8,8 @@ Runs, one after the other on this machine (each prints its own table):
   bench_path.py       ours on the heterogeneous sample vs Cycles on its mesh twin (same spp/bounces/threads)
   bench_gradients     the inversion's primal + replay on that scene per thread count (bit-identical
                       gradients checked) and the memory/time model of the gradient reduction at 16/64 threads
-  bench_optimize.py   `ptir optimize` at 100K Gaussians, 1 thread and N: s/iter, path samples/s, peak RSS
+  bench_optimize.py   `ptir optimize` at 100K Gaussians, alone and in a room of mesh walls, 1 thread
+                      and N: s/iter, path samples/s, peak RSS
 and ends with a summary of the ratios the speed issue tracks. A benchmark, not a
 test: the machine may be shared, so compare numbers within one run.
 """
@@ -53,7 +54,7 @@ def main():
     scene = ROOT / "out" / "bench_path" / "hetero" / "scene.json"
     grads = run("gradients", [build / "bin" / "bench_gradients", scene, "--spp", 8, "--threads", 1, args.threads]) \
         if scene.exists() else ""
-    opt = run("optimize", [py, b / "bench_optimize.py", "--build", build, "--only", "threads", "--threads", args.threads,
+    opt = run("optimize", [py, b / "bench_optimize.py", "--build", build, "--only", "threads,walls", "--threads", args.threads,
                            "--iters", 3 if args.quick else 4])
 
     rows = [
@@ -84,9 +85,10 @@ def main():
     if m:
         rows.append(("gradient reduction at 64 threads (model): memory MB per-thread copies -> tiles",
                      "%s -> %s" % (m.group(1), m.group(3))))
-    for t, msps, rss in re.findall(r"^threads +\d+ +\d+\^2 +\d+ spp \d bnc +(\d+) thr .*?\| cpu/\d+ .*?, ([0-9.]+) Msps \| peak RSS +([0-9.]+) MB",
-                                 opt, re.M):
-        rows.append(("ptir optimize 100K Gaussians 256^2 8 spp, %s thread(s): CPU-time M samples/s, peak RSS MB" % t,
+    for sweep, t, msps, rss in re.findall(r"^(threads|walls) +\d+ +\d+\^2 +\d+ spp \d bnc +(\d+) thr .*?\| cpu/\d+ .*?, ([0-9.]+) Msps \| peak RSS +([0-9.]+) MB",
+                                        opt, re.M):
+        what = "100K Gaussians" if sweep == "threads" else "100K Gaussians in a room of mesh walls"
+        rows.append(("ptir optimize %s, 256^2 8 spp, %s thread(s): CPU-time M samples/s, peak RSS MB" % (what, t),
                      "%s, %s" % (msps, rss)))
     print("\n==== summary (%d threads)\n" % args.threads)
     print("| ratio | value |\n|---|---:|")

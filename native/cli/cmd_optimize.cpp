@@ -327,6 +327,13 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--huber-delta", o->opt.huber_delta,
                   "knee of the image loss's L1 term in loss-space units: quadratic below it, so render noise does not bias the gradient (0: plain L1)")
       ->capture_default_str();
+  cmd->add_option("--lambda-ssim", o->opt.lambda_ssim, "D-SSIM's weight in the image loss ((1 - w) L1 + w (1 - SSIM))")
+      ->capture_default_str();
+  cmd->add_option("--loss-blur", o->opt.loss_blur, "blur the render by a 3x3 binomial filter before the image loss (PTIR's noise suppression)")
+      ->capture_default_str();
+  cmd->add_option("--loss-blur-target", o->opt.loss_blur_target,
+                  "with --loss-blur: blur the target image the same way (the optimum is then the unblurred match)")
+      ->capture_default_str();
   cmd->add_option("--lr-balance", o->opt.lr_balance, "the light-albedo balance's Adam learning rate")->capture_default_str();
   cmd->add_option("--balance-start", o->opt.balance_start, "fraction of the iterations before the light-albedo balance learns")
       ->capture_default_str();

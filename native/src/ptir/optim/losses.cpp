@@ -414,6 +414,10 @@ double image_loss(const Image& pred, const Image& target, const Image* mask, con
       Plane bx;
       blur->apply(x, bx, tmp);
       x.swap(bx);
+      if (settings.blur_target) {
+        blur->apply(y, bx, tmp);
+        y.swap(bx);
+      }
     }
     Plane dx(d_pred ? n : 0, 0.0);
     if (wsum > 0.0) {

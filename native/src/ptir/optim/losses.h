@@ -34,6 +34,10 @@ float srgb_encode_derivative(float c);
 struct ImageLossSettings {
   float lambda_ssim = 0.2f;     // loss = (1 - lambda) L1 + lambda (1 - SSIM)
   bool binomial_filter = true;  // 3x3 normalised binomial blur of the prediction first (noise suppression)
+  // With binomial_filter: blur the target too. Blurring the prediction alone makes
+  // blur(pred) = target the optimum, so the fit must sharpen what it renders (the
+  // albedo takes the difference); with both blurred, pred = target is the optimum again.
+  bool blur_target = false;
   // The L1 term's absolute value becomes Huber's function with this knee (0: plain
   // L1): x^2 / (2 delta) below delta, |x| - delta / 2 above. Its derivative is
   // linear in the prediction inside the knee, so a Monte Carlo render's noise
@@ -42,7 +46,8 @@ struct ImageLossSettings {
   float huber_delta = 0.0f;
 };
 
-// (1 - lambda) * masked mean |blur(pred) - target| + lambda * (1 - masked mean SSIM(blur(pred), target)).
+// (1 - lambda) * masked mean |blur(pred) - target| + lambda * (1 - masked mean SSIM(blur(pred), target))
+// (target blurred as well with blur_target).
 // SSIM: 11x11 Gaussian window (sigma 1.5), C1 = 0.01^2, C2 = 0.03^2, data range 1
 // (the 3DGS convention; equal to scikit-image's structural_similarity with
 // gaussian_weights=True, sigma=1.5, use_sample_covariance=False, data_range=1).

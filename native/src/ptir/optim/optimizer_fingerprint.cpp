@@ -81,6 +81,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"views_per_iteration", std::to_string(settings_.views_per_iteration)},
       {"crop", std::to_string(settings_.crop_size)},
       {"loss", num(settings_.loss.lambda_ssim) + (settings_.loss.binomial_filter ? " blur" : " noblur") +
+                   (settings_.loss.binomial_filter && settings_.loss.blur_target ? " target" : "") +
                    (settings_.srgb_loss ? " srgb" : " linear")},
       {"mask_threshold", num(settings_.mask_threshold)},
       {"lambda_tv", num(settings_.lambda_tv)},

@@ -107,6 +107,10 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.decorrelate_adjoint = o.decorrelate_adjoint;
   if (!(o.huber_delta >= 0.0f)) throw Error(names("huber_delta") + " must be >= 0");
   s.loss.huber_delta = o.huber_delta;
+  if (!(o.lambda_ssim >= 0.0f && o.lambda_ssim <= 1.0f)) throw Error(names("lambda_ssim") + " must be in [0, 1]");
+  s.loss.lambda_ssim = o.lambda_ssim;
+  s.loss.binomial_filter = o.loss_blur;
+  s.loss.blur_target = o.loss_blur_target;
   s.accel.k = o.k;
   if (o.loss_space == "srgb") s.srgb_loss = true;
   else if (o.loss_space == "linear") s.srgb_loss = false;

@@ -54,6 +54,9 @@ struct OptimizeOptions {
   float env_fine_warmup = OptimizerSettings{}.env_fine_warmup;
   bool decorrelate_adjoint = OptimizerSettings{}.decorrelate_adjoint;
   float huber_delta = ImageLossSettings{}.huber_delta;
+  float lambda_ssim = ImageLossSettings{}.lambda_ssim;      // D-SSIM's share of the image loss
+  bool loss_blur = ImageLossSettings{}.binomial_filter;     // 3x3 binomial blur of the prediction in the loss
+  bool loss_blur_target = ImageLossSettings{}.blur_target;  // ... and of the target
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start
