@@ -65,7 +65,7 @@ def main():
     for name, ds in (("masked", masked), ("unmasked", unmasked)):
         res = out / name
         secs = run([cli, "optimize", "--dataset", ds, "--gaussians", data / "gaussians.ply", "--out", res, "--iters", a.iters,
-                    "--spp", a.spp, "--bounces", 2, "--env", "latlong", "--env-size", "64x32", "-q", "--force", *threads])
+                    "--spp", a.spp, "--bounces", 2, "--env", "latlong", "--env-size", "64x32", "-q", "--force", "--fit-iters", 0, *threads])
         run([cli, "eval", "--dataset", data, "--result", res, "--spp", 64, "-q", "--force", *threads],
             stdout=subprocess.DEVNULL)
         m = json.loads((res / "eval" / "metrics.json").read_text())

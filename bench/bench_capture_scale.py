@@ -101,7 +101,7 @@ def main():
     out = work / "out"
     cmd = ["/usr/bin/time", "-v", str(Path(a.build) / "bin" / "ptir"), "optimize", "--dataset", str(cap), "--gaussians",
            str(ply), "--out", str(out), "--iters", str(a.iters), "--spp", str(a.spp), "--bounces", "2", "--force",
-           "--checkpoint-every", "0"]
+           "--checkpoint-every", "0", "--fit-iters", "0"]
     if a.threads > 0:
         cmd += ["--threads", str(a.threads)]
     t0 = time.time()

@@ -51,7 +51,7 @@ def run(cmd, timeout=3600):
 def s_per_iter(cli, ply, ds, out, ranks, threads, args):
     shutil.rmtree(out, ignore_errors=True)
     cmd = [cli, "optimize", "--dataset", ds, "--gaussians", ply, "--out", out, "--iters", args.iters, "--spp", args.spp,
-           "--bounces", 2, "--threads", threads, "--checkpoint-every", 0, "-q"]
+           "--bounces", 2, "--threads", threads, "--checkpoint-every", 0, "-q", "--fit-iters", 0]
     if ranks > 1:
         cmd = ["mpirun", "-np", ranks, "--oversubscribe", "--bind-to", "none"] + cmd
     t0 = time.time()

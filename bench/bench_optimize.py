@@ -179,7 +179,8 @@ def make_dataset_here(build, root, n, res, walls=False):
 
 def run_point(cli, ply, ds, out, iters, spp, bounces, threads):
     cmd = [str(cli), "optimize", "--dataset", str(ds), "--gaussians", str(ply), "--out", str(out), "--iters", str(iters),
-           "--spp", str(spp), "--bounces", str(bounces), "--threads", str(threads), "--checkpoint-every", "0", "-q"]
+           "--spp", str(spp), "--bounces", str(bounces), "--threads", str(threads), "--checkpoint-every", "0", "-q",
+           "--fit-iters", "0"]
     if (ds / "scene.json").exists():
         cmd += ["--scene", str(ds / "scene.json")]
     t0 = time.time()

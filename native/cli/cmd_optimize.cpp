@@ -2,13 +2,15 @@
 // posed images (METHOD §6; src/ptir/optim/optimizer.h).
 //
 //   ptir optimize --dataset DIR [--gaussians IN.ply] [--scene scene.json] --out OUT
-//       [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color] [--seed S] [--resume]
+//       [--fit-iters 1500] [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color] [--seed S] [--resume]
 //       [--layout L] [--images images_4] [--holdout 8 | --test-list F] [--undistort-cache D]
 //       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
 //       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [--estimate] [-q]
 //
+// First the geometry stage (--fit-iters, `ptir fit` into OUT/fit/; 0: none; see
+// geometry_stage below), then the inversion on the fitted splats.
 // Writes OUT/gaussians.ply (every input property + albedo_0..2, roughness,
 // metallic, nx,ny,nz), OUT/env.exr (lat-long, Blender orientation like the
 // inputs), OUT/log.csv and OUT/checkpoint.bin (every --checkpoint-every
@@ -53,11 +55,13 @@
 #include "output_guard.h"
 #include "run_control.h"
 #include "filter_flags.h"
+#include "fit_stage.h"
 #include "job_stop.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/iteration_estimate.h"
 #include "ptir/optim/optimizer.h"
+#include "ptir/scene/scene_json.h"
 #include "ptir/optim/optimizer_setup.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
@@ -83,6 +87,7 @@ struct OptimizeCommand {
   FilterFlags filter;
   bool force = false;
   CaptureFlags capture;  // real captures (docs/dataset_format.md)
+  int fit_iters = 1500;  // the geometry stage first (0: the splats' geometry as given)
 };
 
 // Defaults that depend on the dataset: the environment model (24 SGs for real
@@ -162,6 +167,56 @@ int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t
   return 0;
 }
 
+// The geometry stage (METHOD §9's stage 1, `ptir fit`) before the materials:
+// the splats are fitted to the training views into OUT/fit/, and the inversion
+// runs on OUT/fit/gaussians.ply. Skipped, with a note, where it cannot model the
+// images: a --scene with meshes (walls and floors in the views, which the fit
+// does not trace) and data-parallel runs (run `ptir fit` first there). With
+// --resume: an inversion already under way (OUT/checkpoint.bin) keeps the fitted
+// splats it started from; a fit that was stopped continues from its checkpoint.
+// Returns 0, or 130 when Ctrl-C stopped the fit.
+int geometry_stage(OptimizeCommand& o, const Communicator& comm) {
+  namespace fs = std::filesystem;
+  if (o.fit_iters < 0) throw Error("--fit-iters must be >= 0");
+  const fs::path fit_dir = fs::path(o.out) / "fit";
+  const std::string fitted = (fit_dir / "gaussians.ply").string();
+  std::error_code ec;
+  if (o.resume && fs::exists(fs::path(o.out) / "checkpoint.bin", ec)) {
+    if (fs::exists(fitted, ec)) o.gaussians = fitted;
+    return 0;
+  }
+  if (o.estimate) return 0;  // the estimate is the inversion's alone
+  const bool fit_resumes = o.resume && fs::exists(fit_dir / "checkpoint.bin", ec);
+  if (o.resume && !fit_resumes)
+    throw Error((fs::path(o.out) / "checkpoint.bin").string(), "--resume: no checkpoint to continue from");
+  o.resume = false;  // the inversion had not started: it starts after the fit
+  if (fit_resumes && o.fit_iters == 0)
+    throw Error((fit_dir / "checkpoint.bin").string(), "--resume: this geometry fit did not finish; continue it with --fit-iters N");
+  if (o.fit_iters == 0) return 0;
+  auto skip = [&](const char* why) {
+    if (!o.quiet) std::fprintf(stderr, "note: geometry fit skipped: %s (--fit-iters 0 skips it always)\n", why);
+    return 0;
+  };
+  if (comm.size() > 1) return skip("data-parallel runs take fitted splats (run `ptir fit` first)");
+  if (!o.scene.empty() && !load_scene_json(o.scene).meshes.empty())
+    return skip("the scene has meshes, which the fit does not trace");
+  FitStage f;
+  f.dataset = o.dataset;
+  f.gaussians = o.gaussians;
+  f.out = fit_dir.string();
+  f.split = o.split;
+  f.resume = fit_resumes;
+  f.quiet = o.quiet;
+  f.checkpoint_every = o.checkpoint_every > 0 ? 200 : 0;
+  f.s.iterations = o.fit_iters;
+  f.s.seed = o.opt.seed;
+  f.capture = o.capture;
+  remove_stale_outputs({f.out}, o.quiet);
+  const int rc = run_fit_stage(f, "ptir optimize ... --resume");
+  o.gaussians = fitted;
+  return rc;
+}
+
 int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   const auto t_start = std::chrono::steady_clock::now();
   // Data-parallel runs (world.h): rank 0 alone reports and writes.
@@ -174,6 +229,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
   guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
   if (comm.rank() == 0 && !o.estimate) remove_stale_outputs({o.out}, o.quiet);
+  if (const int rc = geometry_stage(o, comm)) return rc;
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
@@ -254,6 +310,10 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--gaussians", o->gaussians,
                   "input 3DGS .ply (geometry, fixed); default for a 3DGS output folder: point_cloud/iteration_N (largest N)");
   cmd->add_option("--scene", o->scene, "scene file with meshes and lights to include (docs/scene_format.md)");
+  cmd->add_option("--fit-iters", o->fit_iters,
+                  "geometry stage first: iterations of `ptir fit` on the splats, into OUT/fit/ (0: keep the splats' "
+                  "geometry; skipped with --scene meshes and under MPI)")
+      ->capture_default_str();
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_option("--iters", o->opt.iters, "iterations")->capture_default_str();
   cmd->add_option("--spp", o->opt.spp, "samples per pixel per iteration")->capture_default_str();

@@ -336,7 +336,7 @@ def test_optimize_reads_a_3dgs_output_folder(tmp_path):
         write_splat_ply(out / "point_cloud" / ("iteration_%d" % it) / "point_cloud.ply", [[0, 0, 0], [0.2, 0, 0]],
                         [0.3, 0.3, 0.01])
     r = subprocess.run([str(CLI), "optimize", "--dataset", str(out), "--out", str(tmp_path / "res"), "--iters", "1",
-                        "--spp", "1", "--bounces", "0", "--threads", "2"], capture_output=True, text=True)
+                        "--spp", "1", "--bounces", "0", "--threads", "2", "--fit-iters", "0"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "iteration_30000/point_cloud.ply" in r.stderr
     assert "8 train views 48x36" in r.stderr and "env sg" in r.stderr
@@ -405,7 +405,7 @@ def test_eval_takes_the_capture_switches(tmp_path):
     write_splat_ply(tmp_path / "g.ply", [[0, 0, 0], [0.2, 0, 0]], [0.3, 0.3, 0.01])
     res = tmp_path / "res"
     r = subprocess.run([str(CLI), "optimize", "--dataset", str(src), "--gaussians", str(tmp_path / "g.ply"), "--out",
-                        str(res), "--iters", "1", "--spp", "1", "--bounces", "0", "--threads", "2", "-q"],
+                        str(res), "--iters", "1", "--spp", "1", "--bounces", "0", "--threads", "2", "-q", "--fit-iters", "0"],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     views = {}

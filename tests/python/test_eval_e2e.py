@@ -44,7 +44,8 @@ def e2e(tmp_path_factory, cli):
     run([*BLENDER, "-P", REPO / "scripts" / "make_dataset.py", "--", "--out", data, "--res", "48", "--train", "8",
          "--test", "3", "--spp", "32", "--subdiv", "1", "--threads", "2"], timeout=600)
     init, opt = root / "init", root / "opt"
-    common = ["optimize", "--dataset", data, "--gaussians", data / "gaussians.ply", "--spp", "8", "--seed", "0", "-q"]
+    common = ["optimize", "--dataset", data, "--gaussians", data / "gaussians.ply", "--spp", "8", "--seed", "0", "-q",
+              "--fit-iters", "0"]
     run([cli, *common, "--out", init, "--iters", "0"], timeout=300)
     run([cli, *common, "--out", opt, "--iters", ITERS], timeout=900)
     relight = ["--relight", "sunset=%s" % (data / "envmaps" / "sunset.exr"), "--relight", "sky=%s" % (data / "envmaps" / "sky.exr")]
@@ -169,7 +170,7 @@ def fixed_env(e2e, cli):
     out = root / "fixed_env"
     init_env = root / "init" / "env.exr"
     run([cli, "optimize", "--dataset", data, "--gaussians", data / "gaussians.ply", "--spp", "8", "--seed", "0", "-q",
-         "--out", out, "--iters", ITERS, "--env-init", init_env, "--fix-env"], timeout=900)
+         "--fit-iters", "0", "--out", out, "--iters", ITERS, "--env-init", init_env, "--fix-env"], timeout=900)
     run([cli, "eval", "--dataset", data, "--result", out, "--spp", "32", "--sheet-views", "0", "-q"], timeout=300)
     return json.loads((out / "eval" / "metrics.json").read_text())
 

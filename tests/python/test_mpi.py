@@ -25,7 +25,7 @@ CHECK = BUILD / "bin" / "ptir_mpi_gradient_check"
 # ("vader: Read -1 ... errno = 1"): copy through the shared segment instead.
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_btl_vader_single_copy_mechanism="none")
-SMALL = ["--spp", "2", "--threads", "1", "--env-size", "16x8"]
+SMALL = ["--spp", "2", "--threads", "1", "--env-size", "16x8", "--fit-iters", "0"]
 
 
 @pytest.fixture(scope="module")

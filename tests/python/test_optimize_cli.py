@@ -42,7 +42,8 @@ def dataset(ptir, tmp_path_factory):
 def optimize(cli, dataset, out, *extra, check=True):
     """Runs the CLI; `extra` options override the small defaults (2 spp, 1 thread, 16x8 environment)."""
     extra = [str(e) for e in extra]
-    defaults = [opt for opt in (("--spp", "2"), ("--threads", "1"), ("--env-size", "16x8")) if opt[0] not in extra]
+    defaults = [opt for opt in (("--spp", "2"), ("--threads", "1"), ("--env-size", "16x8"), ("--fit-iters", "0"))
+                if opt[0] not in extra]
     cmd = [str(cli), "optimize", "--dataset", str(dataset), "--gaussians", str(dataset / "g.ply"), "--out", str(out),
            *[x for opt in defaults for x in opt], *extra]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
@@ -125,7 +126,7 @@ def test_ctrl_c_writes_a_checkpoint_and_resume_finishes_exactly(ptir, cli, datas
     optimize(cli, dataset, straight, "--iters", 12, "--spp", 8, "--seed", 2)
     out = tmp_path / "out"
     cmd = [str(cli), "optimize", "--dataset", str(dataset), "--gaussians", str(dataset / "g.ply"), "--out", str(out),
-           "--spp", "8", "--threads", "1", "--env-size", "16x8", "--iters", "12", "--seed", "2"]
+           "--spp", "8", "--threads", "1", "--env-size", "16x8", "--iters", "12", "--seed", "2", "--fit-iters", "0"]
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
     # Interrupt after the second iteration's progress line.
     seen = 0
@@ -234,3 +235,44 @@ def test_prior_maps_enter_the_objective(ptir, cli, dataset, tmp_path):
     assert all(float(row[4]) > 0 for row in rows)  # the prior term
     r = optimize(cli, dataset, tmp_path / "o2", "--iters", 1, "--prior", tmp_path / "nothing", check=False)
     assert r.returncode == 1 and "prior folder not found" in r.stderr
+
+
+def ply_count(path):
+    for line in Path(path).read_bytes().split(b"end_header")[0].decode("ascii", "replace").splitlines():
+        if line.startswith("element vertex"):
+            return int(line.split()[2])
+    raise AssertionError("no vertex element in %s" % path)
+
+
+def test_geometry_stage_runs_first_by_default(ptir, cli, dataset, tmp_path):
+    """The inversion runs on the splats the geometry stage fitted (OUT/fit/), and a
+    resumed inversion keeps them; --fit-iters 0 keeps the input's geometry."""
+    out = tmp_path / "fitted"
+    r = optimize(cli, dataset, out, "--iters", 2, "--fit-iters", 30)
+    assert "fit: 600 Gaussians" in r.stderr, r.stderr[-2000:]
+    fit_log = (out / "fit" / "log.csv").read_text().splitlines()
+    assert len(fit_log) == 31 and fit_log[-1].startswith("30,")
+    n_fit = ply_count(out / "fit" / "gaussians.ply")
+    assert ply_count(out / "gaussians.ply") == n_fit
+    fitted = ptir.load_gaussians(str(out / "fit" / "gaussians.ply"))
+    given = ptir.load_gaussians(str(dataset / "g.ply"))
+    assert np.abs(np.asarray(fitted.position)[:600] - np.asarray(given.position)).max() > 1e-4  # the fit moved them
+    r = optimize(cli, dataset, out, "--iters", 4, "--fit-iters", 30, "--resume")
+    assert "fit:" not in r.stderr and "resumed from" in r.stderr
+    assert ply_count(out / "gaussians.ply") == n_fit
+    plain = tmp_path / "plain"
+    r = optimize(cli, dataset, plain, "--iters", 2)  # (the helper's default: --fit-iters 0)
+    assert not (plain / "fit").exists() and ply_count(plain / "gaussians.ply") == 600
+
+
+def test_geometry_stage_is_skipped_for_scenes_with_meshes(cli, dataset, tmp_path):
+    wall = tmp_path / "wall.ply"
+    wall.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                    "5 -5 -5\n5 5 -5\n5 0 5\n3 0 1 2\n")
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps({"version": 1, "meshes": [{"name": "wall", "file": "wall.ply"}]}))
+    out = tmp_path / "o"
+    r = optimize(cli, dataset, out, "--iters", 1, "--fit-iters", 30, "--scene", scene)
+    assert "geometry fit skipped: the scene has meshes" in r.stderr
+    assert not (out / "fit").exists() and ply_count(out / "gaussians.ply") == 600

@@ -214,7 +214,8 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
             "--out", job.out_dir, "--iters", settings.iterations, "--spp", settings.spp,
             "--bounces", settings.bounces, "--env", settings.env,
             "--env-size", "%dx%d" % (settings.env_width, settings.env_height), "--seed", settings.seed,
-            "--views-per-iter", settings.views_per_iter, "--crop", settings.crop]
+            "--views-per-iter", settings.views_per_iter, "--crop", settings.crop,
+            "--fit-iters", 0]  # the flow's own fit stage (above) decides, with its progress
     if scene_json:
         args += ["--scene", scene_json]
     if want_meshes:

@@ -1,0 +1,76 @@
+#include "fit_stage.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "run_control.h"
+#include "ptir/core/error.h"
+#include "ptir/optim/checkpoint.h"
+#include "ptir/scene/dataset.h"
+#include "ptir/scene/gaussian_ply.h"
+
+namespace ptir::cli {
+
+void check_fit_stage(const FitStage& f) {
+  if (f.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
+  if (f.s.iterations < 0) throw Error("--iters must be >= 0");
+  if (f.s.densify_every < 1) throw Error("--densify-every must be >= 1");
+  if (f.s.accel.k < 1 || f.s.accel.k > SceneAccel::kMaxK) throw Error("--k must be in 1..64");
+}
+
+int run_fit_stage(const FitStage& f, const std::string& continue_hint) {
+  check_fit_stage(f);
+  DatasetOptions dopt;
+  dopt.split = f.split;
+  apply_capture_flags(f.capture, dopt);
+  std::shared_ptr<const Dataset> data = load_dataset(f.dataset, dopt);
+  GeometryFitSettings s = f.s;
+  s.max_gaussians = f.max_gaussians;
+  if (f.no_densify) s.densify_every = 1 << 30;
+  GeometryFit fit(load_gaussians(f.gaussians), data, s);
+  const std::string ckpt = (std::filesystem::path(f.out) / "checkpoint.bin").string();
+  if (f.resume) {
+    std::error_code ec;
+    if (!std::filesystem::exists(ckpt, ec)) throw Error(ckpt, "--resume: no checkpoint to continue from");
+    fit.restore(read_checkpoint(ckpt), ckpt);
+    if (!f.quiet) std::fprintf(stderr, "resumed from %s at iteration %d\n", ckpt.c_str(), fit.iteration());
+  }
+  if (!f.quiet)
+    std::fprintf(stderr, "fit: %zu Gaussians (at most %zu), %zu %s views %dx%d, %d iterations, seed %llu\n",
+                 fit.field().size(), fit.settings().max_gaussians, data->size(), data->split.c_str(), data->width,
+                 data->height, s.iterations, (unsigned long long)s.seed);
+
+  const int start_it = fit.iteration();
+  const auto t0 = std::chrono::steady_clock::now();
+  FitRunOptions ro;
+  ro.out_dir = f.out;
+  ro.checkpoint_every = f.checkpoint_every;
+  ro.cancel = &g_interrupted;
+  ro.on_iteration = [&](const FitLog& l) {
+    if (f.quiet) return true;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const int done = fit.iteration() - start_it;
+    const double eta = (done > 0 ? elapsed / done : l.seconds) * double(fit.settings().iterations - fit.iteration());
+    std::fprintf(stderr, "iter %d/%d  loss %.5f (image %.5f mask %.5f normal %.5f)  %zu Gaussians", l.iteration,
+                 fit.settings().iterations, l.loss, l.image, l.mask, l.normal, l.gaussians);
+    if (l.pruned || l.cloned || l.split) std::fprintf(stderr, " (-%d +%d clones +%d splits)", l.pruned, l.cloned, l.split);
+    if (l.flipped) std::fprintf(stderr, " (%d normals re-oriented)", l.flipped);
+    std::fprintf(stderr, "  %.2f s/iter  ETA %s\n", l.seconds, duration_text(eta).c_str());
+    return true;
+  };
+  auto previous = install_sigint();
+  const RunResult r = with_sigint_restored(previous, [&] { return run_geometry_fit(fit, ro); });
+  if (r == RunResult::Cancelled) {
+    std::fprintf(stderr, "ptir: interrupted after iteration %d; wrote %s and the outputs in %s (continue with %s)\n",
+                 fit.iteration(), ckpt.c_str(), f.out.c_str(), continue_hint.c_str());
+    return 130;
+  }
+  if (!f.quiet)
+    std::fprintf(stderr, "wrote %s/gaussians.ply (%zu Gaussians), log.csv (%d iterations)\n", f.out.c_str(),
+                 fit.field().size(), fit.iteration());
+  return 0;
+}
+
+}  // namespace ptir::cli

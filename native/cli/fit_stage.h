@@ -1,0 +1,33 @@
+// The geometry stage as the CLI runs it: `ptir fit` on its own, and `ptir
+// optimize` before the materials (--fit-iters; METHOD §9's stage 1). Loads the
+// dataset and the splats, fits them (src/ptir/optim/geometry_fit.h) and writes
+// OUT/gaussians.ply, log.csv and checkpoint.bin atomically, with the progress
+// lines, --resume and Ctrl-C of `ptir fit`.
+#pragma once
+
+#include <string>
+
+#include "capture_flags.h"
+#include "ptir/optim/geometry_fit.h"
+
+namespace ptir::cli {
+
+struct FitStage {
+  std::string dataset, gaussians, out, split = "train";
+  bool resume = false;  // continue from OUT/checkpoint.bin (which must exist)
+  bool quiet = false, no_densify = false;
+  int checkpoint_every = 200;
+  size_t max_gaussians = 0;  // 0: 1.5 x the input's count
+  GeometryFitSettings s;
+  CaptureFlags capture;
+};
+
+// Throws Error for a setting out of range.
+void check_fit_stage(const FitStage& f);
+
+// Runs the stage: 0 when it finished, 130 when Ctrl-C stopped it (the
+// checkpoint and the outputs are written; the message says how to continue,
+// naming `continue_hint`, e.g. "ptir fit ... --resume").
+int run_fit_stage(const FitStage& f, const std::string& continue_hint = "--resume");
+
+}  // namespace ptir::cli
