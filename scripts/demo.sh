@@ -8,7 +8,8 @@
 #                relight "sunset" and "sky"; the object's surface as 9408 flat Gaussians;
 #                beside it out/optimise_sample.blend (sample_blends/make_optimise_sample.py): open it,
 #                PTIR tab > Optimise, one click (the panel shows the estimated duration)
-#   2. optimise  ptir optimize -> out/demo/result/ (gaussians.ply, env.exr, log.csv)
+#   2. optimise  ptir optimize -> out/demo/result/ (gaussians.ply, env.exr, log.csv): first the
+#                geometry stage (ptir fit, 1500 iterations, into out/demo/result/fit/), then the materials
 #   3. evaluate  ptir eval (with both relight environments) -> out/demo/result/eval/
 #                (metrics.md, metrics.json, contact sheets sheet_*.png, every render as EXR);
 #                also the oracle (true materials, training light) as the ceiling the
@@ -21,9 +22,8 @@
 # iterations x DEMO_SPP=16 spp x 2 bounces, one whole 100x100 view per iteration,
 # lat-long 128x64 environment, seed 0; eval DEMO_EVAL_SPP=64 spp, 4 bounces, AOVs 16 spp;
 # relight 200x200, 64 spp, 3 bounces. DEMO_AOVS=0 skips the gallery. On the 2-core
-# reference machine the whole job takes about 3 minutes from scratch when idle (2.5 with
-# the dataset cached; 5 minutes measured while other builds kept the load average at 4),
-# most of it optimising.
+# reference machine the whole job takes about 3 minutes when idle with the build done (160 s
+# with the dataset cached), most of it fitting and optimising.
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -87,7 +87,7 @@ fi
 
 # 2. Optimise.
 mkdir -p "$OUT"
-echo "demo: 2/5 optimising: $ITERS iterations x $SPP spp (progress: $RESULT/log.csv)"
+echo "demo: 2/5 optimising: the geometry fit (progress: $RESULT/fit/log.csv), then $ITERS iterations x $SPP spp (progress: $RESULT/log.csv)"
 t=$(now)
 rm -rf "$RESULT"
 run_logged "ptir optimize" "$PTIR" optimize --dataset "$DATA" --gaussians "$DATA/gaussians.ply" --out "$RESULT" \
