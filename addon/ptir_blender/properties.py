@@ -103,15 +103,15 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
     write_environment: BoolProperty(
         name="Set World", default=True,
         description="Put the recovered environment into the world as an Environment Texture")
-    # The geometry stage (`ptir fit`, issue 12) before the materials: on by default for real
-    # captures (a dataset folder in COLMAP, nerfstudio or 3DGS-output layout: splats trained by a
-    # rasteriser, which composite differently when ray-traced and carry noisy normals), off for
-    # NeRF-layout folders (the synthetic sets, whose splats come with them) and Scene Cameras.
+    # The geometry stage (`ptir fit`, issue 12) before the materials, as `ptir optimize` runs it by
+    # default: on for dataset folders (captures in COLMAP, nerfstudio or 3DGS-output layout, whose
+    # splats a rasteriser trained; NeRF-layout sets too, unless meshes of the scene take part),
+    # off for Scene Cameras.
     fit_geometry: EnumProperty(
         name="Fit Geometry", description="First fit the splats' geometry, opacity, radiance and shading normals "
         "to the photos by ray tracing (ptir fit); the object's splats are replaced by the fitted ones",
-        items=[("AUTO", "Auto", "On for capture folders (COLMAP, nerfstudio, 3DGS output), off for NeRF-layout "
-                                "folders and Scene Cameras"),
+        items=[("AUTO", "Auto", "On for dataset folders (a NeRF-layout one only when no scene mesh takes part), "
+                                "off for Scene Cameras"),
                ("ON", "On", "Always fit the geometry first"),
                ("OFF", "Off", "Keep the splats' geometry as it is")],
         default="AUTO")
@@ -132,6 +132,7 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
     estimate_key: StringProperty(default="", options={"HIDDEN"})
     estimate_setup_s: FloatProperty(default=0.0, min=0.0, options={"HIDDEN"})
     estimate_s_per_iter: FloatProperty(default=0.0, min=0.0, options={"HIDDEN"})
+    estimate_fit_s_per_iter: FloatProperty(default=0.0, min=0.0, options={"HIDDEN"})  # 0: no fit stage
     # Live state of a running optimisation (shown by the panel).
     running: BoolProperty(default=False, options={"SKIP_SAVE"})
     progress: FloatProperty(default=0.0, min=0.0, max=1.0, subtype="FACTOR", options={"SKIP_SAVE"})

@@ -56,7 +56,9 @@ def check_decisions(spec):
     h.check(os.path.isfile(os.path.join(nerf, "transforms_train.json")), "the NeRF folder of the views")
     s.source, s.fit_geometry = "DATASET", "AUTO"
     h.check(optimize_job.wants_fit(s, spec["colmap"], "train"), "Auto fits a COLMAP capture")
-    h.check(not optimize_job.wants_fit(s, nerf, "train"), "Auto does not fit a NeRF-layout folder")
+    h.check(optimize_job.wants_fit(s, nerf, "train"), "Auto fits a NeRF-layout folder")
+    h.check(not optimize_job.wants_fit(s, nerf, "train", has_meshes=True), "Auto does not fit one with scene meshes")
+    h.check(optimize_job.wants_fit(s, spec["colmap"], "train", has_meshes=True), "Auto fits a capture with meshes")
     s.fit_geometry = "OFF"
     h.check(not optimize_job.wants_fit(s, spec["colmap"], "train"), "Off")
     s.fit_geometry, s.source = "ON", "CAMERAS"

@@ -108,6 +108,7 @@ def _step():
         o = scene.ptir_optimize
         o.source, o.dataset_dir, o.splat_object = "DATASET", s["dataset"], obj
         o.iterations, o.spp, o.bounces, o.env_width, o.env_height = 300, 4, 1, 32, 16
+        o.fit_geometry = "OFF"  # the materials alone: the shots compare each splat's albedo before and after
         o.optimize_meshes, o.write_environment = False, True
         bpy.context.view_layer.objects.active = obj  # active (the panels follow it), not selected:
         for o in bpy.context.view_layer.objects:     # no selection outline on the splat display

@@ -123,15 +123,17 @@ def _check_views_can_follow(obj, matrix):
                             % (obj.name, ", ".join("%.4g" % s for s in splat_transform.axis_scales(matrix))))
 
 
-def wants_fit(settings, dataset_dir=None, split="train"):
+def wants_fit(settings, dataset_dir=None, split="train", has_meshes=False):
     """Whether the optimise flow fits the geometry first: ON/OFF as set; AUTO: for a dataset folder in a
-    capture layout (COLMAP, nerfstudio, 3DGS output: real photos whose splats a rasteriser trained), not
-    for a NeRF-layout folder (the synthetic sets, whose splats were made for them) nor Scene Cameras."""
+    capture layout (COLMAP, nerfstudio, 3DGS output: real photos whose splats a rasteriser trained), and
+    for a NeRF-layout folder (synthetic sets: even their own exact splats gain +8 dB of relight fitted,
+    README method notes) unless meshes of the scene take part (the photos then show walls and floors the
+    fit does not trace: `ptir optimize` skips its own fit there too); not for Scene Cameras."""
     if settings.fit_geometry != "AUTO":
         return settings.fit_geometry == "ON"
     if settings.source != "DATASET" or not dataset_dir:
         return False
-    return not capture_cameras.is_nerf_folder(dataset_dir, split)
+    return not (has_meshes and capture_cameras.is_nerf_folder(dataset_dir, split))
 
 
 def prepare(context, settings, job_dir, cli_exe, out_dir=None):
@@ -202,7 +204,8 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
             raise OptimizeError("Mesh Materials is on but the scene has no meshes")
 
     gaussians = splats
-    if wants_fit(settings, bpy.path.abspath(settings.dataset_dir) if settings.source == "DATASET" else None, split):
+    if wants_fit(settings, bpy.path.abspath(settings.dataset_dir) if settings.source == "DATASET" else None, split,
+                 has_meshes=bool(job.mesh_entries)):
         job.fit_dir = os.path.join(job.out_dir, "fit")
         gaussians = os.path.join(job.fit_dir, "gaussians.ply")
         job.fit_args = [cli_exe, "fit", "--dataset", dataset_dir, "--split", split, "--gaussians", splats,

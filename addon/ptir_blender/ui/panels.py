@@ -150,6 +150,8 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
                 box = layout.box()
                 box.label(text="Estimated: %s" % optimize_estimate.duration_text(total), icon="TIME")
                 box.label(text="%d × %.2f s + %.0f s setup" % (s.iterations, s.estimate_s_per_iter, s.estimate_setup_s))
+                if s.estimate_fit_s_per_iter > 0.0:
+                    box.label(text="+ fit %d × %.3f s" % (s.fit_iterations, s.estimate_fit_s_per_iter))
             elif not problem:
                 layout.operator("ptir.optimize_estimate", icon="TIME")
             if s.status:
