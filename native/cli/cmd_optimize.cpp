@@ -308,7 +308,7 @@ Runner add_optimize_command(CLI::App& app) {
                   "(cameras.json + cfg_args) or nerfstudio (transforms.json); docs/dataset_format.md")
       ->required();
   cmd->add_option("--gaussians", o->gaussians,
-                  "input 3DGS .ply (geometry, fixed); default for a 3DGS output folder: point_cloud/iteration_N (largest N)");
+                  "input 3DGS .ply (its geometry fitted first unless --fit-iters 0, then fixed); default for a 3DGS output folder: point_cloud/iteration_N (largest N)");
   cmd->add_option("--scene", o->scene, "scene file with meshes and lights to include (docs/scene_format.md)");
   cmd->add_option("--fit-iters", o->fit_iters,
                   "geometry stage first: iterations of `ptir fit` on the splats, into OUT/fit/ (0: keep the splats' "
