@@ -32,6 +32,8 @@ def main():
     p.add_argument("--build", default=os.path.join(ROOT, "build"))
     p.add_argument("--spp", type=int, default=256)
     p.add_argument("--bounces", type=int, default=None, help="default: the dataset's Cycles bounces")
+    p.add_argument("--oracle", help="the field with the true materials (default: the dataset's oracle/gaussians.ply; "
+                   "e.g. the fitted field with the materials carried over by bench/oracle_on_field.py)")
     a = p.parse_args()
     src, out = os.path.abspath(a.dataset), os.path.abspath(a.out)
     ptir = os.path.join(os.path.abspath(a.build), "bin", "ptir")
@@ -40,9 +42,9 @@ def main():
         frames = json.load(open(os.path.join(src, "transforms_train.json")))["frames"]
     except (OSError, ValueError, KeyError) as e:
         sys.exit("make_self_consistent: %s is not a PTIR dataset (%s)" % (src, e))
-    oracle = os.path.join(src, "oracle", "gaussians.ply")
+    oracle = os.path.abspath(a.oracle) if a.oracle else os.path.join(src, "oracle", "gaussians.ply")
     if not os.path.exists(oracle):
-        sys.exit("make_self_consistent: %s has no oracle/gaussians.ply (the true materials)" % src)
+        sys.exit("make_self_consistent: %s not found (the true materials)" % oracle)
     env = os.path.join(src, meta["envmaps"][meta["train_env"]])
     bounces = a.bounces if a.bounces is not None else int(meta.get("cycles", {}).get("bounces", 4))
     os.makedirs(out, exist_ok=True)

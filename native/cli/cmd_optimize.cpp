@@ -378,6 +378,9 @@ Runner add_optimize_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--init-albedo", o->opt.init_albedo, "the Gaussians' starting albedo (linear, every channel)")
       ->capture_default_str();
+  cmd->add_flag("--init-from-ply", o->opt.init_from_ply,
+                "start albedo, roughness (and metallic) from the input PLY's albedo_*, roughness, metallic "
+                "(a previous result to refine); without them the defaults apply");
   cmd->add_option("--light-balance", o->opt.light_balance,
                   "learn the light-albedo balance: one scale per channel moving all albedos against the environment (lat-long)")
       ->capture_default_str();

@@ -157,6 +157,62 @@ TEST(PathTracer, WhiteGaussianSphereFurnace) {
   }
 }
 
+namespace {
+
+// A flat square layer of overlapping splats at height z (spacing 0.1, half-size h),
+// every normal +z.
+void add_splat_layer(GaussianField& f, float z, float h, Vec3 albedo, float roughness) {
+  const Frame up(Vec3(0, 0, 1));
+  for (float x = -h; x <= h; x += 0.1f)
+    for (float y = -h; y <= h; y += 0.1f) {
+      test::add_gaussian(f, Vec3(x, y, z), Vec3(0.07f, 0.07f, 1e-4f), test::quat_from_frame(up), 0.99f, albedo, roughness);
+      f.normal.back() = Vec3(0, 0, 1);
+    }
+}
+
+}  // namespace
+
+TEST(PathTracer, SplatLayerSeenFromBehindCastsShadowLikeAMesh) {
+  // A splat floor under a black roof 1 above it, in a white sky. The roof is a
+  // splat layer whose normals face up, away from the floor, as the far side of a
+  // closed object's field faces away from a ray that entered it (or as a fitted
+  // field's hidden splats often do). A mesh occludes from both sides; so must the
+  // splats: the floor under it must be as dark as under a mesh roof (the
+  // reference), far darker than under the open sky. The paper's rule (every
+  // back-facing hit of a spawned ray is skipped, self_range_scale = inf) lets the
+  // sky through the roof and renders the open-sky value.
+  const auto floor_radiance = [](bool mesh_roof, float self_range_scale) {
+    Scene scene;
+    scene.gaussians->normals_from_file = true;
+    add_splat_layer(*scene.gaussians, 0.0f, 6.0f, Vec3(0.5f), 1.0f);
+    if (mesh_roof) {
+      TriangleMesh roof = test::quad_z(1.0f, 3.0f);
+      roof.material.base_colour = Vec3(0.0f);
+      roof.material.roughness = 1.0f;
+      scene.meshes.push_back(roof);
+    } else {
+      add_splat_layer(*scene.gaussians, 1.0f, 3.0f, Vec3(0.0f), 1.0f);
+    }
+    scene.environment = Environment::constant(Vec3(1.0f), 8, 4);
+    PathTracer tracer(scene);
+    IntegratorSettings settings;
+    settings.spp = 256;
+    settings.max_bounces = 2;
+    settings.self_range_scale = self_range_scale;
+    Camera cam = looking_down(Vec3(0, 0, 0.5f), 0.05f, 9);  // between floor and roof
+    Image img = render_path(tracer, cam, settings);
+    return centre_mean(img, 0, 4);
+  };
+  const double mesh = floor_radiance(true, IntegratorSettings{}.self_range_scale);
+  const double splats = floor_radiance(false, IntegratorSettings{}.self_range_scale);
+  const double paper_rule = floor_radiance(false, std::numeric_limits<float>::infinity());
+  std::printf("floor under: mesh roof %.4f, splat roof %.4f, splat roof by the paper's rule %.4f\n", mesh, splats, paper_rule);
+  // Under a 6 x 6 roof at height 1 the floor sees the sky only below ~18 degrees.
+  EXPECT_LT(mesh, 0.1) << "mesh roof";
+  EXPECT_NEAR(splats, mesh, 0.1 * mesh + 0.005) << "splat roof seen from behind, default self range";
+  EXPECT_GT(paper_rule, 2.0 * mesh) << "the paper's rule should let the sky through (else this test cannot fail)";
+}
+
 TEST(PathTracer, SameSeedSameImageAnyThreadCount) {
   Scene scene;
   *scene.gaussians = test::gaussian_sphere(5000, 0.5f, Vec3(0.6f, 0.4f, 0.3f), 0.4f, 0.2f);

@@ -276,3 +276,31 @@ def test_geometry_stage_is_skipped_for_scenes_with_meshes(cli, dataset, tmp_path
     r = optimize(cli, dataset, out, "--iters", 1, "--fit-iters", 30, "--scene", scene)
     assert "geometry fit skipped: the scene has meshes" in r.stderr
     assert not (out / "fit").exists() and ply_count(out / "gaussians.ply") == 600
+
+
+def test_init_from_ply_starts_at_the_files_materials(ptir, cli, dataset, tmp_path):
+    # A PLY carrying materials (a previous result, or the truth) as the start: with
+    # rates too small to move anything in 2 iterations, the output is the input's
+    # albedo and roughness; without the flag, the constants (0.3, 0.6).
+    src = ptir.load_gaussians(str(dataset / "g.ply"))
+    rng = np.random.default_rng(0)
+    src.albedo = rng.uniform(0.1, 0.9, (len(src), 3)).astype(np.float32)
+    src.roughness = rng.uniform(0.2, 0.9, len(src)).astype(np.float32)
+    start = tmp_path / "start.ply"
+    ptir.save_gaussians(str(start), src)
+    slow = ["--iters", 2, "--lr-albedo", 1e-9, "--lr-roughness", 1e-9, "--light-balance", 0, "--gaussians", start]
+    cmd_out = {}
+    for flag in ("--init-from-ply", None):
+        out = tmp_path / ("from_ply" if flag else "constants")
+        extra = slow + ([flag] if flag else [])
+        cmd = [str(cli), "optimize", "--dataset", str(dataset), "--out", str(out), "--spp", "2", "--threads", "1",
+               "--env-size", "16x8", "--fit-iters", "0", *[str(e) for e in extra]]
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr[-3000:]
+        cmd_out[flag] = ptir.load_gaussians(str(out / "gaussians.ply"))
+    g = cmd_out["--init-from-ply"]
+    np.testing.assert_allclose(g.albedo, src.albedo, atol=1e-4)
+    np.testing.assert_allclose(g.roughness, src.roughness, atol=1e-4)
+    c = cmd_out[None]
+    np.testing.assert_allclose(c.albedo, 0.3, atol=1e-4)
+    np.testing.assert_allclose(c.roughness, 0.6, atol=1e-4)

@@ -87,7 +87,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"lambda_tv", num(settings_.lambda_tv)},
       {"prior", num(settings_.prior_start) + " " + num(settings_.prior_end) + " " + std::to_string(settings_.prior_iterations)},
       {"init", num(ps.init_albedo) + " " + num(ps.init_roughness) + " " + num(ps.init_metallic) + " " +
-                   num(ps.init_metallic_optimised)},
+                   num(ps.init_metallic_optimised) + (ps.init_from_field ? " from the input" : "")},
       {"metallic", ps.optimize_metallic ? "optimised" : "fixed"},
       {"env", env_settings_text(ps)},
       {"env_init", ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()},

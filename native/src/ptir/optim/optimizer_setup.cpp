@@ -84,6 +84,7 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.env_fine_lr_scale = o.env_fine_rate;
   if (!(o.init_albedo > 0.0f && o.init_albedo < 1.0f)) throw Error(names("init_albedo") + " must be in (0, 1)");
   s.params.init_albedo = o.init_albedo;
+  s.params.init_from_field = o.init_from_ply;
   if (!(o.lr_balance > 0.0f)) throw Error(names("lr_balance") + " must be > 0");
   s.light_balance = o.light_balance;
   s.params.lr_balance = o.lr_balance;

@@ -38,6 +38,7 @@ struct OptimizeOptions {
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
   float average_from = OptimizerSettings{}.average_from;
   float init_albedo = ParameterSettings{}.init_albedo;
+  bool init_from_ply = ParameterSettings{}.init_from_field;
   bool light_balance = OptimizerSettings{}.light_balance;
   float lr_balance = ParameterSettings{}.lr_balance;
   float balance_start = OptimizerSettings{}.balance_start;

@@ -102,6 +102,19 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
   p.groups.push_back({ParamKind::GaussianRoughness, s.lr_roughness, std::vector<float>(n, roughness_to_raw(s.init_roughness))});
   if (s.optimize_metallic)
     p.groups.push_back({ParamKind::GaussianMetallic, s.lr_metallic, std::vector<float>(n, logit_clamped(s.init_metallic_optimised))});
+  if (s.init_from_field) {
+    const GaussianField& f = *scene.gaussians;
+    for (ParameterGroup& g : p.groups) {
+      for (size_t i = 0; i < n; ++i) {
+        if (g.kind == ParamKind::GaussianAlbedo)
+          for (int c = 0; c < 3; ++c) g.raw[3 * i + c] = logit_clamped(f.albedo[i][c]);
+        else if (g.kind == ParamKind::GaussianRoughness)
+          g.raw[i] = roughness_to_raw(f.roughness[i]);
+        else if (g.kind == ParamKind::GaussianMetallic)
+          g.raw[i] = logit_clamped(std::max(f.metallic[i], s.init_metallic_optimised));
+      }
+    }
+  }
   // Fixed lighting (or none): no group.
   if (s.optimize_env && scene.environment.present()) {
     std::vector<float> raw(scene.environment.parameter_count());

@@ -42,6 +42,11 @@ float roughness_to_raw(float r);  // clamps r into the activation's open range
 
 struct ParameterSettings {
   float init_albedo = 0.3f;     // METHOD §6
+  // Start the Gaussians' albedo, roughness (and optimised metallic) from the field's
+  // own values (a PLY that carries albedo_*, roughness, metallic: a previous result
+  // to refine, or the true materials to test where the optimum lies) instead of
+  // the constants above; values are clamped into the activations' open ranges.
+  bool init_from_field = false;
   float init_roughness = 0.6f;
   float init_metallic = 0.0f;   // the fixed value when metallic is not optimised
   // Start of an optimised metallic: away from 0, where sigmoid is flat (logit(0) = -inf).

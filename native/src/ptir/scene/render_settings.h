@@ -54,10 +54,16 @@ struct IntegratorSettings {
   InteractionSettings interaction;       // aggregate/discrete, tau_g
   bool geometric_criterion = true;       // chi_geom gate; off: every hit with O > 0 is an interaction
   SelfIntersection self_intersection = SelfIntersection::BackfaceAware;
-  // Backface-aware: back-facing hits are skipped within this many times the
-  // interaction's Gaussian size; infinity (default) is the paper's rule, which
-  // skips every back-facing hit of a spawned ray.
-  float self_range_scale = std::numeric_limits<float>::infinity();
+  // Backface-aware: back-facing hits of a spawned ray are skipped within this many
+  // times the interaction's Gaussian size (its w-weighted largest scale); beyond
+  // it a back-facing splat occludes, as a mesh's back face does. Infinity is the
+  // paper's rule (every back-facing hit skipped): it relies on every splat's normal
+  // facing out, and a fitted field's hidden splats (under a chin, inside a crease,
+  // behind a gap) often do not -- measured on fitted textured sets, 12 % of the
+  // rays a mesh blocks went through, and the true materials rendered 31.5 dB from
+  // Cycles against 33.5 dB at 8 (2: 33.4, 4: 33.4, 16: 32.1; exact one-per-face
+  // splats 29.9-30.0 dB at every range). README, method notes.
+  float self_range_scale = 8.0f;
   float fixed_offset = 0.02f;            // fixed-offset variant: origin offset (world units)
   float fixed_range = 0.08f;             // fixed-offset variant: skip range (world units)
   float min_throughput = 1e-4f;          // end a path when max(beta) falls below this
