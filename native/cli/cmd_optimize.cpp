@@ -394,6 +394,10 @@ Runner add_optimize_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--loss-blur", o->opt.loss_blur, "blur the render by a 3x3 binomial filter before the image loss (PTIR's noise suppression)")
       ->capture_default_str();
+  cmd->add_option("--ssim-cross", o->opt.ssim_cross,
+                  "with the decorrelated adjoint: the SSIM's local moments taken across the two halves' renders, "
+                  "so no half's noise counts as contrast (0: each half's weight from the other half's plain SSIM)")
+      ->capture_default_str();
   cmd->add_option("--loss-blur-target", o->opt.loss_blur_target,
                   "with --loss-blur: blur the target image the same way (the optimum is then the unblurred match)")
       ->capture_default_str();

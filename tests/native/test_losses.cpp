@@ -334,6 +334,88 @@ TEST(Losses, BlurredTargetKeepsTheTargetOptimal) {
               1e-6);  // binomial_filter rounds the blurred images to float
 }
 
+// The loss of two renders of one image (the optimiser's decorrelated halves).
+TEST(Losses, PairOfIdenticalRendersIsImageLoss) {
+  Image p = random_image(26, 21, 3, 50, 0.1f, 0.9f);
+  Image t = random_image(26, 21, 3, 51, 0.1f, 0.9f);
+  Image mask = random_image(26, 21, 1, 52);
+  ImageLossSettings s;
+  Image d, da, db;
+  const double l = image_loss(p, t, &mask, s, &d);
+  EXPECT_NEAR(image_loss_pair(p, p, t, &mask, s, &da, &db), l, 1e-9);
+  for (size_t i = 0; i < d.pixels.size(); ++i) {
+    ASSERT_NEAR(da.pixels[i], d.pixels[i], 1e-6f * (1.0f + std::abs(d.pixels[i])));
+    ASSERT_NEAR(db.pixels[i], d.pixels[i], 1e-6f * (1.0f + std::abs(d.pixels[i])));
+  }
+}
+
+TEST(Losses, PairSsimGradientMatchesFiniteDifferences) {
+  // D-SSIM alone (the L1 term's weights are derivatives at the other render by
+  // design): d_a is twice the derivative of the pair's loss w.r.t. a.
+  const int w = 26, h = 21;
+  Image a = random_image(w, h, 3, 60, 0.1f, 0.9f);
+  Image b = random_image(w, h, 3, 61, 0.1f, 0.9f);
+  for (size_t i = 0; i < b.pixels.size(); ++i) b.pixels[i] = 0.5f * (a.pixels[i] + b.pixels[i]);  // correlated renders
+  Image t = random_image(w, h, 3, 62, 0.1f, 0.9f);
+  Image mask = random_image(w, h, 1, 63);
+  ImageLossSettings s;
+  s.lambda_ssim = 1.0f;
+  for (bool blur : {false, true}) {
+    s.binomial_filter = blur;
+    Image da, db;
+    image_loss_pair(a, b, t, &mask, s, &da, &db);
+    for (float& v : da.pixels) v *= 0.5f;
+    for (float& v : db.pixels) v *= 0.5f;
+    check_gradient(a, da, [&](const Image& img) { return image_loss_pair(img, b, t, &mask, s, nullptr, nullptr); }, 60,
+                   70, 1e-3, 2e-3, 1e-8, blur ? "pair D-SSIM, d/da, binomial" : "pair D-SSIM, d/da");
+    check_gradient(b, db, [&](const Image& img) { return image_loss_pair(a, img, t, &mask, s, nullptr, nullptr); }, 60,
+                   71, 1e-3, 2e-3, 1e-8, blur ? "pair D-SSIM, d/db, binomial" : "pair D-SSIM, d/db");
+  }
+}
+
+TEST(Losses, PairSsimDoesNotTakeNoiseForContrast) {
+  // Two independent noisy renders of the target itself: the expected image is
+  // the optimum, so the expected gradient should vanish. Each half weighted by
+  // the plain SSIM of the other counts that half's noise as variance, and its
+  // structure term 2 s_xy / (s_x^2 + s_y^2) then favours a signal of more contrast
+  // than the target's (x = k t: k^2 = 1 + noise var / signal var): its mean
+  // gradient points against the target's contrast. The pair's cross moments hold
+  // no render's noise squared.
+  const int w = 32, h = 32;
+  Image t = random_image(w, h, 3, 80, 0.2f, 0.8f);
+  ImageLossSettings s;
+  s.lambda_ssim = 1.0f;  // D-SSIM alone: the L1 term is another matter (its median)
+  s.binomial_filter = false;
+  std::mt19937 rng(81);
+  std::normal_distribution<float> noise(0.0f, 0.1f);
+  const int draws = 1600;
+  Image mean_pair = make_image(w, h, 3), mean_plain = make_image(w, h, 3);
+  for (int k = 0; k < draws; ++k) {
+    Image a = t, b = t;
+    for (float& v : a.pixels) v += noise(rng);
+    for (float& v : b.pixels) v += noise(rng);
+    Image da, db, d_plain;
+    image_loss_pair(a, b, t, nullptr, s, &da, &db);
+    image_loss(b, t, nullptr, s, &d_plain);  // the weight of a's replay without cross moments
+    for (size_t i = 0; i < da.pixels.size(); ++i) {
+      mean_pair.pixels[i] += da.pixels[i] / draws;
+      mean_plain.pixels[i] += d_plain.pixels[i] / draws;
+    }
+  }
+  // Contrast direction: the target about its 11x11 local mean, approximated by its global mean.
+  double tm = 0.0;
+  for (float v : t.pixels) tm += v / double(t.pixels.size());
+  Image contrast = t;
+  for (float& v : contrast.pixels) v -= float(tm);
+  const double plain_along = dot(mean_plain, contrast), pair_along = dot(mean_pair, contrast);
+  const double norm_plain = std::sqrt(dot(mean_plain, mean_plain)), norm_pair = std::sqrt(dot(mean_pair, mean_pair));
+  std::printf("  mean gradient: plain |g| %.3e (along the contrast %.3e), pair |g| %.3e (along %.3e)\n", norm_plain,
+              plain_along, norm_pair, pair_along);
+  EXPECT_LT(plain_along, 0.0);  // descending it adds contrast (else this test cannot fail)
+  EXPECT_LT(norm_pair, 0.25 * norm_plain);
+  EXPECT_LT(std::abs(pair_along), 0.1 * std::abs(plain_along));
+}
+
 TEST(Losses, EdgeAwareTvKnownValues) {
   // 2x2 map, 1 channel: values 0 1 / 0 3. Guide: flat except the bottom-right
   // pixel, 0.3 brighter in every channel (mean |difference| 0.3 on its two pairs).

@@ -283,63 +283,88 @@ Plane ssim_weights(const Plane& w, int width, int height, bool* empty) {
   return v;
 }
 
-// sum_p v_p SSIM(x, y)(p) for one channel, and (if grad) its gradient w.r.t. x.
+// sum_p v_p SSIM(x, y)(p) for one channel, and (if grads) its gradients.
 // Scratch planes of ssim_channel, reused across channels (no reallocation).
 struct SsimScratch {
-  Plane tmp, mx, my, mxx, myy, mxy, prod, a, b, c, ga, gb, gc;
+  Plane tmp, ma, mb, my, mab, myy, may, mby, prod, a_a, a_b, b, c, ga, gb, gc;
 };
 
-double ssim_channel(const Separable& g, const Plane& x, const Plane& y, const Plane& v, Plane* grad,
-                    SsimScratch& w) {
-  size_t n = x.size();
-  Plane &tmp = w.tmp, &mx = w.mx, &my = w.my, &mxx = w.mxx, &myy = w.myy, &mxy = w.mxy, &prod = w.prod;
+// The SSIM of one channel from two renders xa, xb of the same image: the local
+// moments of the prediction are cross moments, mean^2 -> G(xa) G(xb) and variance
+// -> G(xa xb) - G(xa) G(xb), covariance with y -> the mean of the two, so that
+// for independent Monte Carlo renders no term holds a render's noise squared
+// (E[cross moment] = the moment of the expected image; the plain SSIM of one
+// noisy render counts its noise as contrast, and its gradient lowers the contrast
+// of what is rendered). With xa == xb (the same plane) it is the plain SSIM.
+//   S = A1 A2 / (B1 B2), ux = (ma + mb) / 2:
+//   A1 = 2 ux uy + C1, A2 = (may + mby) - 2 ux uy + C2,
+//   B1 = ma mb + uy^2 + C1, B2 = max(mab - ma mb + myy - uy^2 + C2, C2)
+//   (the cross variance can be negative where the signal is flat; the clamp keeps
+//   S bounded and holds that B2 fixed).
+//   dS/dma = uy (A2 - A1) / D - S mb (1/B1 - 1/B2), dS/dmay = A1 / D, dS/dmab = -S / B2
+//   (dS/dmb, dS/dmby alike). Gradients (if grad_a, grad_b): d/dxa sum v S =
+//   G^T(v dS/dma) + xb G^T(v dS/dmab) + y G^T(v dS/dmay), and d/dxb alike.
+double ssim_channel(const Separable& g, const Plane& xa, const Plane& xb, const Plane& y, const Plane& v,
+                    Plane* grad_a, Plane* grad_b, SsimScratch& w) {
+  const size_t n = xa.size();
+  const bool same = &xa == &xb;
+  Plane &tmp = w.tmp, &prod = w.prod;
+  Plane &ma = w.ma, &mb = same ? w.ma : w.mb, &my = w.my, &mab = w.mab, &myy = w.myy;
+  Plane &may = w.may, &mby = same ? w.may : w.mby;
   prod.resize(n);
-  g.apply(x, mx, tmp);
+  g.apply(xa, ma, tmp);
+  if (!same) g.apply(xb, mb, tmp);
   g.apply(y, my, tmp);
-  for (size_t i = 0; i < n; ++i) prod[i] = x[i] * x[i];
-  g.apply(prod, mxx, tmp);
+  for (size_t i = 0; i < n; ++i) prod[i] = xa[i] * xb[i];
+  g.apply(prod, mab, tmp);
   for (size_t i = 0; i < n; ++i) prod[i] = y[i] * y[i];
   g.apply(prod, myy, tmp);
-  for (size_t i = 0; i < n; ++i) prod[i] = x[i] * y[i];
-  g.apply(prod, mxy, tmp);
+  for (size_t i = 0; i < n; ++i) prod[i] = xa[i] * y[i];
+  g.apply(prod, may, tmp);
+  if (!same) {
+    for (size_t i = 0; i < n; ++i) prod[i] = xb[i] * y[i];
+    g.apply(prod, mby, tmp);
+  }
 
-  // S = A1 A2 / (B1 B2) in terms of the filtered moments (mx, my, mxx, myy, mxy):
-  //   A1 = 2 mx my + C1, A2 = 2 (mxy - mx my) + C2,
-  //   B1 = mx^2 + my^2 + C1, B2 = (mxx - mx^2) + (myy - my^2) + C2.
-  // Partials w.r.t. the moments that depend on x, weighted by v:
-  //   dS/dmx  = 2 my (A2 - A1) / D - 2 mx S (1/B1 - 1/B2),
-  //   dS/dmxx = -S / B2,  dS/dmxy = 2 A1 / D.
-  double total = 0.0;
-  Plane &a = w.a, &b = w.b, &c = w.c;
-  if (grad) {
-    a.assign(n, 0.0);
+  const bool grads = grad_a || grad_b;
+  Plane &a_a = w.a_a, &a_b = w.a_b, &b = w.b, &c = w.c;
+  if (grads) {
+    a_a.assign(n, 0.0);
+    a_b.assign(n, 0.0);
     b.assign(n, 0.0);
     c.assign(n, 0.0);
   }
+  double total = 0.0;
   for (size_t i = 0; i < n; ++i) {
     if (v[i] == 0.0) continue;
-    double ux = mx[i], uy = my[i];
-    double A1 = 2.0 * ux * uy + kC1;
-    double A2 = 2.0 * (mxy[i] - ux * uy) + kC2;
-    double B1 = ux * ux + uy * uy + kC1;
-    double B2 = (mxx[i] - ux * ux) + (myy[i] - uy * uy) + kC2;
-    double D = B1 * B2;
-    double S = A1 * A2 / D;
+    const double uy = my[i], ux = 0.5 * (ma[i] + mb[i]);
+    const double A1 = 2.0 * ux * uy + kC1;
+    const double A2 = (may[i] + mby[i]) - 2.0 * ux * uy + kC2;
+    const double B1 = ma[i] * mb[i] + uy * uy + kC1;
+    double B2 = (mab[i] - ma[i] * mb[i]) + (myy[i] - uy * uy) + kC2;
+    const bool clamped = B2 < kC2;
+    if (clamped) B2 = kC2;
+    const double D = B1 * B2, S = A1 * A2 / D;
     total += v[i] * S;
-    if (grad) {
-      a[i] = v[i] * (2.0 * uy * (A2 - A1) / D - 2.0 * ux * S * (1.0 / B1 - 1.0 / B2));
-      b[i] = v[i] * (-S / B2);
-      c[i] = v[i] * (2.0 * A1 / D);
+    if (grads) {
+      const double inv_b2 = clamped ? 0.0 : 1.0 / B2;
+      a_a[i] = v[i] * (uy * (A2 - A1) / D - S * mb[i] * (1.0 / B1 - inv_b2));
+      a_b[i] = v[i] * (uy * (A2 - A1) / D - S * ma[i] * (1.0 / B1 - inv_b2));
+      b[i] = v[i] * (-S * inv_b2);
+      c[i] = v[i] * (A1 / D);
     }
   }
-  if (grad) {
-    // d/dx of sum v S = G^T a + 2 x G^T b + y G^T c.
+  if (grads) {
     Plane &ga = w.ga, &gb = w.gb, &gc = w.gc;
-    g.adjoint(a, ga, tmp);
     g.adjoint(b, gb, tmp);
     g.adjoint(c, gc, tmp);
-    grad->resize(n);
-    for (size_t i = 0; i < n; ++i) (*grad)[i] = ga[i] + 2.0 * x[i] * gb[i] + y[i] * gc[i];
+    const auto gradient = [&](const Plane& a, const Plane& other, Plane* out) {
+      g.adjoint(a, ga, tmp);
+      out->resize(n);
+      for (size_t i = 0; i < n; ++i) (*out)[i] = ga[i] + other[i] * gb[i] + y[i] * gc[i];
+    };
+    if (grad_a) gradient(a_a, xb, grad_a);
+    if (grad_b) gradient(a_b, xa, grad_b);
   }
   return total;
 }
@@ -383,18 +408,26 @@ double ssim(const Image& a, const Image& b, const Image* mask) {
   Separable g = ssim_window(a.width, a.height);
   double sum = 0.0;
   SsimScratch scratch;
-  for (int c = 0; c < nc; ++c) sum += ssim_channel(g, channel_plane(a, c), channel_plane(b, c), v, nullptr, scratch);
+  for (int c = 0; c < nc; ++c) {
+    const Plane x = channel_plane(a, c);
+    sum += ssim_channel(g, x, x, channel_plane(b, c), v, nullptr, nullptr, scratch);
+  }
   return sum / nc;
 }
 
-double image_loss(const Image& pred, const Image& target, const Image* mask, const ImageLossSettings& settings,
-                  Image* d_pred) {
-  check_size(pred, target, "image_loss: prediction", "target");
-  const int w = pred.width, h = pred.height;
-  const int nc = compared_channels(pred, target);
+namespace {
+
+// image_loss (pred_b null) and image_loss_pair: one pass over the channels.
+double image_loss_impl(const Image& pred_a, const Image* pred_b, const Image& target, const Image* mask,
+                       const ImageLossSettings& settings, Image* d_a, Image* d_b) {
+  check_size(pred_a, target, "image_loss: prediction", "target");
+  if (pred_b) check_size(*pred_b, target, "image_loss: second prediction", "target");
+  const int w = pred_a.width, h = pred_a.height;
+  const int nc = pred_b ? std::min(compared_channels(pred_a, target), compared_channels(*pred_b, target))
+                        : compared_channels(pred_a, target);
   const size_t n = size_t(w) * size_t(h);
   const double lambda = settings.lambda_ssim;
-  Plane wts = mask_weights(mask, pred);
+  Plane wts = mask_weights(mask, pred_a);
   double wsum = 0.0;
   for (double e : wts) wsum += e;
   bool ssim_empty = false;
@@ -405,51 +438,82 @@ double image_loss(const Image& pred, const Image& target, const Image* mask, con
   Separable g = ssim_window(w, h);
 
   double l1 = 0.0, ssim_sum = 0.0;
-  if (d_pred) *d_pred = image_like(w, h, nc);
+  Image* outs[2] = {d_a, pred_b ? d_b : nullptr};
+  for (Image* d : outs)
+    if (d) *d = image_like(w, h, nc);
   Plane tmp;
   SsimScratch scratch;
-  for (int c = 0; c < nc; ++c) {
-    Plane x = channel_plane(pred, c), y = channel_plane(target, c);
+  const auto blurred = [&](Plane p) {
     if (blur) {
-      Plane bx;
-      blur->apply(x, bx, tmp);
-      x.swap(bx);
-      if (settings.blur_target) {
-        blur->apply(y, bx, tmp);
-        y.swap(bx);
-      }
+      Plane bp;
+      blur->apply(p, bp, tmp);
+      p.swap(bp);
     }
-    Plane dx(d_pred ? n : 0, 0.0);
+    return p;
+  };
+  for (int c = 0; c < nc; ++c) {
+    const Plane xa = blurred(channel_plane(pred_a, c));
+    const Plane xb = pred_b ? blurred(channel_plane(*pred_b, c)) : Plane();
+    const Plane& x_b = pred_b ? xb : xa;
+    const Plane y = settings.blur_target ? blurred(channel_plane(target, c)) : channel_plane(target, c);
+    // L1 (or Huber): the value at the mean of the renders; each render's gradient
+    // is the derivative at the *other* one (the decorrelated weight), at xa alone
+    // for one render.
+    Plane dx[2] = {Plane(d_a ? n : 0, 0.0), Plane(outs[1] ? n : 0, 0.0)};
     if (wsum > 0.0) {
-      double scale = 1.0 / (double(nc) * wsum);
+      const double scale = 1.0 / (double(nc) * wsum), delta = settings.huber_delta;
+      const auto dl1 = [&](double diff) {
+        return std::abs(diff) < delta ? diff / delta : diff > 0.0 ? 1.0 : diff < 0.0 ? -1.0 : 0.0;
+      };
       for (size_t i = 0; i < n; ++i) {
-        const double diff = x[i] - y[i], a = std::abs(diff), delta = settings.huber_delta;
-        const bool inside = a < delta;
-        l1 += wts[i] * (inside ? 0.5 * diff * diff / delta : a - 0.5 * delta);
-        if (d_pred)
-          dx[i] = (1.0 - lambda) * scale * wts[i] * (inside ? diff / delta : diff > 0.0 ? 1.0 : diff < 0.0 ? -1.0 : 0.0);
+        const double diff = 0.5 * (xa[i] + x_b[i]) - y[i], a = std::abs(diff);
+        l1 += wts[i] * (a < delta ? 0.5 * diff * diff / delta : a - 0.5 * delta);
+        const double k = (1.0 - lambda) * scale * wts[i];
+        if (d_a) dx[0][i] = k * dl1(x_b[i] - y[i]);
+        if (outs[1]) dx[1][i] = k * dl1(xa[i] - y[i]);
       }
     }
     if (ssim_empty) {
       ssim_sum += 1.0;
     } else {
-      Plane gs;
-      ssim_sum += ssim_channel(g, x, y, v, d_pred ? &gs : nullptr, scratch);
-      if (d_pred)
-        for (size_t i = 0; i < n; ++i) dx[i] -= lambda / nc * gs[i];
+      Plane gs[2];
+      ssim_sum += ssim_channel(g, xa, x_b, y, v, d_a ? &gs[0] : nullptr, d_a ? &gs[1] : nullptr, scratch);
+      // One render: d/dx = d/dxa + d/dxb. Two: each render's gradient is taken as
+      // the mean image's seen through it, 2 d/dxa (so with a == b both equal the
+      // one render's; the optimiser weights each half by its share, 1/2).
+      if (d_a && !pred_b)
+        for (size_t i = 0; i < n; ++i) gs[0][i] += gs[1][i];
+      const double k_ssim = lambda / nc * (pred_b ? 2.0 : 1.0);
+      for (int k = 0; k < 2; ++k)
+        if (outs[k])
+          for (size_t i = 0; i < n; ++i) dx[k][i] -= k_ssim * gs[k][i];
     }
-    if (d_pred) {
+    for (int k = 0; k < 2; ++k) {
+      if (!outs[k]) continue;
       if (blur) {
         Plane back;
-        blur->adjoint(dx, back, tmp);
-        dx.swap(back);
+        blur->adjoint(dx[k], back, tmp);
+        dx[k].swap(back);
       }
-      for (size_t i = 0; i < n; ++i) d_pred->pixels[i * size_t(nc) + size_t(c)] = float(dx[i]);
+      for (size_t i = 0; i < n; ++i) outs[k]->pixels[i * size_t(nc) + size_t(c)] = float(dx[k][i]);
     }
   }
   double l1_mean = wsum > 0.0 ? l1 / (double(nc) * wsum) : 0.0;
   double mean_ssim = ssim_sum / nc;
   return (1.0 - lambda) * l1_mean + lambda * (1.0 - mean_ssim);
+}
+
+}  // namespace
+
+double image_loss(const Image& pred, const Image& target, const Image* mask, const ImageLossSettings& settings,
+                  Image* d_pred) {
+  return image_loss_impl(pred, nullptr, target, mask, settings, d_pred, nullptr);
+}
+
+double image_loss_pair(const Image& pred_a, const Image& pred_b, const Image& target, const Image* mask,
+                       const ImageLossSettings& settings, Image* d_a, Image* d_b) {
+  if ((d_a == nullptr) != (d_b == nullptr)) throw Error("image_loss_pair: both gradients or neither");
+  return image_loss_impl(pred_a, &pred_b, target, mask, settings, d_a, d_b);
 }
 
 double edge_aware_tv(const Image& map, const Image& guide, const Image* mask, Image* d_map) {

@@ -420,17 +420,23 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     return pred;
   };
   const Image* mask_ptr = w.full->has_alpha ? &mask : nullptr;
-  // dL/d(linear render) of one image: through the loss and the loss-space curve.
-  auto adjoint = [&](const Image& r, double* loss) {
-    Image d_pred, d_render(pk.w, pk.h, {"R", "G", "B"});
-    const double l = image_loss(loss_space(r), w.target, mask_ptr, settings_.loss, &d_pred);
-    if (loss) *loss = l;
+  // dL/d(linear render) from dL/d(loss-space image), through the loss-space curve
+  // at r's values.
+  auto through_curve = [&](const Image& d_pred, const Image& r) {
+    Image d_render(pk.w, pk.h, {"R", "G", "B"});
     for (size_t p = 0; p < w.px; ++p) {
       if (mask.pixels[p] == 0.0f) continue;  // the target stands there: no gradient
       for (int c = 0; c < 3; ++c)
         d_render.pixels[p * 3 + c] = d_pred.pixels[p * d_pred.channels + c] * loss_encode_derivative(r.pixels[p * 4 + c]);
     }
     return d_render;
+  };
+  // dL/d(linear render) of one image: through the loss and the loss-space curve.
+  auto adjoint = [&](const Image& r, double* loss) {
+    Image d_pred;
+    const double l = image_loss(loss_space(r), w.target, mask_ptr, settings_.loss, &d_pred);
+    if (loss) *loss = l;
+    return through_curve(d_pred, r);
   };
   if (!with_gradients) {
     log.image += inv_k * image_loss(loss_space(render), w.target, mask_ptr, settings_.loss, nullptr);
@@ -443,8 +449,17 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     log.image += inv_k * l;
   } else {
     log.image += inv_k * image_loss(loss_space(render), w.target, mask_ptr, settings_.loss, nullptr);
-    d_renders.push_back(adjoint(parts[1].render, nullptr));  // weights half A's replay
-    d_renders.push_back(adjoint(parts[0].render, nullptr));  // weights half B's replay
+    if (settings_.loss.cross_moments) {  // SSIM's moments across the halves (losses.h)
+      Image d_a, d_b;
+      image_loss_pair(loss_space(parts[0].render), loss_space(parts[1].render), w.target, mask_ptr, settings_.loss,
+                      &d_a, &d_b);
+      // Each half's weight through the curve at the other half (independent of its own noise).
+      d_renders.push_back(through_curve(d_a, parts[1].render));
+      d_renders.push_back(through_curve(d_b, parts[0].render));
+    } else {
+      d_renders.push_back(adjoint(parts[1].render, nullptr));  // weights half A's replay
+      d_renders.push_back(adjoint(parts[0].render, nullptr));  // weights half B's replay
+    }
   }
   // Each part's replay: inv_k x its share of the samples x the (other) adjoint.
   auto t0 = Clock::now();

@@ -112,6 +112,7 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.loss.lambda_ssim = o.lambda_ssim;
   s.loss.binomial_filter = o.loss_blur;
   s.loss.blur_target = o.loss_blur_target;
+  s.loss.cross_moments = o.ssim_cross;
   s.accel.k = o.k;
   if (o.loss_space == "srgb") s.srgb_loss = true;
   else if (o.loss_space == "linear") s.srgb_loss = false;

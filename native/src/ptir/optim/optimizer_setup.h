@@ -58,6 +58,7 @@ struct OptimizeOptions {
   float lambda_ssim = ImageLossSettings{}.lambda_ssim;      // D-SSIM's share of the image loss
   bool loss_blur = ImageLossSettings{}.binomial_filter;     // 3x3 binomial blur of the prediction in the loss
   bool loss_blur_target = ImageLossSettings{}.blur_target;  // ... and of the target
+  bool ssim_cross = ImageLossSettings{}.cross_moments;      // decorrelated halves: SSIM moments across them
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start
