@@ -3,7 +3,7 @@
 //   ptir render scene.json -o out.exr [--spp N] [--bounces N] [--camera NAME] [--seed S] [--threads N]
 //       the scene file (docs/scene_format.md); path-traced colour by default.
 //   ptir render --gaussians g.ply [--mesh m.ply ...] (--cameras t.json [--frame I] | --c2w ... --fov-x F)
-//       [--aov preview|opacity|depth|normal|albedo|roughness|metallic|rgb] [--env map.exr ...] -o out.png
+//       [--aov preview|opacity|depth|normal|albedo|diffuse_color|roughness|metallic|rgb] [--env map.exr ...] -o out.png
 //       the flag form: AOVs of the primary hit, or (--aov rgb) path-traced colour under --env.
 //
 // Integrator switches (both forms; in the scene form they override the file):
@@ -364,7 +364,8 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--width", o->width, "image width (flag form: default from the cameras file; scene form: resize)");
   cmd->add_option("--height", o->height, "image height");
   cmd->add_option("--aov", o->aov,
-                  "rgb (path-traced colour), opacity, depth, normal, albedo, roughness, metallic or preview "
+                  "rgb (path-traced colour), opacity, depth, normal, albedo (base colour), diffuse_color (Blender's Diffuse Color "
+                  "pass: base colour x (1 - metallic)), roughness, metallic or preview "
                   "(default: rgb with a scene file, preview otherwise)");
   cmd->add_option("-o,--output", o->output, "output image: .exr (linear float) or .png (sRGB)")->required();
   cmd->add_option("--spp", o->spp, "samples per pixel (default: the scene's, 32; AOVs: 1 = pixel centres)");

@@ -182,6 +182,7 @@ TEST(Traversal, AovsMatchNaiveComposite) {
   Image albedo = render_aov(accel, cam, Aov::Albedo, settings);
   Image depth = render_aov(accel, cam, Aov::Depth, settings);
   Image opacity = render_aov(accel, cam, Aov::Opacity, settings);
+  Image diffuse = render_aov(accel, cam, Aov::DiffuseColor, settings);  // Blender's Diffuse Color pass
   int valid = 0;
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) {
@@ -190,11 +191,13 @@ TEST(Traversal, AovsMatchNaiveComposite) {
       // Composite by hand with the METHOD §3 formulas.
       double T = 1, O = 0, D = 0;
       Vec3 A;
+      double M = 0;
       for (const auto& h : hits) {
         double w = T * h.alpha;
         O += w;
         D += w * h.t;
         A += float(w) * field.albedo[h.id];
+        M += w * field.metallic[h.id];
         T *= 1 - h.alpha;
       }
       EXPECT_NEAR(opacity.at(x, y, 0), O, 1e-5);
@@ -202,6 +205,8 @@ TEST(Traversal, AovsMatchNaiveComposite) {
         valid++;
         EXPECT_NEAR(depth.at(x, y, 0), D / O, 1e-4);
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(albedo.at(x, y, c), A[c] / O, 1e-5);
+        // The diffuse closure's weight of the blended interaction: base colour x (1 - metallic).
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(diffuse.at(x, y, c), A[c] / O * (1 - M / O), 1e-5);
       } else {
         EXPECT_EQ(depth.at(x, y, 0), 0.0f);
       }

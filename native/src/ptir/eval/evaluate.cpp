@@ -108,7 +108,8 @@ struct RatioAccumulator {
     for (int y = 0; y < gt.height; ++y)
       for (int x = 0; x < gt.width; ++x) {
         if (mask.at(x, y, 0) <= 0.5f) continue;
-        for (int c = 0; c < 3; ++c) ratios[c].push_back(gt.at(x, y, c) / std::max(pred.at(x, y, c), 1e-6f));
+        for (int c = 0; c < 3; ++c)  // a black prediction (a metal's diffuse colour) says nothing of the scale
+          if (pred.at(x, y, c) > 1e-4f) ratios[c].push_back(gt.at(x, y, c) / pred.at(x, y, c));
       }
   }
   std::array<double, 3> scale() {
@@ -309,10 +310,15 @@ void evaluate_view(EvalRun& run, size_t i) {
     return unbounded ? render_path(tracer, c, run.is, s.control) : render_transparent(tracer, c, run.is, s.control);
   });
   Image albedo = aov(Aov::Albedo), rough = aov(Aov::Roughness), metal = aov(Aov::Metallic), normal = aov(Aov::Normal);
+  // The albedo scores compare Blender's Diffuse Color pass (the datasets' albedo
+  // ground truth) with ours: base colour x (1 - metallic), the base colour where
+  // metallic is 0 (a metal's diffuse colour is black in both).
+  Image diffuse = aov(Aov::DiffuseColor);
   run.render_s += seconds_since(t0);
   if (s.comm->rank() != 0) return;
   write_image((vdir / "rgba.exr").string(), rgba);
   write_image((vdir / "albedo.exr").string(), albedo);
+  write_image((vdir / "diffuse_color.exr").string(), diffuse);
   write_image((vdir / "roughness.exr").string(), rough);
   write_image((vdir / "metallic.exr").string(), metal);
   write_image((vdir / "normal.exr").string(), normal);
@@ -337,9 +343,9 @@ void evaluate_view(EvalRun& run, size_t i) {
   Image gt_albedo = run.data->gt_albedo(i);
   if (gt_albedo.width > 0) {
     run.have_albedo = true;
-    run.ratios.add(gt_albedo, albedo, mask);
+    run.ratios.add(gt_albedo, diffuse, mask);
     if (!run.tensoir) run.tensoir = std::make_unique<TensoirAlbedoScore>(run.n_views);
-    run.tensoir->add_ratios(i, gt_albedo, albedo, gt->alpha);
+    run.tensoir->add_ratios(i, gt_albedo, diffuse, gt->alpha);
   }
   score_aovs(run, i, mask, show, *gt, rough, normal, v);
   const bool has_normal_gt = v.contains("normal_mae_deg");
@@ -362,7 +368,7 @@ void score_albedo(EvalRun& run) {
     if (gt_albedo.width == 0) continue;
     std::shared_ptr<const TrainingImage> gt = run.data->target(i);
     const Image mask = foreground_mask(gt->alpha);
-    Image pred = read_image((run.out / view_folder(i) / "albedo.exr").string(), Encoding::Data);
+    Image pred = read_image((run.out / view_folder(i) / "diffuse_color.exr").string(), Encoding::Data);
     run.tensoir->add_error(gt_albedo, pred, gt->alpha, tensoir_scale);
     Image aligned = apply_scale(pred, run.scale);
     Image gt_clamped = apply_scale(gt_albedo, {1.0, 1.0, 1.0});

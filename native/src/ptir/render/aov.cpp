@@ -14,10 +14,11 @@ namespace ptir {
 Aov parse_aov(const std::string& name) {
   static const std::pair<const char*, Aov> table[] = {
       {"opacity", Aov::Opacity}, {"depth", Aov::Depth},       {"normal", Aov::Normal},   {"albedo", Aov::Albedo},
-      {"roughness", Aov::Roughness}, {"metallic", Aov::Metallic}, {"preview", Aov::Preview}};
+      {"roughness", Aov::Roughness}, {"metallic", Aov::Metallic}, {"preview", Aov::Preview},
+      {"diffuse_color", Aov::DiffuseColor}};
   for (const auto& [n, a] : table)
     if (name == n) return a;
-  throw Error("unknown AOV '" + name + "' (choose opacity, depth, normal, albedo, roughness, metallic or preview)");
+  throw Error("unknown AOV '" + name + "' (choose opacity, depth, normal, albedo, diffuse_color, roughness, metallic or preview)");
 }
 
 const char* aov_name(Aov aov) {
@@ -29,11 +30,14 @@ const char* aov_name(Aov aov) {
     case Aov::Roughness: return "roughness";
     case Aov::Metallic: return "metallic";
     case Aov::Preview: return "preview";
+    case Aov::DiffuseColor: return "diffuse_color";
   }
   return "?";
 }
 
-Encoding aov_encoding(Aov aov) { return (aov == Aov::Albedo || aov == Aov::Preview) ? Encoding::Colour : Encoding::Data; }
+Encoding aov_encoding(Aov aov) {
+  return (aov == Aov::Albedo || aov == Aov::DiffuseColor || aov == Aov::Preview) ? Encoding::Colour : Encoding::Data;
+}
 
 namespace {
 
@@ -130,6 +134,11 @@ void aov_values(Aov aov, const AovSample& s, float* v) {
     case Aov::Depth: v[0] = s.hit ? s.depth : 0.0f; break;
     case Aov::Normal: v[0] = s.normal.x; v[1] = s.normal.y; v[2] = s.normal.z; break;
     case Aov::Albedo: v[0] = s.albedo.x; v[1] = s.albedo.y; v[2] = s.albedo.z; break;
+    case Aov::DiffuseColor: {
+      const Vec3 d = s.albedo * (1.0f - s.metallic);  // the diffuse closure's weight (Principled, simplified Disney)
+      v[0] = d.x, v[1] = d.y, v[2] = d.z;
+      break;
+    }
     case Aov::Roughness: v[0] = s.roughness; break;
     case Aov::Metallic: v[0] = s.metallic; break;
     case Aov::Preview: v[0] = s.preview.x; v[1] = s.preview.y; v[2] = s.preview.z; break;

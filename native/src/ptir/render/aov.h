@@ -16,7 +16,10 @@
 
 namespace ptir {
 
-enum class Aov { Opacity, Depth, Normal, Albedo, Roughness, Metallic, Preview };
+// DiffuseColor is Blender's Diffuse Color pass: the diffuse closure's weight,
+// base colour x (1 - metallic) for the Principled BSDF (what a dataset's albedo
+// ground truth is); Albedo is the base colour itself.
+enum class Aov { Opacity, Depth, Normal, Albedo, Roughness, Metallic, Preview, DiffuseColor };
 
 // "opacity", "depth", ... ; throws ptir::Error listing the valid names.
 Aov parse_aov(const std::string& name);
