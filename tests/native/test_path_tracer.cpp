@@ -50,6 +50,13 @@ Vec3 quadrature(BsdfModel model, const MaterialParams& params, Vec3 wo, Radiance
 
 using test::centre_mean;
 
+// The scene under a uniform white sky (radiance 1), path-traced.
+Image render_under_white_sky(Scene& scene, const IntegratorSettings& settings, const Camera& cam) {
+  scene.environment = Environment::constant(Vec3(1.0f), 8, 4);
+  PathTracer tracer(scene);
+  return render_path(tracer, cam, settings);
+}
+
 }  // namespace
 
 TEST(PathTracer, PlaneUnderAreaLightMatchesQuadrature) {
@@ -127,14 +134,11 @@ TEST(PathTracer, WhiteGaussianSphereFurnace) {
   for (BsdfModel model : {BsdfModel::Principled, BsdfModel::DisneySimplified}) {
   Scene scene;
   *scene.gaussians = test::gaussian_sphere(40000, 1.0f, Vec3(1.0f), 0.5f, 0.0f);
-  scene.environment = Environment::constant(Vec3(1.0f), 8, 4);
-  PathTracer tracer(scene);
   IntegratorSettings settings;
   settings.spp = 64;
   settings.max_bounces = 3;
   settings.brdf = model;
-  Camera cam = looking_down(Vec3(0, 0, 4.0f), 0.6f, 32);
-  Image img = render_path(tracer, cam, settings);
+  Image img = render_under_white_sky(scene, settings, looking_down(Vec3(0, 0, 4.0f), 0.6f, 32));
   // Pixels well inside the silhouette (full coverage, not grazing).
   double sum = 0, max_v = 0;
   int n = 0;
@@ -193,14 +197,12 @@ TEST(PathTracer, SplatLayerSeenFromBehindCastsShadowLikeAMesh) {
     } else {
       add_splat_layer(*scene.gaussians, 1.0f, 3.0f, Vec3(0.0f), 1.0f);
     }
-    scene.environment = Environment::constant(Vec3(1.0f), 8, 4);
-    PathTracer tracer(scene);
     IntegratorSettings settings;
     settings.spp = 256;
     settings.max_bounces = 2;
     settings.self_range_scale = self_range_scale;
-    Camera cam = looking_down(Vec3(0, 0, 0.5f), 0.05f, 9);  // between floor and roof
-    Image img = render_path(tracer, cam, settings);
+    // Seen from between the floor and the roof.
+    Image img = render_under_white_sky(scene, settings, looking_down(Vec3(0, 0, 0.5f), 0.05f, 9));
     return centre_mean(img, 0, 4);
   };
   const double mesh = floor_radiance(true, IntegratorSettings{}.self_range_scale);
