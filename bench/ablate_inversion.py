@@ -36,7 +36,7 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     correlated    one set of samples for the loss and its replay (--decorrelate-adjoint 0)
     fine_rate25/50  the fine environment texels at 25 % / 50 % of the coarse level's rate (--env-fine-rate)
-    no_ssim       the image loss without its D-SSIM term (--lambda-ssim 0)
+    no_ssim       the image loss without its D-SSIM term (--lambda-ssim 0, the default now); ssim: PTIR's 0.2
     no_blur       the render not blurred before the loss (--loss-blur 0); no_ssim_blur: both
     blur_both     the target blurred like the render (--loss-blur-target 1); blur_both_no_ssim: and no D-SSIM
     l2            the L1 term quadratic (Huber knee 1: L2 for every residual); l2_plain: L2 alone, no blur
@@ -117,6 +117,7 @@ ROWS = {
     "fine_rate25": ["--env-fine-rate", "0.25"],
     "fine_rate50": ["--env-fine-rate", "0.5"],
     "no_ssim": ["--lambda-ssim", "0"],
+    "ssim": ["--lambda-ssim", "0.2"],
     "no_blur": ["--loss-blur", "0"],
     "l2": ["--huber-delta", "1"],
     "blur_both": ["--loss-blur-target", "1"],
