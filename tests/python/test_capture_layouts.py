@@ -103,7 +103,7 @@ def test_every_layout_recovers_the_same_albedo(ptir, cli, capture_dirs, tmp_path
         out = tmp_path / name
         cmd = [str(cli), "optimize", "--dataset", str(root), "--gaussians", str(capture_dirs["ply"]), "--out", str(out),
                "--iters", "60", "--spp", "4", "--bounces", "1", "--env", "latlong", "--env-size", "16x8",
-               "--threads", "2", "--seed", "3", "-q", "--fit-iters", "0"]
+               "--threads", "2", "--seed", "3", "-q", "--fit-iters", "0", "--lambda-ssim", "0.2"]
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
         assert r.returncode == 0, r.stderr[-2000:]
         field = ptir.load_gaussians(str(out / "gaussians.ply"))
@@ -113,7 +113,10 @@ def test_every_layout_recovers_the_same_albedo(ptir, cli, capture_dirs, tmp_path
     assert min(psnr.values()) > start + 3.0, (psnr, start)  # it did recover something
     # The layouts differ only by the OPENCV lens (the NeRF twin's images are undistorted by the maker,
     # COLMAP's by the loader: one resampling apart). Measured spread: 0.29 dB without the light-albedo
-    # balance (19.74 / 20.03 dB), 0.31-0.33 dB with it (20.03-20.86 / 20.34-21.19 dB).
+    # balance (19.74 / 20.03 dB), 0.31-0.33 dB with it (20.03-20.86 / 20.34-21.19 dB); with the bounded
+    # self-skip 0.21 dB (18.72 / 18.93). The run keeps PTIR's D-SSIM (0.2), which these bounds were
+    # measured with: this 60-iteration run recovers 1.2 dB less without it (17.52 / 17.74 dB, start
+    # 14.83), the default since the 400-iteration object sets gain from dropping it (README, method notes).
     assert max(psnr.values()) - min(psnr.values()) < 0.4, psnr
 
 
