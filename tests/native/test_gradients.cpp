@@ -214,6 +214,28 @@ TEST(Gradients, LightBalanceIsTheDerivativeAlongItsMove) {
   EXPECT_NEAR(moved.environment.as<Environment>()->texels()[5], e0 * std::exp(-0.05f), 1e-5f);  // texel 1, blue
 }
 
+TEST(Gradients, LightBalanceCountsOnlyTheRiseAnAlbedoCanTake) {
+  // An albedo pinned at the top of its range cannot rise with the balance's step, so
+  // only the light's side of the move counts for it (else the balance runs away:
+  // every step darkens the light and moves no albedo); albedos with room to rise
+  // keep the plain derivative.
+  GradientScene gs = make_scene(false);
+  SceneGradients g = prb(gs.scene, gs.camera, settings_with(4), gs.weights);
+  for (Vec3& a : gs.scene.gaussians->albedo) a = Vec3(0.99995f, 0.5f, 0.2f);
+  Parameters p = make_parameters(gs.scene, ParameterSettings{});
+  const std::array<double, 3> plain = light_balance_derivative(p, gs.scene, g);
+  const std::array<double, 3> step = light_balance_derivative(p, gs.scene, g, 0.1f);
+  const std::vector<float>& t = gs.scene.environment.as<Environment>()->texels();
+  double light_side = 0.0, albedo_side = 0.0;
+  for (size_t i = 0; i < t.size(); i += 3) light_side -= double(t[i]) * double(g.environment[i]);
+  for (size_t i = 0; i < gs.scene.gaussians->size(); ++i) albedo_side += 0.99995 * double(g.gaussian_albedo[i][0]);
+  ASSERT_GT(std::fabs(albedo_side), 1e-3 * std::fabs(light_side));
+  EXPECT_NEAR(plain[0], light_side + albedo_side, 1e-9 + 1e-6 * std::fabs(plain[0]));
+  EXPECT_NEAR(step[0], light_side, 1e-9 + 1e-6 * std::fabs(light_side));  // pinned: the light alone
+  EXPECT_EQ(step[1], plain[1]);                                           // room to rise: unchanged
+  EXPECT_EQ(step[2], plain[2]);
+}
+
 TEST(Gradients, RoughnessAndMetallicMatchFiniteDifferencesInExpectation) {
   // Roughness moves the sampled directions, so a finite difference with common
   // random numbers jumps whenever a direction crosses a shadow or light edge: its

@@ -11,9 +11,19 @@ namespace {
 
 float sigmoid_of(float x) { return 1.0f / (1.0f + std::exp(-x)); }
 
+constexpr float kAlbedoCap = 1.0f - 1e-4f;  // the shift keeps albedos below this
+
+// The fraction of a rise by e^h that albedo a can take below the cap (1 for h <= 0).
+double rise_fraction(float a, float h) {
+  if (!(h > 0.0f) || !(a > 0.0f)) return 1.0;
+  const double risen = double(a) * std::exp(double(h));
+  if (risen <= double(kAlbedoCap)) return 1.0;
+  return std::clamp((double(kAlbedoCap) - double(a)) / (double(a) * std::expm1(double(h))), 0.0, 1.0);
+}
+
 // raw' with sigmoid(raw') = sigmoid(raw) e^d, kept inside (1e-4, 1 - 1e-4).
 float scaled_logit(float raw, float d) {
-  const float a = std::clamp(sigmoid_of(raw) * std::exp(d), 1e-4f, 1.0f - 1e-4f);
+  const float a = std::clamp(sigmoid_of(raw) * std::exp(d), 1e-4f, kAlbedoCap);
   return std::log(a / (1.0f - a));
 }
 
@@ -23,16 +33,21 @@ bool light_balance_applies(const Parameters& p, const Scene& scene) {
   return p.find(ParamKind::GaussianAlbedo) && p.find(ParamKind::Environment) && scene.environment.as<Environment>();
 }
 
-std::array<double, 3> light_balance_derivative(const Parameters& p, const Scene& scene, const SceneGradients& g) {
+std::array<double, 3> light_balance_derivative(const Parameters& p, const Scene& scene, const SceneGradients& g,
+                                               float up_step) {
   std::array<double, 3> d = {0.0, 0.0, 0.0};
   if (!light_balance_applies(p, scene)) return d;
   // Albedo side: sum a dL/da over the learnt albedos.
   const GaussianField& f = *scene.gaussians;
   for (size_t i = 0; i < f.size() && i < g.gaussian_albedo.size(); ++i)
-    for (int c = 0; c < 3; ++c) d[c] += double(f.albedo[i][c]) * double(g.gaussian_albedo[i][c]);
+    for (int c = 0; c < 3; ++c)
+      d[c] += double(f.albedo[i][c]) * rise_fraction(f.albedo[i][c], up_step) * double(g.gaussian_albedo[i][c]);
   if (p.find(ParamKind::MeshColour))
     for (size_t i = 0; i < scene.meshes.size() && i < g.mesh_base_colour.size(); ++i)
-      for (int c = 0; c < 3; ++c) d[c] += double(scene.meshes[i].material.base_colour[c]) * double(g.mesh_base_colour[i][c]);
+      for (int c = 0; c < 3; ++c) {
+        const float a = scene.meshes[i].material.base_colour[c];
+        d[c] += double(a) * rise_fraction(a, up_step) * double(g.mesh_base_colour[i][c]);
+      }
   // Light side: minus sum E dL/dE over the texels.
   const std::vector<float>& texels = scene.environment.as<Environment>()->texels();
   for (size_t t = 0; t < texels.size() && t < g.environment.size(); ++t) d[t % 3] -= double(texels[t]) * double(g.environment[t]);

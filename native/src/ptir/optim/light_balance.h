@@ -33,7 +33,17 @@ bool light_balance_applies(const Parameters& p, const Scene& scene);
 
 // dL/d delta_c for the gradients `g` of the scene's current values (Gaussian
 // albedos, mesh base colours when their group is learnt, lat-long texels).
-std::array<double, 3> light_balance_derivative(const Parameters& p, const Scene& scene, const SceneGradients& g);
+//
+// up_step > 0: the derivative along the move a step of that size (in delta)
+// actually makes. An albedo near the top of its range cannot rise by e^up_step
+// (light_balance_shift clamps it), so its term is weighted by the fraction of the
+// rise it can take: (min(a e^h, cap) - a) / (a (e^h - 1)), 1 below cap e^-h.
+// Without it a bright channel ran away: its albedos pinned at the cap, the
+// interreflection evidence kept asking for brighter albedos, and each step only
+// darkened the light (measured: the sample from a 0.5 start, red light / 110 in
+// 40 steps). up_step = 0: the plain derivative at the current values.
+std::array<double, 3> light_balance_derivative(const Parameters& p, const Scene& scene, const SceneGradients& g,
+                                               float up_step = 0.0f);
 
 // Moves the raw parameters by delta (log, per channel): albedos (Gaussians', and
 // meshes' when learnt) times e^delta, clamped inside the sigmoid's range; the

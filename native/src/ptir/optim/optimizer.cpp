@@ -575,10 +575,11 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
     // The balance's derivative (light_balance.h) counts the image term only: by
     // linearity, its change across image_term on this rank's gradients.
     const bool balance = with_gradients && params_.find(ParamKind::LightBalance);
-    const auto d0 = balance ? light_balance_derivative(params_, *scene_, grads_) : std::array<double, 3>{};
+    const float up_step = float(settings_.params.lr_balance * lr_factor(it));  // the largest step Adam takes
+    const auto d0 = balance ? light_balance_derivative(params_, *scene_, grads_, up_step) : std::array<double, 3>{};
     image_term(w, inv_k, with_gradients, control, log);
     if (balance) {
-      const auto d1 = light_balance_derivative(params_, *scene_, grads_);
+      const auto d1 = light_balance_derivative(params_, *scene_, grads_, up_step);
       for (int c = 0; c < 3; ++c) balance_grad_[c] += d1[c] - d0[c];
     }
     regulariser_terms(w, inv_k, with_gradients, control, log);
