@@ -29,7 +29,7 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     env_smooth    smoothness prior on the environment's log radiance (--lambda-env-smooth 1e-3)
     env_smooth10  the same prior at 1e-2; env_smooth_off: 0
     env_chroma    colour-consistency prior on the environment (--lambda-env-chroma 3); env_chroma30: 30
-    init_albedo5/7  the albedo starts at 0.5 / 0.7 instead of 0.3 (--init-albedo)
+    init_albedo3/5/7  the albedo starts at 0.3 (PTIR's, the default) / 0.5 / 0.7 (--init-albedo)
     balance       learn the light-albedo balance (--light-balance 1); no_balance: without it (--light-balance 0)
     balance10     the balance's rate 0.1 instead of 0.03 (--lr-balance 0.1)
     lr_env3       the environment's rate 3x (--lr-env 0.105)
@@ -38,7 +38,8 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     fine_rate25/50  the fine environment texels at 25 % / 50 % of the coarse level's rate (--env-fine-rate)
     no_ssim       the image loss without its D-SSIM term (--lambda-ssim 0, the default now); ssim: PTIR's 0.2
     no_blur       the render not blurred before the loss (--loss-blur 0); no_ssim_blur: both
-    blur_both     the target blurred like the render (--loss-blur-target 1); blur_both_no_ssim: and no D-SSIM
+    blur_both     the target blurred like the render (--loss-blur-target 1, the default now); blur_both_no_ssim: and no
+                  D-SSIM; blur_render_only: the render alone blurred (--loss-blur-target 0, the default before)
     l2            the L1 term quadratic (Huber knee 1: L2 for every residual); l2_plain: L2 alone, no blur
     average75     write the mean of the last quarter's iterates, not the last one (--average-from 0.75)
     average50/90  the mean of the iterates from 50 % / 90 % of the run on (--average-from)
@@ -96,6 +97,7 @@ ROWS = {
     "env_smooth_off": ["--lambda-env-smooth", "0"],
     "env_chroma": ["--lambda-env-chroma", "3"],
     "env_chroma30": ["--lambda-env-chroma", "30"],
+    "init_albedo3": ["--init-albedo", "0.3"],
     "init_albedo5": ["--init-albedo", "0.5"],
     "init_albedo7": ["--init-albedo", "0.7"],
     "balance": ["--light-balance", "1"],
@@ -117,6 +119,7 @@ ROWS = {
     "fine_rate25": ["--env-fine-rate", "0.25"],
     "fine_rate50": ["--env-fine-rate", "0.5"],
     "no_ssim": ["--lambda-ssim", "0"],
+    "blur_render_only": ["--loss-blur-target", "0"],
     "ssim": ["--lambda-ssim", "0.2"],
     "no_blur": ["--loss-blur", "0"],
     "l2": ["--huber-delta", "1"],
