@@ -408,6 +408,9 @@ Runner add_optimize_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--lr-albedo", o->opt.lr_albedo, "the Gaussians' albedo Adam learning rate (logit per step)")
       ->capture_default_str();
+  cmd->add_option("--lr-metallic", o->opt.lr_metallic,
+                  "the Gaussians' metallic Adam learning rate (logit per step; with --optimize-metallic)")
+      ->capture_default_str();
   cmd->add_option("--lr-roughness", o->opt.lr_roughness, "the Gaussians' roughness Adam learning rate (logit per step)")
       ->capture_default_str();
   cmd->add_option("--env-fine-rate", o->opt.env_fine_rate,

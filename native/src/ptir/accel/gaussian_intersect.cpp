@@ -33,10 +33,13 @@ PTIR_INLINE void intersect_one(RoundContext* rc, RTCRayHit* rh, const GaussianTr
   if (surely_outside(dd, cc, g.accept_d2)) return;
   peak_from_parts(dd, od, cc, t, d2);
   if (!after_start(t, g.id, rc->t_start[0], rc->id_start[0]) || !(t <= ray.tfar)) return;
-  // Cull on the squared distance at the peak; exp only for accepted hits.
-  float alpha = hit_alpha(d2, g.opacity, g.accept_d2, rc->cull);
+  // Cull on the squared distance at the peak (hit_alpha's test), then the skip
+  // (a fifth of a spawned ray's candidates: the surface it leaves), and exp only
+  // for the hits that remain.
+  if (!(d2 <= g.accept_d2)) return;
+  if (rc->skip && (*rc->skip)(GaussianHit{t, 0.0f, g.id})) return;
+  const float alpha = accepted_alpha(d2, g.opacity, rc->cull);
   if (alpha <= 0.0f) return;
-  if (rc->skip && (*rc->skip)(GaussianHit{t, alpha, g.id})) return;
   rc->buffer[0].offer(t, alpha, g.id, ray.tfar, rh->hit.geomID);
 }
 

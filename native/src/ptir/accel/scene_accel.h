@@ -108,7 +108,8 @@ class SceneAccel {
   // skip: hits for which it returns true are dropped inside the traversal, as if
   // they were not there (they take no k-buffer slot and no transmittance), so a
   // visitor that would pass over them (the surface a ray leaves) can still use
-  // stop_when_opaque.
+  // stop_when_opaque. It is asked before the hit's alpha is evaluated (the hit it
+  // gets has alpha 0), so it must decide on t_peak and the id alone.
   template <class Visit>
   WalkEnd walk(const Ray& ray, Visit&& visit, TraceStats* stats = nullptr, bool stop_when_opaque = false,
                const HitTest* skip = nullptr) const;

@@ -80,6 +80,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.lr_albedo = o.lr_albedo;
   if (!(o.lr_roughness > 0.0f)) throw Error(names("lr_roughness") + " must be > 0");
   s.params.lr_roughness = o.lr_roughness;
+  if (!(o.lr_metallic > 0.0f)) throw Error(names("lr_metallic") + " must be > 0");
+  s.params.lr_metallic = o.lr_metallic;
   if (!(o.env_fine_rate > 0.0f && o.env_fine_rate <= 1.0f)) throw Error(names("env_fine_rate") + " must be in (0, 1]");
   s.params.env_fine_lr_scale = o.env_fine_rate;
   if (!(o.init_albedo > 0.0f && o.init_albedo < 1.0f)) throw Error(names("init_albedo") + " must be in (0, 1)");

@@ -50,6 +50,7 @@ struct OptimizeOptions {
   float lr_env = ParameterSettings{}.lr_env;  // the environment's Adam rate (both levels)
   float lr_albedo = ParameterSettings{}.lr_albedo;        // the Gaussians' albedo logits' Adam rate
   float lr_roughness = ParameterSettings{}.lr_roughness;  // the Gaussians' roughness logits' Adam rate
+  float lr_metallic = ParameterSettings{}.lr_metallic;    // the Gaussians' metallic logits' Adam rate (when optimised)
   float env_fine_rate = ParameterSettings{}.env_fine_lr_scale;  // the fine texels' share of it
   std::string env_adam = OptimizerSettings{}.env_shared_moment ? "shared" : "texel";
   int env_coarse = ParameterSettings{}.env_coarse_width;
