@@ -6,6 +6,8 @@ The build folder is $PTIR_BUILD_DIR (the Makefile exports it), else <repo>/build
 import json
 import math
 import os
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -19,6 +21,18 @@ MODULE_DIR = BUILD / "python"
 sys.path.insert(0, str(REPO / "scripts"))  # blender_kit: the scripts' shared helpers (look_at)
 
 SH_C0 = 0.28209479177387814
+
+# Blender in the background, as the tests that make Cycles datasets call it, and
+# the mark that skips them where it is not installed.
+BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
+needs_blender = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
+
+
+def run_checked(cmd, timeout):
+    """Runs cmd (paths allowed); fails the test with the command and its output's tail unless it exits 0."""
+    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout)
+    assert r.returncode == 0, " ".join(map(str, cmd)) + "\n" + r.stdout[-3000:] + r.stderr[-3000:]
+    return r
 
 
 def write_splat_ply(path, position, sigma, quat=None, opacity=0.95, colour=(0.5, 0.5, 0.5), sh_rest=45):

@@ -14,27 +14,18 @@ and reach absolute levels that only a working inversion reaches on this object.
 """
 
 import json
-import os
-import shutil
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
 import skimage.io
 
-from ptir_testing import REPO
+from ptir_testing import BLENDER, REPO, needs_blender
+from ptir_testing import run_checked as run
 
-BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
-pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
+pytestmark = needs_blender
 
 ITERS = 300  # tiny dataset: 48x48 images, 8 training views, 8 spp: about 30 s on 2 cores
-
-
-def run(cmd, timeout):
-    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout)
-    assert r.returncode == 0, " ".join(map(str, cmd)) + "\n" + r.stdout[-3000:] + r.stderr[-3000:]
-    return r
 
 
 @pytest.fixture(scope="module")

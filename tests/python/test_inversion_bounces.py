@@ -10,22 +10,11 @@ Measured (64 px, 16 training views, 300 iterations x 8 spp, eval 32 spp; seeds 0
 """
 
 import json
-import os
-import shutil
-import subprocess
 
-import pytest
+from ptir_testing import BLENDER, REPO, needs_blender
+from ptir_testing import run_checked as run
 
-from ptir_testing import REPO
-
-BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
-pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
-
-
-def run(cmd, timeout):
-    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout)
-    assert r.returncode == 0, " ".join(map(str, cmd)) + "\n" + r.stdout[-3000:] + r.stderr[-3000:]
-    return r
+pytestmark = needs_blender
 
 
 def invert_and_score(cli, data, out, bounces):

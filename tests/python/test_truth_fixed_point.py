@@ -19,23 +19,14 @@ light only 29.46 / 29.49 / 29.57, 5.6-5.8 dB lower.
 """
 
 import json
-import os
-import shutil
-import subprocess
 import sys
 
 import pytest
 
-from ptir_testing import REPO
+from ptir_testing import BLENDER, REPO, needs_blender
+from ptir_testing import run_checked as run
 
-BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
-pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
-
-
-def run(cmd, timeout):
-    r = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, timeout=timeout)
-    assert r.returncode == 0, " ".join(map(str, cmd)) + "\n" + r.stdout[-3000:] + r.stderr[-3000:]
-    return r
+pytestmark = needs_blender
 
 
 def score(cli, twin, result):
