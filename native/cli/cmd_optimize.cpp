@@ -88,6 +88,7 @@ struct OptimizeCommand {
   bool force = false;
   CaptureFlags capture;  // real captures (docs/dataset_format.md)
   int fit_iters = 1500;  // the geometry stage first (0: the splats' geometry as given)
+  bool fitted = false;   // the inversion runs on splats its geometry stage fitted (OUT/fit/)
 };
 
 // Defaults that depend on the dataset: the environment model (24 SGs for real
@@ -182,7 +183,10 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm) {
   const std::string fitted = (fit_dir / "gaussians.ply").string();
   std::error_code ec;
   if (o.resume && fs::exists(fs::path(o.out) / "checkpoint.bin", ec)) {
-    if (fs::exists(fitted, ec)) o.gaussians = fitted;
+    if (fs::exists(fitted, ec)) {
+      o.gaussians = fitted;
+      o.fitted = true;
+    }
     return 0;
   }
   if (o.estimate) return 0;  // the estimate is the inversion's alone
@@ -214,6 +218,7 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm) {
   remove_stale_outputs({f.out}, o.quiet);
   const int rc = run_fit_stage(f, "ptir optimize ... --resume");
   o.gaussians = fitted;
+  o.fitted = true;
   return rc;
 }
 
@@ -230,6 +235,9 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
   if (comm.rank() == 0 && !o.estimate) remove_stale_outputs({o.out}, o.quiet);
   if (const int rc = geometry_stage(o, comm)) return rc;
+  // Bounce light from the splats' captured radiance where the geometry stage has
+  // just fitted their SH to these photos (field_radiance.h); else path-traced.
+  if (o.opt.indirect == "auto") o.opt.indirect = o.fitted ? "field" : "path";
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
@@ -238,9 +246,11 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (!o.quiet)
     std::fprintf(stderr,
-                 "optimize: %zu Gaussians, %zu %s views %dx%d%s, %d iterations, %d spp, %d bounces, env %s, seed %llu\n",
+                 "optimize: %zu Gaussians, %zu %s views %dx%d%s, %d iterations, %d spp, %d bounces (indirect: %s), env %s, "
+                 "seed %llu\n",
                  opt.scene().gaussians->size(), data->size(), data->split.c_str(), data->width, data->height,
-                 data->has_priors() ? " (with priors)" : "", o.opt.iters, o.opt.spp, o.opt.bounces, o.opt.env.c_str(),
+                 data->has_priors() ? " (with priors)" : "", o.opt.iters, o.opt.spp, o.opt.bounces, o.opt.indirect.c_str(),
+                 o.opt.env.c_str(),
                  (unsigned long long)o.opt.seed);
   if (!o.quiet && comm.size() > 1)
     std::fprintf(stderr, "optimize: %d MPI ranks, each view split in row bands across them\n", comm.size());
@@ -318,6 +328,11 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--iters", o->opt.iters, "iterations")->capture_default_str();
   cmd->add_option("--spp", o->opt.spp, "samples per pixel per iteration")->capture_default_str();
   cmd->add_option("--bounces", o->opt.bounces, "indirect bounces")->capture_default_str();
+  cmd->add_option("--indirect", o->opt.indirect,
+                  "light a ray leaving a vertex brings back from the splats: path (another vertex, shaded with the "
+                  "current materials and light), field (the splats' captured SH radiance) or auto (field when the "
+                  "geometry stage fitted the splats to these photos, else path)")
+      ->capture_default_str();
   cmd->add_option("--env", o->opt.env,
                   "environment model: latlong (texels), sg (24 spherical Gaussians) or color (one constant colour); "
                   "auto: sg for real captures, latlong for NeRF-synthetic sets")

@@ -90,11 +90,12 @@ std::unique_ptr<PyOptimizer> make_optimizer(py::object dataset, py::object gauss
                                             const std::string& loss_space, float lambda_tv, bool optimize_metallic,
                                             bool optimize_meshes, const std::string& split, std::optional<std::string> prior,
                                             std::optional<int> threads, int k, std::optional<std::string> env_init,
-                                            bool fix_env) {
+                                            bool fix_env, const std::string& indirect) {
   OptimizeOptions o;
   o.iters = iters;
   o.spp = spp;
   o.bounces = bounces;
+  o.indirect = indirect;
   o.seed = seed;
   o.views_per_iter = views_per_iter;
   o.crop = crop;
@@ -180,7 +181,7 @@ void def_optimizer_class(py::module_& m) {
            py::arg("crop") = 0, py::arg("loss_space") = "srgb", py::arg("lambda_tv") = 0.095f,
            py::arg("optimize_metallic") = false, py::arg("optimize_meshes") = false, py::arg("split") = "train",
            py::arg("prior") = py::none(), py::arg("threads") = py::none(), py::arg("k") = 16,
-           py::arg("env_init") = py::none(), py::arg("fix_env") = false)
+           py::arg("env_init") = py::none(), py::arg("fix_env") = false, py::arg("indirect") = "path")
       .def_property_readonly("iteration", [](const PyOptimizer& p) { return p.opt->iteration(); })
       .def_property("iterations", [](const PyOptimizer& p) { return p.opt->settings().iterations; },
                     [](PyOptimizer& p, int n) {
@@ -239,10 +240,11 @@ void def_optimize_function(py::module_& m) {
            int spp, int bounces, const std::string& env, std::pair<int, int> env_size, uint64_t seed, bool resume,
            int views_per_iter, int crop, const std::string& loss_space, float lambda_tv, bool optimize_metallic,
            bool optimize_meshes, const std::string& split, std::optional<std::string> prior, std::optional<int> threads,
-           int checkpoint_every, py::object callback, std::optional<std::string> env_init, bool fix_env) {
+           int checkpoint_every, py::object callback, std::optional<std::string> env_init, bool fix_env,
+           const std::string& indirect) {
           auto p = make_optimizer(dataset, gaussians, scene, iters, spp, bounces, env, env_size, seed, views_per_iter, crop,
                                   loss_space, lambda_tv, optimize_metallic, optimize_meshes, split, prior, threads, 16,
-                                  env_init, fix_env);
+                                  env_init, fix_env, indirect);
           if (resume) {
             std::string ckpt = (std::filesystem::path(out) / "checkpoint.bin").string();
             if (!std::filesystem::exists(ckpt)) throw Error(ckpt, "resume: no checkpoint to continue from");
@@ -265,7 +267,9 @@ void def_optimize_function(py::module_& m) {
         py::arg("optimize_metallic") = false, py::arg("optimize_meshes") = false, py::arg("split") = "train",
         py::arg("prior") = py::none(), py::arg("threads") = py::none(), py::arg("checkpoint_every") = 50,
         py::arg("callback") = py::none(), py::arg("env_init") = py::none(), py::arg("fix_env") = false,
-        "`ptir optimize` from Python: writes out/gaussians.ply, env.exr, log.csv, checkpoint.bin. Returns "
+        py::arg("indirect") = "path",
+        "`ptir optimize` from Python (no geometry stage: `indirect` 'field' takes the bounce light from the splats' SH, "
+        "right when they were fitted to these photos): writes out/gaussians.ply, env.exr, log.csv, checkpoint.bin. Returns "
         "{'result': 'finished'|'cancelled', 'iteration': n, 'log': [...]}.");
 }
 

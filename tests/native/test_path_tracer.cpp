@@ -344,3 +344,42 @@ TEST(PathTracer, EscapeQueryMatchesTheNextEvent) {
     EXPECT_GT(from_gaussian, 100) << escaped << " escaped, " << stopped << " stopped";
   }
 }
+
+TEST(PathTracer, IndirectFromFieldEndsOnTheSplatsRadiance) {
+  // A grey splat floor under a splat ceiling 1 above it (normals down, albedo 0),
+  // in a black sky: path-traced, nothing lights the floor. With the ceiling's SH
+  // holding a radiance R (what the photos of a lit ceiling would have fitted), the
+  // inversion's bounce light from the field makes the floor reflect R from every
+  // direction the ceiling covers: the BSDF's quadrature over the ceiling's solid
+  // angle, times R.
+  const float R = 0.6f, h = 3.0f;
+  Scene scene;
+  scene.gaussians->normals_from_file = true;
+  add_splat_layer(*scene.gaussians, 0.0f, 6.0f, Vec3(0.5f), 0.5f);
+  const size_t floor_count = scene.gaussians->size();
+  add_splat_layer(*scene.gaussians, 1.0f, h, Vec3(0.0f), 1.0f);
+  GaussianField& f = *scene.gaussians;
+  const float dc = ((R <= 0.0031308f ? 12.92f * R : 1.055f * std::pow(R, 1.0f / 2.4f) - 0.055f) - 0.5f) / 0.28209479f;
+  for (size_t i = floor_count; i < f.size(); ++i) {
+    f.normal[i] = Vec3(0, 0, -1);
+    for (int c = 0; c < 3; ++c) f.sh[i * 3 + c] = dc;  // degree 0: the DC term per channel
+  }
+  scene.environment = Environment::constant(Vec3(0.0f), 8, 4);
+  IntegratorSettings settings;
+  settings.spp = 256;
+  settings.max_bounces = 2;
+  const Camera cam = looking_down(Vec3(0, 0, 0.5f), 0.05f, 9);
+  PathTracer tracer(scene);
+  const double path_traced = centre_mean(render_path(tracer, cam, settings), 0, 4);
+  settings.indirect_from_field = true;
+  const double from_field = centre_mean(render_path(tracer, cam, settings), 0, 4);
+  // The ceiling covers the directions with |wi.x|, |wi.y| <= h wi.z (seen from the floor's centre, 1 below).
+  const MaterialParams floor_brdf{Vec3(0.5f), 0.5f, 0.0f};
+  const double expected = R * quadrature(BsdfModel::Principled, floor_brdf, Vec3(0, 0, 1), [h](Vec3 wi) {
+                                return std::fabs(wi.x) <= h * wi.z && std::fabs(wi.y) <= h * wi.z ? 1.0f : 0.0f;
+                              }).x;
+  std::printf("floor: path-traced %.4f, bounce light from the field %.4f, quadrature %.4f\n", path_traced, from_field,
+              expected);
+  EXPECT_LT(path_traced, 1e-6);
+  EXPECT_NEAR(from_field, expected, 0.03 * expected);
+}

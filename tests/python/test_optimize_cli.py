@@ -246,10 +246,13 @@ def ply_count(path):
 
 def test_geometry_stage_runs_first_by_default(ptir, cli, dataset, tmp_path):
     """The inversion runs on the splats the geometry stage fitted (OUT/fit/), and a
-    resumed inversion keeps them; --fit-iters 0 keeps the input's geometry."""
+    resumed inversion keeps them; --fit-iters 0 keeps the input's geometry. The
+    bounce light comes from the fitted splats' SH (--indirect auto), and is
+    path-traced on splats as given."""
     out = tmp_path / "fitted"
     r = optimize(cli, dataset, out, "--iters", 2, "--fit-iters", 30)
     assert "fit: 600 Gaussians" in r.stderr, r.stderr[-2000:]
+    assert "(indirect: field)" in r.stderr, r.stderr[-2000:]
     fit_log = (out / "fit" / "log.csv").read_text().splitlines()
     assert len(fit_log) == 31 and fit_log[-1].startswith("30,")
     n_fit = ply_count(out / "fit" / "gaussians.ply")
@@ -259,10 +262,17 @@ def test_geometry_stage_runs_first_by_default(ptir, cli, dataset, tmp_path):
     assert np.abs(np.asarray(fitted.position)[:600] - np.asarray(given.position)).max() > 1e-4  # the fit moved them
     r = optimize(cli, dataset, out, "--iters", 4, "--fit-iters", 30, "--resume")
     assert "fit:" not in r.stderr and "resumed from" in r.stderr
+    assert "(indirect: field)" in r.stderr
     assert ply_count(out / "gaussians.ply") == n_fit
+    # The checkpoint knows how its bounce light was made: path-traced cannot continue it.
+    r = optimize(cli, dataset, out, "--iters", 5, "--fit-iters", 30, "--resume", "--indirect", "path", check=False)
+    assert r.returncode != 0 and "indirect: only in the checkpoint (field)" in r.stderr, r.stderr[-2000:]
     plain = tmp_path / "plain"
     r = optimize(cli, dataset, plain, "--iters", 2)  # (the helper's default: --fit-iters 0)
     assert not (plain / "fit").exists() and ply_count(plain / "gaussians.ply") == 600
+    assert "(indirect: path)" in r.stderr
+    r = optimize(cli, dataset, tmp_path / "bad", "--iters", 1, "--indirect", "splats", check=False)
+    assert r.returncode != 0 and "--indirect must be 'auto', 'path' or 'field', got 'splats'" in r.stderr
 
 
 def test_geometry_stage_is_skipped_for_scenes_with_meshes(cli, dataset, tmp_path):

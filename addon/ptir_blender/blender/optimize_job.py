@@ -219,6 +219,9 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
             "--env-size", "%dx%d" % (settings.env_width, settings.env_height), "--seed", settings.seed,
             "--views-per-iter", settings.views_per_iter, "--crop", settings.crop,
             "--fit-iters", 0]  # the flow's own fit stage (above) decides, with its progress
+    # The bounce light from the splats' SH where that fit makes them what the photos saw
+    # (`ptir optimize --indirect`; its "auto" sees only its own fit stage).
+    args += ["--indirect", "field" if job.fit_args else "path"]
     if scene_json:
         args += ["--scene", scene_json]
     if want_meshes:

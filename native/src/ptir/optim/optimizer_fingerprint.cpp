@@ -108,6 +108,8 @@ Fingerprint Optimizer::fingerprint() const {
       {"huber", num(settings_.loss.huber_delta)},
       {"orient_normals", settings_.orient_normals ? "1" : "0"},
   };
+  // Only then: checkpoints of path-traced bounce light (and from before) still resume.
+  if (is.indirect_from_field) fp.push_back({"indirect", "field"});
   const LightSolveSettings& ls = settings_.light_solve;
   if (!ls.at.empty()) {  // only then: checkpoints from before the light solve still resume
     std::string at;

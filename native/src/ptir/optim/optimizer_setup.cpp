@@ -55,6 +55,9 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.iterations = o.iters;
   s.integrator.spp = o.spp;
   s.integrator.max_bounces = o.bounces;
+  if (o.indirect != "auto" && o.indirect != "path" && o.indirect != "field")
+    throw Error(names("indirect") + " must be 'auto', 'path' or 'field', got '" + o.indirect + "'");
+  s.integrator.indirect_from_field = o.indirect == "field";
   s.seed = o.seed;
   s.views_per_iteration = o.views_per_iter;
   s.crop_size = o.crop;

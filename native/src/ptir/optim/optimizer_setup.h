@@ -29,6 +29,12 @@ struct OptimizeOptions {
   int iters = 800;
   int spp = 32;
   int bounces = 2;
+  // Where a ray leaving a vertex takes its light when it meets the splats: "path"
+  // (another vertex, shaded with the current estimate) or "field" (the splats'
+  // captured radiance; IntegratorSettings::indirect_from_field). "auto" is "path"
+  // here; `ptir optimize` makes it "field" when its geometry stage fitted the
+  // splats' SH to the photos (then they hold what the photos saw).
+  std::string indirect = "auto";
   uint64_t seed = 0;
   int views_per_iter = 1;
   int crop = 0;

@@ -75,6 +75,13 @@ struct IntegratorSettings {
   // the materials, and the replay holds every sampling decision fixed.
   bool russian_roulette = true;
   int min_light_bounces = 0;
+  // Indirect light from the captured radiance (the inversion's option): a ray
+  // that leaves a vertex and meets the splats ends there with the radiance their
+  // SH colour holds (the DC term, what the training photos saw, sRGB-decoded)
+  // instead of being shaded with the current materials and light. The bounce
+  // light then comes from the data, not from the estimate whose level and light
+  // it would otherwise have to follow (transport/field_radiance.h).
+  bool indirect_from_field = false;
 };
 
 }  // namespace ptir

@@ -17,6 +17,7 @@ bool InteractionBuilder::add(const GaussianHit& hit) {
     if (!field_.specular.empty()) sum_s_ += w * field_.specular[hit.id];
     if (!field_.specular_tint.empty()) sum_st_ += w * field_.specular_tint[hit.id];
     sum_size_ += w * max_component(field_.scale[hit.id]);
+    if (radiance_) sum_rad_ += w * radiance_[hit.id];
   } else {
     // Weighted reservoir of size one: hit j survives with probability w_j / O.
     if (pick_rng_.at(hits_) * O_ < w) {
@@ -46,6 +47,7 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
     si.specular = field_.specular.empty() ? kDefaultSpecular : sum_s_ * inv;
     si.specular_tint = field_.specular_tint.empty() ? kDefaultSpecularTint : sum_st_ * inv;
     si.size = sum_size_ * inv;
+    si.radiance = sum_rad_ * inv;
   } else {
     si.picked = picked_;
     si.depth = picked_t_;
@@ -56,6 +58,7 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
     si.specular = field_.specular_of(picked_);
     si.specular_tint = field_.specular_tint_of(picked_);
     si.size = max_component(field_.scale[picked_]);
+    if (radiance_) si.radiance = radiance_[picked_];
   }
   si.p = ray.at(si.depth);
   // Normal rule: normalise the aggregate, then flip it to face the incoming ray, so

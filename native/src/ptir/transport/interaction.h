@@ -34,6 +34,7 @@ struct SurfaceInteraction {
   float size = 0.0f;           // sum w_i max(scale_i): the footprint of the Gaussians involved
   uint32_t hits = 0;           // Gaussians composited
   uint32_t picked = 0;         // discrete mode: the Gaussian chosen
+  Vec3 radiance;               // the splats' own radiance (builder given field_radiance), composited
 };
 
 // One composited hit and its unnormalised weight T_i alpha_i (for gradient replay).
@@ -47,9 +48,17 @@ class InteractionBuilder {
  public:
   // pick_key seeds the per-hit uniforms of the discrete pick (replayable). When
   // `record` is given, every composited hit is appended to it with its weight.
+  // With `radiance` (field_radiance.h, one per Gaussian) the interaction also
+  // composites the splats' own radiance.
   InteractionBuilder(const GaussianField& field, const InteractionSettings& settings, float min_transmittance,
-                     uint64_t pick_key = 0, std::vector<WeightedHit>* record = nullptr)
-      : field_(field), settings_(settings), min_transmittance_(min_transmittance), pick_rng_(pick_key), record_(record) {}
+                     uint64_t pick_key = 0, std::vector<WeightedHit>* record = nullptr,
+                     const Vec3* radiance = nullptr)
+      : field_(field),
+        settings_(settings),
+        min_transmittance_(min_transmittance),
+        pick_rng_(pick_key),
+        record_(record),
+        radiance_(radiance) {}
 
   // Composites one hit; returns false once the ray is opaque (T < min_transmittance).
   bool add(const GaussianHit& hit);
@@ -65,12 +74,13 @@ class InteractionBuilder {
   float min_transmittance_;
   Rng pick_rng_;
   std::vector<WeightedHit>* record_;
+  const Vec3* radiance_;
   float T_ = 1.0f;
   float O_ = 0.0f;
   uint32_t hits_ = 0;
   // Aggregate sums of w_i * attribute (unnormalised), or the picked hit's values.
   float sum_t_ = 0.0f;
-  Vec3 sum_n_, sum_a_;
+  Vec3 sum_n_, sum_a_, sum_rad_;
   float sum_r_ = 0.0f, sum_m_ = 0.0f, sum_size_ = 0.0f, sum_s_ = 0.0f, sum_st_ = 0.0f;
   uint32_t picked_ = 0;
   float picked_t_ = 0.0f;

@@ -8,6 +8,7 @@
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/rng.h"
 #include "ptir/math/sampling.h"
+#include "ptir/transport/field_radiance.h"
 #include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/interaction.h"
 #include "ptir/transport/scattering.h"
@@ -22,6 +23,7 @@ PathTracer::PathTracer(const Scene& scene, const AccelSettings& accel_settings) 
     for (const Vec3& v : m.vertices) extent = std::max(extent, max_component(vabs(v)));
   for (const Vec3& p : scene.gaussians->position) extent = std::max(extent, max_component(vabs(p)));
   mesh_epsilon_ = 1e-5f * std::max(1.0f, extent);
+  field_radiance_ = field_radiance(*scene.gaussians);
 }
 
 namespace {
@@ -87,7 +89,7 @@ void PathTracer::sample_radiance_batch(const Ray* camera_rays, int n, const uint
                                        const IntegratorSettings& settings, Vec3* L, float* coverage, PathStats* stats,
                                        uint64_t* shadow_bits, PathWalkWriter* walks) const {
   constexpr int P = SceneAccel::kMaxPacket;
-  Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
+  Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_, radiance());
   thread_local WalkCapture captures[P];
   for (int first = 0; first < n; first += P) {
     const int m = std::min(P, n - first);
@@ -120,7 +122,7 @@ void PathTracer::sample_radiance_batch(const Ray* camera_rays, int n, const uint
 void PathTracer::sample_adjoint_batch(const Ray* camera_rays, int n, const uint64_t* pixels, const uint32_t* samples,
                                       const IntegratorSettings& settings, const PathAdjoint* adjoints) const {
   constexpr int P = SceneAccel::kMaxPacket;
-  Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
+  Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_, radiance());
   thread_local std::vector<WeightedHit> records[P];
   for (int first = 0; first < n; first += P) {
     const int m = std::min(P, n - first);
@@ -162,7 +164,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
   uint64_t* shadow_bits = io.shadow_bits;
   const Scene& scene = scene_;
   const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
-  Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_);
+  Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_, radiance());
 
   // Primal: L accumulates. Replay: L_rem starts at the primal L and loses every
   // contribution as it is passed; what is left is what later vertices bring.
@@ -261,6 +263,14 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     if (ev.kind == NextEvent::Absorbed) break;
     if (ev.kind == NextEvent::Escape) {
       escape();
+      break;
+    }
+    // Indirect light from the captured radiance: a ray leaving a vertex that meets
+    // the splats ends with what they carry (IntegratorSettings::indirect_from_field).
+    // No parameter defines it; its share reaches the previous vertex's BSDF through
+    // L_rem like any later radiance.
+    if (ev.kind == NextEvent::Gaussian && bounce > 0 && settings.indirect_from_field && radiance()) {
+      add(beta * ev.si.radiance);
       break;
     }
     // Emissive meshes are reached by BRDF sampling only (no MIS partner).

@@ -78,6 +78,8 @@ class PathTracer {
 
   const Scene& scene() const { return scene_; }
   const SceneAccel& accel() const { return *accel_; }
+  // The splats' own radiance per Gaussian (null without SH): field_radiance.h.
+  const Vec3* radiance() const { return field_radiance_.empty() ? nullptr : field_radiance_.data(); }
 
  private:
   // What one path reads and writes besides its radiance (all optional).
@@ -100,6 +102,9 @@ class PathTracer {
   const Scene& scene_;
   std::unique_ptr<SceneAccel> accel_;
   float mesh_epsilon_ = 1e-4f;  // offset of rays leaving a mesh, relative to the scene's size
+  // The splats' own radiance (field_radiance.h) for indirect_from_field; empty
+  // when the field has no SH (the option then changes nothing).
+  std::vector<Vec3> field_radiance_;
 };
 
 }  // namespace ptir

@@ -25,8 +25,14 @@ Vec3 mesh_emission(const TriangleMesh& mesh, const MeshHit& hit, Vec3 d) {
 
 }  // namespace
 
-Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const IntegratorSettings& settings, float mesh_epsilon)
-    : scene_(scene), accel_(accel), field_(accel.field()), settings_(settings), mesh_epsilon_(mesh_epsilon) {
+Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const IntegratorSettings& settings, float mesh_epsilon,
+                     const Vec3* field_radiance)
+    : scene_(scene),
+      accel_(accel),
+      field_(accel.field()),
+      settings_(settings),
+      mesh_epsilon_(mesh_epsilon),
+      field_radiance_(settings.indirect_from_field ? field_radiance : nullptr) {
   lights_ = uint32_t(scene.emitters.size()) + (scene.environment.present() ? 1u : 0u);
   light_pick_ = settings.light_selection == LightSelection::One && lights_ > 1 ? 1.0f / float(lights_) : 1.0f;
   emissive_meshes_ = false;
@@ -46,7 +52,9 @@ InteractionBuilder Scatterer::interaction_builder(uint64_t path_key, uint32_t bo
   InteractionSettings isettings = settings_.interaction;
   if (!settings_.geometric_criterion) isettings.tau_g = 0.0f;  // ablation: any response forms an interaction
   uint64_t pick_key = hash_combine(hash_combine(path_key, bounce), kStreamPick);
-  return InteractionBuilder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record);
+  // Only the rays leaving a vertex end on the splats' radiance (indirect_from_field).
+  const Vec3* radiance = bounce > 0 ? field_radiance_ : nullptr;
+  return InteractionBuilder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record, radiance);
 }
 
 NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,

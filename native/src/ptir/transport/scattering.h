@@ -110,7 +110,10 @@ struct WalkCapture {
 class Scatterer {
  public:
   // mesh_epsilon: offset of rays leaving a mesh (scaled to the scene's size).
-  Scatterer(const Scene& scene, const SceneAccel& accel, const IntegratorSettings& settings, float mesh_epsilon);
+  // field_radiance: the splats' own radiance (field_radiance.h), which the
+  // interactions of rays leaving a vertex composite with indirect_from_field.
+  Scatterer(const Scene& scene, const SceneAccel& accel, const IntegratorSettings& settings, float mesh_epsilon,
+            const Vec3* field_radiance = nullptr);
 
   // Walks `ray` and classifies what it meets (METHOD §3–4): a valid Gaussian
   // interaction; else, with probability T_ray, what lies behind (mesh or escape);
@@ -184,6 +187,7 @@ class Scatterer {
   uint32_t lights_;     // emitters + the environment when present
   float light_pick_;    // light_pick_probability()
   bool emissive_meshes_;  // some mesh emits (a last ray must then find what it hits)
+  const Vec3* field_radiance_;  // null: no radiance composited
 };
 
 }  // namespace ptir
