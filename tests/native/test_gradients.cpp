@@ -104,6 +104,20 @@ double central_difference(const GradientScene& gs, const IntegratorSettings& set
   return (loss(plus, gs.camera, settings, gs.weights) - loss(minus, gs.camera, settings, gs.weights)) / (2 * h);
 }
 
+// Per channel: the replay's albedo gradient summed over the Gaussians against the
+// difference quotient of moving every albedo at once (exact: see the top).
+void expect_albedo_sums_match(const GradientScene& gs, const IntegratorSettings& settings, const SceneGradients& g) {
+  for (int c = 0; c < 3; ++c) {
+    double analytic = 0;
+    for (const Vec3& a : g.gaussian_albedo) analytic += a[c];
+    double fd = central_difference(gs, settings, 1e-2, [c](Scene& s, float h) {
+      for (Vec3& a : s.gaussians->albedo) a[c] += h;
+    });
+    EXPECT_NEAR(analytic, fd, 5e-3 * std::fabs(fd) + 1e-4) << "albedo channel " << c;
+    EXPECT_GT(std::fabs(fd), 1e-2);
+  }
+}
+
 IntegratorSettings settings_with(int spp) {
   IntegratorSettings s;
   s.russian_roulette = false;  // path replay's requirement (render_path_backward)
@@ -119,15 +133,7 @@ TEST(Gradients, GaussianAlbedoAndMetallicMatchFiniteDifferences) {
   GradientScene gs = make_scene(false);
   IntegratorSettings settings = settings_with(4);
   SceneGradients g = prb(gs.scene, gs.camera, settings, gs.weights);
-  for (int c = 0; c < 3; ++c) {
-    double analytic = 0;
-    for (const Vec3& a : g.gaussian_albedo) analytic += a[c];
-    double fd = central_difference(gs, settings, 1e-2, [c](Scene& s, float h) {
-      for (Vec3& a : s.gaussians->albedo) a[c] += h;
-    });
-    EXPECT_NEAR(analytic, fd, 5e-3 * std::fabs(fd) + 1e-4) << "albedo channel " << c;
-    EXPECT_GT(std::fabs(fd), 1e-2);
-  }
+  expect_albedo_sums_match(gs, settings, g);
   IntegratorSettings disney = settings;
   disney.brdf = BsdfModel::DisneySimplified;
   SceneGradients gd = prb(gs.scene, gs.camera, disney, gs.weights);
@@ -155,15 +161,7 @@ TEST(Gradients, BounceLightFromTheFieldMatchesFiniteDifferences) {
   IntegratorSettings settings = settings_with(4);
   settings.indirect_from_field = true;
   SceneGradients g = prb(gs.scene, gs.camera, settings, gs.weights);
-  for (int c = 0; c < 3; ++c) {
-    double analytic = 0;
-    for (const Vec3& a : g.gaussian_albedo) analytic += a[c];
-    double fd = central_difference(gs, settings, 1e-2, [c](Scene& s, float h) {
-      for (Vec3& a : s.gaussians->albedo) a[c] += h;
-    });
-    EXPECT_NEAR(analytic, fd, 5e-3 * std::fabs(fd) + 1e-4) << "albedo channel " << c;
-    EXPECT_GT(std::fabs(fd), 1e-2);
-  }
+  expect_albedo_sums_match(gs, settings, g);
   double analytic_floor = 0;
   for (const Vec3& a : g.mesh_base_colour) analytic_floor += a.x;
   double fd_floor = central_difference(gs, settings, 1e-2, [](Scene& s, float h) { s.meshes[0].material.base_colour.x += h; });
