@@ -59,6 +59,7 @@
 #include "job_stop.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
+#include "ptir/optim/checkpoint.h"
 #include "ptir/optim/iteration_estimate.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/scene/scene_json.h"
@@ -236,8 +237,20 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (comm.rank() == 0 && !o.estimate) remove_stale_outputs({o.out}, o.quiet);
   if (const int rc = geometry_stage(o, comm)) return rc;
   // Bounce light from the splats' captured radiance where the geometry stage has
-  // just fitted their SH to these photos (field_radiance.h); else path-traced.
-  if (o.opt.indirect == "auto") o.opt.indirect = o.fitted ? "field" : "path";
+  // just fitted their SH to these photos (field_radiance.h); else path-traced. A
+  // resumed run goes on as it began (its checkpoint names `field`; older ones
+  // and path-traced runs do not).
+  if (o.opt.indirect == "auto") {
+    const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
+    std::error_code ec;
+    if (o.resume && std::filesystem::exists(ckpt, ec)) {
+      o.opt.indirect = "path";
+      for (const auto& kv : read_checkpoint(ckpt).fingerprint)
+        if (kv.first == "indirect") o.opt.indirect = kv.second;
+    } else {
+      o.opt.indirect = o.fitted ? "field" : "path";
+    }
+  }
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;

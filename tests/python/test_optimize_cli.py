@@ -267,6 +267,11 @@ def test_geometry_stage_runs_first_by_default(ptir, cli, dataset, tmp_path):
     # The checkpoint knows how its bounce light was made: path-traced cannot continue it.
     r = optimize(cli, dataset, out, "--iters", 5, "--fit-iters", 30, "--resume", "--indirect", "path", check=False)
     assert r.returncode != 0 and "indirect: only in the checkpoint (field)" in r.stderr, r.stderr[-2000:]
+    # A path-traced run (here on the splats as given) resumes path-traced under auto.
+    given = tmp_path / "given"
+    optimize(cli, dataset, given, "--iters", 2, "--checkpoint-every", 1)
+    r = optimize(cli, dataset, given, "--iters", 3, "--resume")
+    assert "(indirect: path)" in r.stderr and "resumed from" in r.stderr, r.stderr[-2000:]
     plain = tmp_path / "plain"
     r = optimize(cli, dataset, plain, "--iters", 2)  # (the helper's default: --fit-iters 0)
     assert not (plain / "fit").exists() and ply_count(plain / "gaussians.ply") == 600
