@@ -8,7 +8,8 @@
    as Esc / the Cancel button do): CANCELLED, the object's splats and albedo unchanged.
 3. Optimise from the COLMAP folder with the default Auto: `ptir fit` then `ptir optimize`; the fitted
    PLY lies in OUTPUT/fit/, the object's splats are replaced by it (count and positions), the albedo
-   is written back, and the fit lowered the loss (the same six views in its first and last epochs).
+   is written back, the fit lowered the loss (the same six views in its first and last epochs), and the
+   inversion took its bounce light from the fitted splats' SH (`--indirect field`).
 4. The same with the object moved: the object's local splats are the fitted (world-space) PLY
    brought back through the inverse of its transform.
 Prints "FIT_STATS: {json}".
@@ -117,6 +118,10 @@ def fit_and_optimise(spec, splats, work, name, stats):
     h.check(rows == FIT_ITERS, "the fit ran its %d iterations (%d)" % (FIT_ITERS, rows))
     h.check(last < LOSS_RATIO_MAX * first, "the fit lowered the loss (%.4f -> %.4f)" % (first, last))
     h.check("fitted from %d" % n0 in s.status, "status names the fit: %s" % s.status)
+    # After its fit the flow takes the bounce light from the fitted splats' SH (`--indirect field`):
+    # the inversion's checkpoint names it among its settings.
+    ckpt = open(os.path.join(out, "checkpoint.bin"), "rb").read()
+    h.check(b"indirect" in ckpt and b"field" in ckpt, "the inversion took its bounce light from the fitted splats")
     stats[name] = {"splats_before": n0, "splats_after": len(d), "loss_first_epoch": first,
                    "loss_last_epoch": last, "position_error": err}
 
