@@ -240,29 +240,38 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   // just fitted their SH to these photos (field_radiance.h); else path-traced. A
   // resumed run goes on as it began (its checkpoint names `field`; older ones
   // and path-traced runs do not).
+  const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
+  std::error_code ec;
+  const bool resuming = o.resume && std::filesystem::exists(ckpt, ec);
+  const std::vector<std::pair<std::string, std::string>> resumed =
+      resuming ? read_checkpoint(ckpt).fingerprint : std::vector<std::pair<std::string, std::string>>();
   if (o.opt.indirect == "auto") {
-    const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
-    std::error_code ec;
-    if (o.resume && std::filesystem::exists(ckpt, ec)) {
-      o.opt.indirect = "path";
-      for (const auto& kv : read_checkpoint(ckpt).fingerprint)
-        if (kv.first == "indirect") o.opt.indirect = kv.second;
-    } else {
-      o.opt.indirect = o.fitted ? "field" : "path";
-    }
+    o.opt.indirect = resuming ? "path" : o.fitted ? "field" : "path";
+    for (const auto& kv : resumed)
+      if (kv.first == "indirect") o.opt.indirect = kv.second;
   }
+  // The loss space a resumed run began with, unless --loss-space is given (checkpoints
+  // from before srgb-blur-first became the default compared in plain srgb).
+  if (resuming && cmd.count("--loss-space") == 0)
+    for (const auto& kv : resumed)
+      if (kv.first == "loss")
+        for (const char* space : {"srgb-blur-first", "srgb-tangent", "srgb", "linear"})
+          if ((" " + kv.second + " ").find(std::string(" ") + space + " ") != std::string::npos) {
+            o.opt.loss_space = space;
+            break;
+          }
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
   if (o.estimate) return comm.rank() == 0 ? print_estimate(opt, t_start) : 0;
   opt.set_communicator(comm);
-  const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
   if (!o.quiet)
     std::fprintf(stderr,
-                 "optimize: %zu Gaussians, %zu %s views %dx%d%s, %d iterations, %d spp, %d bounces (indirect: %s), env %s, "
+                 "optimize: %zu Gaussians, %zu %s views %dx%d%s, %d iterations, %d spp, %d bounces (indirect: %s), loss %s, env %s, "
                  "seed %llu\n",
                  opt.scene().gaussians->size(), data->size(), data->split.c_str(), data->width, data->height,
                  data->has_priors() ? " (with priors)" : "", o.opt.iters, o.opt.spp, o.opt.bounces, o.opt.indirect.c_str(),
+                 o.opt.loss_space.c_str(),
                  o.opt.env.c_str(),
                  (unsigned long long)o.opt.seed);
   if (!o.quiet && comm.size() > 1)
@@ -363,7 +372,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "iterations between checkpoints (0: only at the end)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all); resumed runs are bit-identical on the same count");
-  cmd->add_option("--loss-space", o->opt.loss_space, "compare images in srgb or linear space")->capture_default_str();
+  cmd->add_option("--loss-space", o->opt.loss_space, "compare images in srgb-blur-first (the sRGB of the render after the loss's 3x3 blur, not before: its noise biases the loss 7x less), srgb-tangent (sRGB through its tangent at the target: the render enters linearly), srgb (the sRGB of each pixel, then the blur) or linear space; a resumed run keeps its own")->capture_default_str();
   cmd->add_option("--lambda-tv", o->opt.lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
   cmd->add_option("--lr-final", o->opt.lr_final,
                   "learning rate at the last iteration, as a fraction of the initial one (1: constant)")

@@ -178,7 +178,7 @@ void def_optimizer_class(py::module_& m) {
       .def(py::init(&make_optimizer), py::arg("dataset"), py::arg("gaussians"), py::arg("scene") = py::none(),
            py::arg("iters") = 800, py::arg("spp") = 32, py::arg("bounces") = 2, py::arg("env") = "latlong",
            py::arg("env_size") = std::pair<int, int>(128, 64), py::arg("seed") = 0, py::arg("views_per_iter") = 1,
-           py::arg("crop") = 0, py::arg("loss_space") = "srgb", py::arg("lambda_tv") = 0.095f,
+           py::arg("crop") = 0, py::arg("loss_space") = "srgb-blur-first", py::arg("lambda_tv") = 0.095f,
            py::arg("optimize_metallic") = false, py::arg("optimize_meshes") = false, py::arg("split") = "train",
            py::arg("prior") = py::none(), py::arg("threads") = py::none(), py::arg("k") = 16,
            py::arg("env_init") = py::none(), py::arg("fix_env") = false, py::arg("indirect") = "path")
@@ -263,7 +263,7 @@ void def_optimize_function(py::module_& m) {
         py::arg("dataset"), py::arg("gaussians"), py::arg("out"), py::arg("scene") = py::none(), py::arg("iters") = 800,
         py::arg("spp") = 32, py::arg("bounces") = 2, py::arg("env") = "latlong",
         py::arg("env_size") = std::pair<int, int>(128, 64), py::arg("seed") = 0, py::arg("resume") = false,
-        py::arg("views_per_iter") = 1, py::arg("crop") = 0, py::arg("loss_space") = "srgb", py::arg("lambda_tv") = 0.095f,
+        py::arg("views_per_iter") = 1, py::arg("crop") = 0, py::arg("loss_space") = "srgb-blur-first", py::arg("lambda_tv") = 0.095f,
         py::arg("optimize_metallic") = false, py::arg("optimize_meshes") = false, py::arg("split") = "train",
         py::arg("prior") = py::none(), py::arg("threads") = py::none(), py::arg("checkpoint_every") = 50,
         py::arg("callback") = py::none(), py::arg("env_init") = py::none(), py::arg("fix_env") = false,

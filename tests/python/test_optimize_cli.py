@@ -280,6 +280,24 @@ def test_geometry_stage_runs_first_by_default(ptir, cli, dataset, tmp_path):
     assert r.returncode != 0 and "--indirect must be 'auto', 'path' or 'field', got 'splats'" in r.stderr
 
 
+def test_loss_space_default_and_resume(cli, dataset, tmp_path):
+    """New runs take the sRGB curve after the loss's blur (srgb-blur-first); a resumed
+    run keeps the loss space its checkpoint began with, so a run of an earlier
+    release (plain srgb) goes on as it began, and a different one given outright is
+    refused by the fingerprint."""
+    r = optimize(cli, dataset, tmp_path / "new", "--iters", 1)
+    assert "loss srgb-blur-first," in r.stderr, r.stderr[-2000:]
+    old = tmp_path / "old"
+    optimize(cli, dataset, old, "--iters", 2, "--checkpoint-every", 1, "--loss-space", "srgb")
+    r = optimize(cli, dataset, old, "--iters", 3, "--resume")
+    assert "loss srgb," in r.stderr and "resumed from" in r.stderr, r.stderr[-2000:]
+    r = optimize(cli, dataset, old, "--iters", 4, "--resume", "--loss-space", "srgb-blur-first", check=False)
+    assert r.returncode != 0 and "loss" in r.stderr, r.stderr[-2000:]
+    r = optimize(cli, dataset, tmp_path / "bad", "--iters", 1, "--loss-space", "gamma", check=False)
+    assert r.returncode != 0
+    assert "must be 'srgb-blur-first', 'srgb-tangent', 'srgb' or 'linear', got 'gamma'" in r.stderr, r.stderr[-2000:]
+
+
 def test_geometry_stage_is_skipped_for_scenes_with_meshes(cli, dataset, tmp_path):
     wall = tmp_path / "wall.ply"
     wall.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"

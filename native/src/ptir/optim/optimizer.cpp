@@ -412,11 +412,46 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   // and no gradient leaks out through them -- else the silhouette's neighbours
   // (environment seen past the object) are pulled toward the object's colour,
   // which drew dark object outlines into the recovered environment.
-  auto loss_space = [&](const Image& r) {
-    Image pred(pk.w, pk.h, {"R", "G", "B"});
+  // With the tangent (srgb_tangent) the curve is linearised at the target: a
+  // noisy render's sRGB is on average darker than the sRGB of its mean (the curve
+  // is concave), which the loss read as "too dark" and the light answered by
+  // brightening; through the tangent the render enters linearly and the weight
+  // srgb'(T) is noise-free.
+  // After the blur (srgb_after_blur) the 3x3 binomial blur is taken on the linear
+  // render and the curve after it: the sRGB's Jensen gap shrinks with the blurred
+  // render's variance (about 1/7), and the loss weights stay the render's.
+  const bool tangent = settings_.srgb_loss && settings_.srgb_tangent;
+  const bool after_blur = settings_.srgb_loss && !tangent && settings_.srgb_after_blur && settings_.loss.binomial_filter;
+  ImageLossSettings loss_settings = settings_.loss;
+  Image target_after_blur;
+  if (after_blur) {
+    loss_settings.binomial_filter = false;
+    target_after_blur = settings_.loss.blur_target ? binomial_filter(w.target_rgb) : w.target_rgb;
+    for (float& v : target_after_blur.pixels) v = loss_encode(v);
+  }
+  const Image& target = after_blur ? target_after_blur : w.target;
+  auto blurred_linear = [&](const Image& r) {  // the render inside the mask, the target outside, blurred
+    Image lin(pk.w, pk.h, {"R", "G", "B"});
     for (size_t p = 0; p < w.px; ++p)
       for (int c = 0; c < 3; ++c)
-        pred.pixels[p * 3 + c] = mask.pixels[p] == 0.0f ? w.target.pixels[p * 3 + c] : loss_encode(r.pixels[p * 4 + c]);
+        lin.pixels[p * 3 + c] = mask.pixels[p] == 0.0f ? w.target_rgb.pixels[p * 3 + c] : r.pixels[p * 4 + c];
+    return binomial_filter(lin);
+  };
+  auto loss_space = [&](const Image& r) {
+    if (after_blur) {
+      Image pred = blurred_linear(r);
+      for (float& v : pred.pixels) v = loss_encode(v);
+      return pred;
+    }
+    Image pred(pk.w, pk.h, {"R", "G", "B"});
+    for (size_t p = 0; p < w.px; ++p)
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = p * 3 + c;
+        const float v = r.pixels[p * 4 + c];
+        pred.pixels[i] = mask.pixels[p] == 0.0f ? w.target.pixels[i]
+                         : tangent ? w.target.pixels[i] + loss_encode_derivative(w.target_rgb.pixels[i]) * (v - w.target_rgb.pixels[i])
+                                   : loss_encode(v);
+      }
     return pred;
   };
   const Image* mask_ptr = w.full->has_alpha ? &mask : nullptr;
@@ -424,22 +459,35 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   // at r's values.
   auto through_curve = [&](const Image& d_pred, const Image& r) {
     Image d_render(pk.w, pk.h, {"R", "G", "B"});
+    if (after_blur) {  // through the curve at the blurred render, then the blur's adjoint
+      const Image b = blurred_linear(r);
+      Image d_b(pk.w, pk.h, {"R", "G", "B"});
+      for (size_t p = 0; p < w.px; ++p)
+        for (int c = 0; c < 3; ++c)
+          d_b.pixels[p * 3 + c] = d_pred.pixels[p * d_pred.channels + c] * loss_encode_derivative(b.pixels[p * 3 + c]);
+      d_render = binomial_filter_adjoint(d_b);
+      for (size_t p = 0; p < w.px; ++p)
+        if (mask.pixels[p] == 0.0f)
+          for (int c = 0; c < 3; ++c) d_render.pixels[p * 3 + c] = 0.0f;  // the target stands there: no gradient
+      return d_render;
+    }
     for (size_t p = 0; p < w.px; ++p) {
       if (mask.pixels[p] == 0.0f) continue;  // the target stands there: no gradient
       for (int c = 0; c < 3; ++c)
-        d_render.pixels[p * 3 + c] = d_pred.pixels[p * d_pred.channels + c] * loss_encode_derivative(r.pixels[p * 4 + c]);
+        d_render.pixels[p * 3 + c] = d_pred.pixels[p * d_pred.channels + c] *
+                                     loss_encode_derivative(tangent ? w.target_rgb.pixels[p * 3 + c] : r.pixels[p * 4 + c]);
     }
     return d_render;
   };
   // dL/d(linear render) of one image: through the loss and the loss-space curve.
   auto adjoint = [&](const Image& r, double* loss) {
     Image d_pred;
-    const double l = image_loss(loss_space(r), w.target, mask_ptr, settings_.loss, &d_pred);
+    const double l = image_loss(loss_space(r), target, mask_ptr, loss_settings, &d_pred);
     if (loss) *loss = l;
     return through_curve(d_pred, r);
   };
   if (!with_gradients) {
-    log.image += inv_k * image_loss(loss_space(render), w.target, mask_ptr, settings_.loss, nullptr);
+    log.image += inv_k * image_loss(loss_space(render), target, mask_ptr, loss_settings, nullptr);
     return;
   }
   std::vector<Image> d_renders;
@@ -448,10 +496,10 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     d_renders.push_back(adjoint(render, &l));
     log.image += inv_k * l;
   } else {
-    log.image += inv_k * image_loss(loss_space(render), w.target, mask_ptr, settings_.loss, nullptr);
+    log.image += inv_k * image_loss(loss_space(render), target, mask_ptr, loss_settings, nullptr);
     if (settings_.loss.cross_moments) {  // SSIM's moments across the halves (losses.h)
       Image d_a, d_b;
-      image_loss_pair(loss_space(parts[0].render), loss_space(parts[1].render), w.target, mask_ptr, settings_.loss,
+      image_loss_pair(loss_space(parts[0].render), loss_space(parts[1].render), target, mask_ptr, loss_settings,
                       &d_a, &d_b);
       // Each half's weight through the curve at the other half (independent of its own noise).
       d_renders.push_back(through_curve(d_a, parts[1].render));

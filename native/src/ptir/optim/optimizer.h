@@ -24,7 +24,12 @@
 // more than linear L1 does. The curve used is the sRGB encoding extended above
 // 1 without clamping (1.055 c^(1/2.4) - 0.055), so over-bright predictions keep
 // a gradient; its derivative multiplies the loss gradient. --loss-space linear
-// compares linear radiance instead.
+// compares linear radiance instead. The render's 3x3 blur comes before the curve
+// (srgb_after_blur, "srgb-blur-first", the default): the curve is concave, so the
+// sRGB of a noisy pixel is on average darker than the sRGB of its mean, and with
+// few samples per decorrelated half the loss read every render as too dark (2 spp
+// from the truth: the albedo 25 % too bright, NVS -5 dB; README, method notes);
+// blurred first, the variance the curve sees is about 1/7.
 //
 // Mask: the render shows the environment where camera rays escape; targets with
 // alpha are objects on a transparent background. The loss uses the pixels where
@@ -92,6 +97,12 @@ struct OptimizerSettings {
   int crop_size = 0;              // 0: whole images; else square crops of this side
   ImageLossSettings loss;         // lambda_s 0.2, binomial filter on
   bool srgb_loss = true;          // compare in sRGB space (false: linear)
+  // With srgb_loss: the sRGB curve taken as its tangent at the target, so the render
+  // enters the loss linearly (srgb(T) + srgb'(T) (I - T)) and its noise adds no
+  // Jensen bias (loss space "srgb-tangent"; optimizer.cpp, image_term).
+  bool srgb_tangent = false;
+  // With srgb_loss and the loss's blur: blur the linear render, then take the curve ("srgb-blur-first").
+  bool srgb_after_blur = true;
   float mask_threshold = 0.99f;
   float lambda_tv = 0.095f;
   float prior_start = 0.5f, prior_end = 0.005f;

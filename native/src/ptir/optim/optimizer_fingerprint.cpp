@@ -82,7 +82,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"crop", std::to_string(settings_.crop_size)},
       {"loss", num(settings_.loss.lambda_ssim) + (settings_.loss.binomial_filter ? " blur" : " noblur") +
                    (settings_.loss.binomial_filter && settings_.loss.blur_target ? " target" : "") +
-                   (settings_.srgb_loss ? " srgb" : " linear") +
+                   (settings_.srgb_loss ? (settings_.srgb_tangent ? " srgb-tangent" : settings_.srgb_after_blur ? " srgb-blur-first" : " srgb") : " linear") +
                    (settings_.decorrelate_adjoint && settings_.loss.cross_moments ? " cross ssim" : "")},
       {"mask_threshold", num(settings_.mask_threshold)},
       {"lambda_tv", num(settings_.lambda_tv)},

@@ -119,9 +119,11 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.loss.blur_target = o.loss_blur_target;
   s.loss.cross_moments = o.ssim_cross;
   s.accel.k = o.k;
-  if (o.loss_space == "srgb") s.srgb_loss = true;
+  if (o.loss_space == "srgb" || o.loss_space == "srgb-tangent" || o.loss_space == "srgb-blur-first") s.srgb_loss = true;
   else if (o.loss_space == "linear") s.srgb_loss = false;
-  else throw Error(names("loss_space") + " must be 'srgb' or 'linear', got '" + o.loss_space + "'");
+  else throw Error(names("loss_space") + " must be 'srgb-blur-first', 'srgb-tangent', 'srgb' or 'linear', got '" + o.loss_space + "'");
+  s.srgb_tangent = o.loss_space == "srgb-tangent";
+  s.srgb_after_blur = o.loss_space == "srgb-blur-first";  // (also the engine default, optimizer.h)
   s.params.env = parse_env_mode(o.env, names("env"));
   if (o.env_width < 1 || o.env_height < 1) throw Error(names("env_size") + " must be positive");
   s.params.env_width = o.env_width;

@@ -38,7 +38,7 @@ struct OptimizeOptions {
   uint64_t seed = 0;
   int views_per_iter = 1;
   int crop = 0;
-  std::string loss_space = "srgb";
+  std::string loss_space = "srgb-blur-first";  // srgb-blur-first, srgb-tangent, srgb or linear (optimizer.h)
   float lambda_tv = 0.095f;
   float lr_final = OptimizerSettings{}.lr_final;
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
