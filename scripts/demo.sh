@@ -24,7 +24,7 @@
 # relight 200x200, 64 spp, 3 bounces. DEMO_AOVS=0 skips the gallery; DEMO_RES=200
 # renders the dataset at 200x200 instead (cached in out/sample_dataset_200/; the whole job then takes
 # about four times as long). On the 2-core
-# reference machine the whole job takes about 3 minutes when idle with the build done (160 s
+# reference machine the whole job takes about 3.5 minutes when idle with the build done (200 s
 # with the dataset cached), most of it fitting and optimising.
 set -euo pipefail
 
