@@ -14,6 +14,7 @@
 #include "ptir/optim/data_parallel.h"
 #include "ptir/optim/env_smoothness.h"
 #include "ptir/optim/light_balance.h"
+#include "ptir/optim/loss_space.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/aov_backward.h"
 #include "ptir/render/render_path.h"
@@ -407,78 +408,17 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     masked += in;
   }
   if (masked == 0) return;
-  // A render in loss space, with the target standing outside the mask: the 3x3
-  // blur and the 11x11 SSIM windows of pixels inside then see the target there,
-  // and no gradient leaks out through them -- else the silhouette's neighbours
-  // (environment seen past the object) are pulled toward the object's colour,
-  // which drew dark object outlines into the recovered environment.
-  // With the tangent (srgb_tangent) the curve is linearised at the target: a
-  // noisy render's sRGB is on average darker than the sRGB of its mean (the curve
-  // is concave), which the loss read as "too dark" and the light answered by
-  // brightening; through the tangent the render enters linearly and the weight
-  // srgb'(T) is noise-free.
-  // After the blur (srgb_after_blur) the 3x3 binomial blur is taken on the linear
-  // render and the curve after it: the sRGB's Jensen gap shrinks with the blurred
-  // render's variance (about 1/7), and the loss weights stay the render's.
-  const bool tangent = settings_.srgb_loss && settings_.srgb_tangent;
-  const bool after_blur = settings_.srgb_loss && !tangent && settings_.srgb_after_blur && settings_.loss.binomial_filter;
-  ImageLossSettings loss_settings = settings_.loss;
-  Image target_after_blur;
-  if (after_blur) {
-    loss_settings.binomial_filter = false;
-    target_after_blur = settings_.loss.blur_target ? binomial_filter(w.target_rgb) : w.target_rgb;
-    for (float& v : target_after_blur.pixels) v = loss_encode(v);
-  }
-  const Image& target = after_blur ? target_after_blur : w.target;
-  auto blurred_linear = [&](const Image& r) {  // the render inside the mask, the target outside, blurred
-    Image lin(pk.w, pk.h, {"R", "G", "B"});
-    for (size_t p = 0; p < w.px; ++p)
-      for (int c = 0; c < 3; ++c)
-        lin.pixels[p * 3 + c] = mask.pixels[p] == 0.0f ? w.target_rgb.pixels[p * 3 + c] : r.pixels[p * 4 + c];
-    return binomial_filter(lin);
-  };
-  auto loss_space = [&](const Image& r) {
-    if (after_blur) {
-      Image pred = blurred_linear(r);
-      for (float& v : pred.pixels) v = loss_encode(v);
-      return pred;
-    }
-    Image pred(pk.w, pk.h, {"R", "G", "B"});
-    for (size_t p = 0; p < w.px; ++p)
-      for (int c = 0; c < 3; ++c) {
-        const size_t i = p * 3 + c;
-        const float v = r.pixels[p * 4 + c];
-        pred.pixels[i] = mask.pixels[p] == 0.0f ? w.target.pixels[i]
-                         : tangent ? w.target.pixels[i] + loss_encode_derivative(w.target_rgb.pixels[i]) * (v - w.target_rgb.pixels[i])
-                                   : loss_encode(v);
-      }
-    return pred;
-  };
+  // The loss space (loss_space.h): the target outside the mask, the sRGB curve after the blur by default.
+  const LossCurve curve = !settings_.srgb_loss        ? LossCurve::Linear
+                          : settings_.srgb_tangent    ? LossCurve::SrgbTangent
+                          : settings_.srgb_after_blur ? LossCurve::SrgbBlurFirst
+                                                      : LossCurve::Srgb;
+  const LossSpace space(curve, settings_.loss, w.target_rgb, mask);
+  const Image& target = space.target();
+  const ImageLossSettings& loss_settings = space.loss();
+  auto loss_space = [&](const Image& r) { return space.encode(r); };
+  auto through_curve = [&](const Image& d_pred, const Image& r) { return space.adjoint(d_pred, r); };
   const Image* mask_ptr = w.full->has_alpha ? &mask : nullptr;
-  // dL/d(linear render) from dL/d(loss-space image), through the loss-space curve
-  // at r's values.
-  auto through_curve = [&](const Image& d_pred, const Image& r) {
-    Image d_render(pk.w, pk.h, {"R", "G", "B"});
-    if (after_blur) {  // through the curve at the blurred render, then the blur's adjoint
-      const Image b = blurred_linear(r);
-      Image d_b(pk.w, pk.h, {"R", "G", "B"});
-      for (size_t p = 0; p < w.px; ++p)
-        for (int c = 0; c < 3; ++c)
-          d_b.pixels[p * 3 + c] = d_pred.pixels[p * d_pred.channels + c] * loss_encode_derivative(b.pixels[p * 3 + c]);
-      d_render = binomial_filter_adjoint(d_b);
-      for (size_t p = 0; p < w.px; ++p)
-        if (mask.pixels[p] == 0.0f)
-          for (int c = 0; c < 3; ++c) d_render.pixels[p * 3 + c] = 0.0f;  // the target stands there: no gradient
-      return d_render;
-    }
-    for (size_t p = 0; p < w.px; ++p) {
-      if (mask.pixels[p] == 0.0f) continue;  // the target stands there: no gradient
-      for (int c = 0; c < 3; ++c)
-        d_render.pixels[p * 3 + c] = d_pred.pixels[p * d_pred.channels + c] *
-                                     loss_encode_derivative(tangent ? w.target_rgb.pixels[p * 3 + c] : r.pixels[p * 4 + c]);
-    }
-    return d_render;
-  };
   // dL/d(linear render) of one image: through the loss and the loss-space curve.
   auto adjoint = [&](const Image& r, double* loss) {
     Image d_pred;
