@@ -20,6 +20,7 @@
 #include "ptir/optim/optimizer.h"
 #include "ptir/optim/parameters.h"
 #include "ptir/render/aov.h"
+#include "ptir/render/material_maps.h"
 #include "ptir/render/render_path.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "optimizer_fixture.h"

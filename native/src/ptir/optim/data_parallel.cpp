@@ -49,9 +49,9 @@ void render_path_backward_ranks(const Communicator& comm, const PathTracer& trac
 
 void render_material_maps_ranks(const Communicator& comm, const SceneAccel& accel, const Camera& camera,
                                 const AovSettings& settings, const RenderControl& control, Image* albedo,
-                                Image* roughness, Image* coverage) {
+                                Image* roughness, Image* coverage, MaterialMapWalks* walks) {
   if (comm.size() == 1) {
-    render_material_maps(accel, camera, settings, control, albedo, roughness, coverage);
+    render_material_maps(accel, camera, settings, control, albedo, roughness, coverage, walks);
     return;
   }
   // One gathered image of the three maps' five channels.
@@ -78,9 +78,10 @@ void render_material_maps_ranks(const Communicator& comm, const SceneAccel& acce
 
 void render_aov_backward_ranks(const Communicator& comm, const SceneAccel& accel, const Camera& camera,
                                const AovSettings& settings, const Image* d_albedo, const Image* d_roughness,
-                               SceneGradients& grads) {
+                               SceneGradients& grads, const MaterialMapWalks* walks) {
   if (comm.size() == 1) {
-    render_aov_backward(accel, camera, settings, d_albedo, d_roughness, grads);
+    render_aov_backward(accel, camera, settings, d_albedo, d_roughness, grads,
+                        walks && !walks->pixels.empty() ? walks : nullptr);
     return;
   }
   for (const RowBand& band : rank_row_bands(camera.height, comm)) {

@@ -30,6 +30,7 @@
 
 #include "ptir/core/communicator.h"
 #include "ptir/render/aov.h"
+#include "ptir/render/material_maps.h"
 #include "ptir/transport/gradients.h"
 #include "ptir/transport/path_tracer.h"
 
@@ -49,14 +50,17 @@ void render_path_backward_ranks(const Communicator& comm, const PathTracer& trac
                                 const RenderControl& control, const std::vector<std::vector<Vec3>>* cache,
                                 const std::vector<std::vector<uint64_t>>* shadows = nullptr,
                                 const std::vector<WalkStore*>* walks = nullptr);
-// render_material_maps (optimizer.h) of the whole view on every rank.
+// render_material_maps (material_maps.h) of the whole view on every rank; on one
+// rank, `walks` (optional) keeps the walks for render_aov_backward_ranks (with
+// several ranks it is left empty, and the adjoint traces again).
 void render_material_maps_ranks(const Communicator& comm, const SceneAccel& accel, const Camera& camera,
                                 const AovSettings& settings, const RenderControl& control, Image* albedo,
-                                Image* roughness, Image* coverage);
-// render_aov_backward of this rank's bands; adds to grads.
+                                Image* roughness, Image* coverage, MaterialMapWalks* walks = nullptr);
+// render_aov_backward of this rank's bands; adds to grads. `walks`: what
+// render_material_maps_ranks kept (used on one rank, when it kept any).
 void render_aov_backward_ranks(const Communicator& comm, const SceneAccel& accel, const Camera& camera,
                                const AovSettings& settings, const Image* d_albedo, const Image* d_roughness,
-                               SceneGradients& grads);
+                               SceneGradients& grads, const MaterialMapWalks* walks = nullptr);
 // grads = the sum of every rank's grads (one allreduce of all buffers packed together).
 void allreduce_gradients(const Communicator& comm, SceneGradients& grads);
 

@@ -17,6 +17,7 @@
 #include "ptir/optim/loss_space.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/aov_backward.h"
+#include "ptir/render/material_maps.h"
 #include "ptir/render/render_path.h"
 #include "ptir/render/row_bands.h"
 #include "ptir/transport/orient_normals.h"
@@ -58,35 +59,6 @@ bool all_zero(const Image& img) {
 }
 
 }  // namespace
-
-// The albedo and roughness AOVs (1 sample at each pixel centre) in one walk per
-// pixel: exactly what render_aov(Albedo) and render_aov(Roughness) give with
-// spp = 1 (same ray, same pick key; values where the primary ray found a valid
-// interaction or a mesh, else 0), plus the coverage min(1, opacity).
-void render_material_maps(const SceneAccel& accel, const Camera& cam, const AovSettings& as, const RenderControl& control,
-                          Image* albedo, Image* roughness, Image* coverage) {
-  *albedo = Image(cam.width, cam.height, {"R", "G", "B"});
-  *roughness = Image(cam.width, cam.height, {"Y"});
-  *coverage = Image(cam.width, cam.height, {"A"});
-  tbb::parallel_for(tbb::blocked_range<int>(0, cam.height, 4), [&](const tbb::blocked_range<int>& r) {
-    if (control.cancel && control.cancel->load()) return;
-    for (int y = r.begin(); y < r.end(); ++y)
-      for (int x = 0; x < cam.width; ++x) {
-        Rng rng(as.seed, cam.full_pixel_index(x, y), 0);
-        Ray ray = cam.generate_ray(float(x) + 0.5f, float(y) + 0.5f);
-        AovSample smp = trace_aov(accel, ray, as, rng.key(), false);
-        const size_t p = size_t(y) * cam.width + x;
-        if (smp.hit) {
-          albedo->pixels[3 * p] = smp.albedo.x;
-          albedo->pixels[3 * p + 1] = smp.albedo.y;
-          albedo->pixels[3 * p + 2] = smp.albedo.z;
-          roughness->pixels[p] = smp.roughness;
-        }
-        coverage->pixels[p] = std::min(1.0f, smp.opacity);
-      }
-  });
-  if (control.cancel && control.cancel->load()) throw Cancelled();
-}
 
 Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const OptimizerSettings& settings)
     : settings_(settings), scene_(std::make_unique<Scene>(std::move(scene))), dataset_(std::move(dataset)) {
@@ -488,7 +460,10 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
   as.spp = 1;
   as.seed = w.is.seed;
   Image alb, rough, coverage;
-  render_material_maps_ranks(*comm_, tracer_->accel(), w.cam, as, control, &alb, &rough, &coverage);
+  // The maps' walks are kept for their adjoint below (no second traversal).
+  MaterialMapWalks walks;
+  render_material_maps_ranks(*comm_, tracer_->accel(), w.cam, as, control, &alb, &rough, &coverage,
+                             with_gradients ? &walks : nullptr);
   Image aov_mask(pk.w, pk.h, {"A"});
   size_t n_aov = 0;
   for (size_t p = 0; p < w.px; ++p) {
@@ -521,7 +496,7 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
       log.prior += inv_k * wp * prior_l2(rough, prior_r, &aov_mask, with_gradients ? &d : nullptr);
       if (with_gradients) accumulate(d_rough, d, float(inv_k * wp));
     }
-    if (with_gradients) render_aov_backward_ranks(*comm_, tracer_->accel(), w.cam, as, &d_alb, &d_rough, grads_);
+    if (with_gradients) render_aov_backward_ranks(*comm_, tracer_->accel(), w.cam, as, &d_alb, &d_rough, grads_, &walks);
   }
   log.regulariser_s += seconds_since(t0);
 }

@@ -334,11 +334,4 @@ struct RunOptions {
 // last completed iteration. Either way writes OUT/checkpoint.bin and the outputs.
 RunResult run_optimizer(Optimizer& opt, const RunOptions& options);
 
-// The albedo (RGB) and roughness (Y) maps of the primary hits, one ray through each
-// pixel centre, in one walk per pixel: the values render_aov(Albedo / Roughness)
-// gives with spp = 1 (and what render_aov_backward differentiates), and the
-// coverage min(1, opacity) (A).
-void render_material_maps(const SceneAccel& accel, const Camera& camera, const AovSettings& settings,
-                          const RenderControl& control, Image* albedo, Image* roughness, Image* coverage);
-
 }  // namespace ptir

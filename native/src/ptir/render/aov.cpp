@@ -80,37 +80,46 @@ AovSample aov_sample(const SceneAccel& accel, const Ray& ray, const SurfaceInter
 }  // namespace
 
 AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
-                    bool with_preview, TraceStats* stats) {
+                    bool with_preview, TraceStats* stats, AovWalk* walk) {
   const GaussianField& field = accel.field();
   InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, pick_key);
   Vec3 preview;
+  if (walk) walk->hits.clear();
   // Walk the Gaussians front to back: interaction sums and SH colour together.
   WalkEnd end = accel.walk(
       ray,
       [&](const GaussianHit& h) {
         if (with_preview) preview += (builder.transmittance() * h.alpha) * field.sh_colour(h.id, ray.d);
+        if (walk) walk->hits.push_back(h);
         return builder.add(h);
       },
       stats, /*stop_when_opaque=*/true);
+  if (walk) walk->end = end;
   return aov_sample(accel, ray, builder.finish(ray), end, preview);
 }
 
 void trace_aov_packet(const SceneAccel& accel, const Ray* rays, int n, const AovSettings& settings,
-                      const uint64_t* pick_keys, bool with_preview, AovSample* samples, TraceStats* stats) {
+                      const uint64_t* pick_keys, bool with_preview, AovSample* samples, TraceStats* stats,
+                      AovWalk* walks) {
   const GaussianField& field = accel.field();
   const float min_T = accel.settings().cull.min_transmittance;
   std::optional<InteractionBuilder> builders[SceneAccel::kMaxPacket];
   Vec3 preview[SceneAccel::kMaxPacket];
   for (int l = 0; l < n; ++l) builders[l].emplace(field, settings.interaction, min_T, pick_keys[l]);
+  if (walks)
+    for (int l = 0; l < n; ++l) walks[l].hits.clear();
   // The same walk per lane as trace_aov, the rays traced together.
   WalkEnd ends[SceneAccel::kMaxPacket];
   accel.walk_packet(
       rays, n,
       [&](int l, const GaussianHit& h) {
         if (with_preview) preview[l] += (builders[l]->transmittance() * h.alpha) * field.sh_colour(h.id, rays[l].d);
+        if (walks) walks[l].hits.push_back(h);
         return builders[l]->add(h);
       },
       ends, stats, /*stop_when_opaque=*/true);
+  if (walks)
+    for (int l = 0; l < n; ++l) walks[l].end = ends[l];
   for (int l = 0; l < n; ++l) samples[l] = aov_sample(accel, rays[l], builders[l]->finish(rays[l]), ends[l], preview[l]);
 }
 

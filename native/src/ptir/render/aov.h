@@ -6,6 +6,7 @@
 #include <atomic>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "ptir/accel/scene_accel.h"
 #include "ptir/core/render_control.h"
@@ -44,14 +45,24 @@ struct AovSample {
   Vec3 preview;          // SH colour composited, plus the transmitted mesh colour
 };
 
+// What a primary walk handed to its interaction builder, in order, and how it
+// ended: all its AovSample depends on (with the ray and pick key), so an adjoint
+// can rebuild the interaction from it without tracing (material_maps.h).
+struct AovWalk {
+  std::vector<GaussianHit> hits;
+  WalkEnd end;
+};
+
 // The preview colour (SH evaluated per hit) is only computed when with_preview is set.
+// walk (optional) receives the walk's hits (cleared first) and end.
 AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
-                    bool with_preview, TraceStats* stats = nullptr);
+                    bool with_preview, TraceStats* stats = nullptr, AovWalk* walk = nullptr);
 
 // trace_aov for n <= SceneAccel::kMaxPacket coherent rays traced together (camera
 // rays of neighbouring pixels): samples[i] is trace_aov(rays[i], pick_keys[i]).
 void trace_aov_packet(const SceneAccel& accel, const Ray* rays, int n, const AovSettings& settings,
-                      const uint64_t* pick_keys, bool with_preview, AovSample* samples, TraceStats* stats = nullptr);
+                      const uint64_t* pick_keys, bool with_preview, AovSample* samples, TraceStats* stats = nullptr,
+                      AovWalk* walks = nullptr);
 
 // Image layouts: opacity -> A; depth -> Z, A; normal -> X, Y, Z, A (world space);
 // albedo/preview -> R, G, B, A; roughness/metallic -> Y, A. Background pixels are

@@ -16,9 +16,12 @@ void check_size(const Image* img, const Camera& camera, int channels, const char
 }  // namespace
 
 void render_aov_backward(const SceneAccel& accel, const Camera& camera, const AovSettings& settings,
-                         const Image* d_albedo, const Image* d_roughness, SceneGradients& grads) {
+                         const Image* d_albedo, const Image* d_roughness, SceneGradients& grads,
+                         const MaterialMapWalks* walks) {
   check_size(d_albedo, camera, 3, "albedo");
   check_size(d_roughness, camera, 1, "roughness");
+  if (walks && (walks->width != camera.width || walks->height != camera.height))
+    throw Error("the material maps' kept walks are for another image size");
   const GaussianField& field = accel.field();
   const SceneEnvironment no_environment;  // material maps have no environment adjoint
   reduce_gradient_tiles(camera.width, camera.height, no_environment, grads, {}, [&](const PixelTile& tile, GradientTile& g) {
@@ -33,7 +36,18 @@ void render_aov_backward(const SceneAccel& accel, const Camera& camera, const Ao
         Rng rng(settings.seed, camera.full_pixel_index(x, y), 0);
         hits.clear();
         InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, rng.key(), &hits);
-        WalkEnd end = accel.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, true);
+        // The forward's walk handed over again (kept), or walked again; the mesh
+        // only where it ended the walk.
+        int32_t mesh = -1;
+        if (walks) {
+          const MaterialMapWalks::Pixel& px = walks->pixel(x, y);
+          const GaussianHit* kept = walks->hits(x, y);
+          for (uint32_t i = 0; i < px.count; ++i) builder.add(kept[i]);
+          mesh = px.mesh;
+        } else {
+          WalkEnd end = accel.walk(ray, [&](const GaussianHit& h) { return builder.add(h); }, nullptr, true);
+          if (!end.stopped && end.mesh.valid) mesh = int32_t(end.mesh.mesh);
+        }
         SurfaceInteraction si = builder.finish(ray);
         if (si.valid) {
           if (settings.interaction.mode == InteractionMode::Discrete) {
@@ -44,8 +58,8 @@ void render_aov_backward(const SceneAccel& accel, const Camera& camera, const Ao
             float w = h.weight / si.opacity;
             g.add_gaussian(uint32_t(h.id), w * dA, w * dR, 0.0f);
           }
-        } else if (!end.stopped && end.mesh.valid) {
-          g.add_mesh(uint32_t(end.mesh.mesh), dA, dR, 0.0f);
+        } else if (mesh >= 0) {
+          g.add_mesh(uint32_t(mesh), dA, dR, 0.0f);
         }
       }
   });

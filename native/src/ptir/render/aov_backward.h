@@ -3,6 +3,7 @@
 #pragma once
 
 #include "ptir/render/aov.h"
+#include "ptir/render/material_maps.h"
 #include "ptir/transport/gradients.h"
 
 namespace ptir {
@@ -12,7 +13,10 @@ namespace ptir {
 // primary interaction is made of: its Gaussians with normalised weights w_i / O
 // (the picked one in discrete mode), or the mesh material when the ray found no
 // valid Gaussian interaction. Adds to `grads`. Deterministic and thread-count independent like render_path_backward.
+// With `walks` (what render_material_maps kept for this camera and settings) each
+// pixel's interaction is rebuilt from its recorded hits, nothing traced: the same floats.
 void render_aov_backward(const SceneAccel& accel, const Camera& camera, const AovSettings& settings,
-                         const Image* d_albedo, const Image* d_roughness, SceneGradients& grads);
+                         const Image* d_albedo, const Image* d_roughness, SceneGradients& grads,
+                         const MaterialMapWalks* walks = nullptr);
 
 }  // namespace ptir
