@@ -13,7 +13,9 @@ Steps (bpy.app.timers, simulated input events):
      iteration, loss and ETA -> screenshot
   4. Esc (a simulated key press) cancels: the operator ends, the splat attributes are unchanged
   5. undo: a material edit through the operator, then Edit > Undo restores the albedo
-Prints "UI_CHECK: {json}" and quits; exits 1 on a failure.
+Prints "UI_CHECK: {json}" and quits; exits 1 on a failure. The Python threads during the run and at the
+end are listed: the add-on must start none (io/pipe_lines.py says why; a reader thread of its own made
+this script's bpy.ops.ed.undo_push crash Blender one run in four).
 """
 
 import json
@@ -21,6 +23,7 @@ import math
 import os
 import subprocess
 import sys
+import threading
 import traceback
 
 import bpy
@@ -140,6 +143,7 @@ def _step():
             fail("the optimisation ended before the screenshot: %s" % o.status)
         if (o.status.startswith("iteration") and s["ticks"] >= 6) or s["ticks"] > 240:
             s["result"]["status_during_run"] = o.status
+            s["result"]["threads_during_run"] = sorted(t.name for t in threading.enumerate())
             for area in win.screen.areas:
                 area.tag_redraw()
             s["step"] = 4
@@ -183,6 +187,7 @@ def _step():
         s["result"]["undo"] = bool(np.allclose(edited, (0, 0, 1)) and np.array_equal(restored, s["albedo0"]))
         if r != {"FINISHED"} or not s["result"]["undo"]:
             fail("undo of a material edit: edited %s restored %s" % (edited[0], restored[0]))
+        s["result"]["threads_at_end"] = sorted(t.name for t in threading.enumerate())
         print("UI_CHECK: " + json.dumps(s["result"]), flush=True)
         print("ADDON_CHECK: OK", flush=True)
         bpy.ops.wm.quit_blender()

@@ -2,7 +2,7 @@
 
 Long jobs (final renders, optimisations) run in `ptir` child processes so that a
 crash in the native engine can never take Blender (and the artist's unsaved
-work) down. A ChildJob starts the command, reads its stderr on a thread and
+work) down. A ChildJob starts the command, reads its output whenever it is polled and
 parses progress lines into a small state object that the caller (a modal
 operator's timer, a render engine loop, or a blocking loop in blender -b) polls:
 
@@ -21,9 +21,10 @@ import re
 import shutil
 import signal
 import subprocess
-import threading
 import time
+
 from ..errors import JobError
+from .pipe_lines import PipeLines
 
 _ADDON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -106,13 +107,15 @@ def parse_optimize_progress(line, progress):
 
 
 class ChildJob:
-    """A `ptir` child process with its stderr read on a thread.
+    """A `ptir` child process whose output (stdout and stderr together) is read when it is polled.
 
     poll(): None while running, else the exit status. cancel(): asks it to stop
     (SIGINT: the optimiser finishes its iteration and exits 130; other commands
     end at once), then kills it after `grace` seconds. Lines are kept (the last
     200) for error messages; `echo` prints each progress/log line as it comes
-    (blender -b shows the progress on its console).
+    (blender -b shows the progress on its console). The output is read on the
+    caller's thread by poll() and wait(), never on a thread of its own
+    (pipe_lines.py says why), so `progress` is as new as the last poll.
     """
 
     def __init__(self, args, parse=None, cwd=None, echo=False, log_path=None, env=None):
@@ -122,7 +125,6 @@ class ChildJob:
         self.cancelled = False
         self._parse = parse
         self._echo = echo
-        self._lock = threading.Lock()
         self._log = open(log_path, "w") if log_path else None
         try:
             self.proc = subprocess.Popen(self.args, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
@@ -132,37 +134,19 @@ class ChildJob:
                 self._log.close()
             raise JobError("cannot start %s: %s" % (self.args[0], e.strerror or e))
         self.started = time.monotonic()
-        self._reader = threading.Thread(target=self._read, name="ptir-job-reader", daemon=True)
-        self._reader.start()
+        self._pipes = PipeLines({"out": self.proc.stdout})
 
-    def _read(self):
-        buf = b""
-        stream = self.proc.stdout
-        while True:
-            chunk = stream.read1(4096) if hasattr(stream, "read1") else stream.read(1)
-            if not chunk:
-                break
-            buf += chunk
-            while True:
-                cut = [i for i in (buf.find(b"\n"), buf.find(b"\r")) if i >= 0]
-                if not cut:
-                    break
-                i = min(cut)
-                line, buf = buf[:i], buf[i + 1:]
-                self._line(line.decode("utf-8", errors="replace"))
-        if buf:
-            self._line(buf.decode("utf-8", errors="replace"))
+    def _pump(self, timeout=0.0):
+        for _, line in self._pipes.pump(timeout):
+            self._line(line)
 
     def _line(self, line):
-        if not line.strip():
-            return
-        with self._lock:
-            is_progress = self._parse(line, self.progress) if self._parse else False
-            if not is_progress or not self.lines or not self._parse(self.lines[-1], Progress()):
-                self.lines.append(line)
-            else:
-                self.lines[-1] = line  # keep one line per redrawn progress bar
-            del self.lines[:-200]
+        is_progress = self._parse(line, self.progress) if self._parse else False
+        if not is_progress or not self.lines or not self._parse(self.lines[-1], Progress()):
+            self.lines.append(line)
+        else:
+            self.lines[-1] = line  # keep one line per redrawn progress bar
+        del self.lines[:-200]
         if self._log:
             self._log.write(line + "\n")
             self._log.flush()
@@ -170,18 +154,29 @@ class ChildJob:
             print("ptir: " + line, flush=True)
 
     def poll(self):
+        self._pump()
         rc = self.proc.poll()
         if rc is not None:
-            self._reader.join(timeout=5)
+            end = time.monotonic() + 5.0  # its last lines: the pipe ends when the process has gone
+            while not self._pipes.closed and time.monotonic() < end:
+                self._pump(0.05)
             if self._log and not self._log.closed:
                 self._log.close()
         return rc
 
     def wait(self, timeout=None):
-        try:
-            self.proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            return None
+        """Waits for the end (reading the output meanwhile); the exit status, or None after `timeout` s."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self.proc.poll() is None:
+            left = 0.05 if deadline is None else min(0.05, deadline - time.monotonic())
+            if left <= 0:
+                return None
+            self._pump(left)
+            if self._pipes.closed:  # nothing more to read: the process is ending
+                try:
+                    self.proc.wait(timeout=max(left, 0.001))
+                except subprocess.TimeoutExpired:
+                    pass
         return self.poll()
 
     def cancel(self, grace=10.0):
@@ -192,13 +187,14 @@ class ChildJob:
                 self.proc.send_signal(signal.SIGINT)
             except OSError:
                 pass
-            wait_or_kill(self.proc, grace)
+            if self.wait(timeout=grace) is None:
+                self.proc.kill()
+                self.proc.wait()
         return self.poll()
 
     def error_message(self):
         """The tool's own error line ("ptir: error: ...") or the last lines it printed."""
-        with self._lock:
-            lines = list(self.lines)
+        lines = list(self.lines)
         errors = [l for l in lines if "error" in l.lower()]
         if errors:
             return errors[-1].strip()

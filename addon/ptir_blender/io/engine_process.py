@@ -29,6 +29,7 @@ import time
 
 from ..errors import JobError
 from .cli import wait_or_kill
+from .pipe_lines import PipeLines
 
 
 def _pid_alive(pid):
@@ -75,7 +76,9 @@ class EngineDied(JobError):
 
 
 class EngineProcess:
-    """`ptir serve` as a child: send() returns a request id; replies are read on a thread."""
+    """`ptir serve` as a child: send() returns a request id; its replies and log are read whenever they
+    are asked for (reply, wait, send), on the asking thread, never on a thread of its own (pipe_lines.py
+    says why). The lock makes that safe from two threads (the viewport's and a final render's)."""
 
     def __init__(self, cli_path, threads=0, log_path=None, start_timeout=30.0):
         args = [cli_path, "serve"]
@@ -83,7 +86,6 @@ class EngineProcess:
             args += ["--threads", str(int(threads))]
         self.args = args
         self._lock = threading.Lock()
-        self._arrived = threading.Condition(self._lock)
         self._replies = {}
         self._next_id = 1
         self._stderr_tail = []
@@ -96,42 +98,46 @@ class EngineProcess:
                                          stderr=subprocess.PIPE, bufsize=0)
         except OSError as e:
             raise JobError("cannot start the PTIR engine %s: %s" % (cli_path, e.strerror or e))
+        self._pipes = PipeLines({"reply": self.proc.stdout, "log": self.proc.stderr})
         self._ready = False
-        threading.Thread(target=self._read_replies, name="ptir-engine-replies", daemon=True).start()
-        threading.Thread(target=self._read_log, name="ptir-engine-log", daemon=True).start()
+        deadline = time.monotonic() + start_timeout
+        while not self._ready and self.proc.poll() is None and time.monotonic() < deadline:
+            self._pump(0.05)
+        self._pump()
+        if not self._ready:
+            raise EngineDied("the PTIR engine did not start: %s" % self.death_message())
+
+    # ---------------------------------------------------------------- reading
+
+    def _pump(self, timeout=0.0):
+        """Reads what the engine has written (waiting up to `timeout` s for it): replies and progress
+        into their tables, log lines into the tail and the log file."""
+        self._pipes.wait(timeout)
         with self._lock:
-            self._arrived.wait_for(lambda: self._ready or self.proc.poll() is not None, timeout=start_timeout)
-            if not self._ready:
-                raise EngineDied("the PTIR engine did not start: %s" % self.death_message())
-
-    # ---------------------------------------------------------------- threads
-
-    def _read_replies(self):
-        for raw in self.proc.stdout:
-            try:
-                reply = json.loads(raw.decode("utf-8", errors="replace"))
-            except ValueError:
-                continue
-            with self._lock:
+            for key, line in self._pipes.read():
+                if key == "log":
+                    self._stderr_tail.append(line)
+                    del self._stderr_tail[:-50]
+                    if self._log:
+                        self._log.write(line + "\n")
+                        self._log.flush()
+                    continue
+                try:
+                    reply = json.loads(line)
+                except ValueError:
+                    continue
                 if reply.get("ready"):
                     self._ready = True
                 elif "progress" in reply and "ok" not in reply:
                     self.progress[reply.get("id")] = float(reply["progress"])  # interim line of a render
                 elif "id" in reply:
                     self._replies[reply["id"]] = reply
-                self._arrived.notify_all()
-        with self._lock:
-            self._arrived.notify_all()
 
-    def _read_log(self):
-        for raw in self.proc.stderr:
-            line = raw.decode("utf-8", errors="replace").rstrip()
-            with self._lock:
-                self._stderr_tail.append(line)
-                del self._stderr_tail[:-50]
-            if self._log:
-                self._log.write(line + "\n")
-                self._log.flush()
+    def _pump_to_end(self, seconds=2.0):
+        """After the process has ended: its last lines (the pipes end once it has gone)."""
+        end = time.monotonic() + seconds
+        while not self._pipes.closed and time.monotonic() < end:
+            self._pump(0.05)
 
     # ---------------------------------------------------------------- requests
 
@@ -141,6 +147,7 @@ class EngineProcess:
     def send(self, request, bulk_bytes=0):
         """Sends one request (a dict; an "id" is added); returns the id. bulk_bytes: the size of the
         files written for it (counted in sent_bytes)."""
+        self._pump()  # keeps the pipes drained, so the engine never waits on a full one
         with self._lock:
             rid = self._next_id
             self._next_id += 1
@@ -166,10 +173,12 @@ class EngineProcess:
     def reply(self, rid, pop=True):
         """The reply to rid, or None while it has not come. Raises EngineDied when the process ended
         without answering."""
+        self._pump()
         with self._lock:
             r = self._replies.pop(rid, None) if pop else self._replies.get(rid)
         if r is None and not self.alive():
-            with self._lock:  # the reader may still be handing over the last lines
+            self._pump_to_end()  # its last lines may still be in the pipe
+            with self._lock:
                 r = self._replies.pop(rid, None) if pop else self._replies.get(rid)
             if r is None:
                 raise EngineDied(self.death_message())
@@ -184,8 +193,8 @@ class EngineProcess:
         deadline = None if timeout is None else time.monotonic() + timeout
         cancelled = None
         while True:
+            self._pump(0.05)
             with self._lock:
-                self._arrived.wait_for(lambda: rid in self._replies or self.proc.poll() is not None, timeout=0.05)
                 r = self._replies.pop(rid, None)
             if r is not None:
                 self.progress.pop(rid, None)
@@ -213,6 +222,8 @@ class EngineProcess:
 
     def death_message(self):
         rc = self.proc.poll()
+        if rc is not None:
+            self._pump_to_end()
         with self._lock:
             tail = [l for l in self._stderr_tail if l.strip()][-2:]
         if rc is None:

@@ -1,0 +1,66 @@
+"""The add-on reads its children's output on the polling thread, never on a Python thread of its own
+(addon/ptir_blender/io/pipe_lines.py says why: a thread of ours holding the GIL while Blender runs an
+operator called from Python inside a context override crashes Blender 3.x). Real child processes: the
+lines come whole and in order across carriage returns, chunk boundaries and an unfinished last line;
+more output than a pipe holds does not stall the child; the exit status and the last lines survive;
+and neither the job nor the persistent engine starts a thread."""
+
+import sys
+import threading
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "addon"))
+from ptir_blender.io import cli as cli_mod  # noqa: E402
+from ptir_blender.io.engine_process import EngineProcess  # noqa: E402
+from ptir_blender.io.pipe_lines import _split  # noqa: E402
+
+
+def test_split_lines():
+    assert _split(b"a\r\nb\rc") == (["a", "b"], b"c")
+    assert _split(b"a\r\nb\rc", final=True) == (["a", "b", "c"], b"")
+    assert _split(b"\n\n  \n") == ([], b"")
+
+
+def test_child_job_reads_everything_without_a_thread():
+    # 300,000 progress redraws (~7 MB): 100 pipe buffers' worth, then a log line with no newline.
+    script = ("import sys\n"
+              "for i in range(300000): sys.stdout.write('\\rstep %d' % i)\n"
+              "sys.stdout.write('\\nlast words'); sys.stdout.flush(); sys.exit(3)\n")
+    seen = []
+
+    def parse(line, progress):
+        if line.startswith("step "):
+            seen.append((progress, int(line[5:])))
+            return True
+        return False
+
+    threads = threading.active_count()
+    job = cli_mod.ChildJob([sys.executable, "-c", script], parse=parse)
+    assert threading.active_count() == threads
+    assert job.wait(timeout=120) == 3
+    assert threading.active_count() == threads
+    assert job.lines[-1] == "last words" and job.lines[-2] == "step 299999"
+    assert len(job.lines) <= 200
+    steps = [n for p, n in seen if p is job.progress]  # (the job also parses its kept line)
+    assert steps == list(range(300000))  # each line once, whole, in order
+
+
+def test_child_job_cancel_and_timeout():
+    job = cli_mod.ChildJob([sys.executable, "-c", "import time\nprint('up', flush=True)\ntime.sleep(60)"])
+    assert job.wait(timeout=0.5) is None and job.poll() is None
+    rc = job.cancel(grace=5.0)
+    assert rc is not None and rc != 0 and job.lines[:1] == ["up"]
+
+
+def test_engine_without_a_thread(cli, tmp_path):
+    threads = threading.active_count()
+    engine = EngineProcess(str(cli))
+    try:
+        assert threading.active_count() == threads
+        r = engine.wait(engine.send({"cmd": "load", "scene": str(tmp_path / "missing.json")}), timeout=30)
+        assert not r["ok"] and "missing.json" in r["error"]
+        assert engine.alive() and threading.active_count() == threads
+    finally:
+        engine.close()
+    assert not engine.alive()
