@@ -9,9 +9,9 @@ sequence of passes sent to the engine one at a time:
             (the running mean of passes 1..k is the k-spp render of that view)
 
 until Viewport Samples is reached. A change (camera move, edit) cancels the pass
-in flight and starts over. Replies are read on the engine's reader thread; a
-timer (bpy.app.timers, main thread) tags the view for redraw when one arrives,
-so nothing polls while the engine works. Pixels come back as raw float32 RGBA
+in flight and starts over. A timer (bpy.app.timers, main thread) asks the engine
+for the reply, which reads its pipe without blocking (io/pipe_lines.py: no reader
+threads), and tags the view for redraw when one has arrived. Pixels come back as raw float32 RGBA
 files in /dev/shm and go to the GPU as one texture (no per-pixel Python).
 """
 
