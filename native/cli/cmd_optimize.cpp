@@ -279,10 +279,10 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (!o.quiet && opt.iteration() < opt.settings().iterations) {  // measured on a probe window (iteration_estimate.h)
     const IterationEstimate est = estimate_iteration(opt);
     std::fprintf(stderr, "optimize: estimated %.2f s/iter, %s for %d iterations (probe %d pixels at %d spp: %.2f + %.2f us per "
-                 "path sample, primal + replay)\n", est.seconds,
+                 "path sample, primal + replay; regulariser %.2f us per pixel)\n", est.seconds,
                  duration_text(est.seconds * (opt.settings().iterations - opt.iteration())).c_str(),
                  opt.settings().iterations - opt.iteration(), est.probe_pixels, est.probe_spp,
-                 1e6 * est.primal_per_sample, 1e6 * est.replay_per_sample);
+                 1e6 * est.primal_per_sample, 1e6 * est.replay_per_sample, 1e6 * est.regulariser_per_pixel);
   }
 
   auto previous = install_sigint();

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 
+#include "ptir/render/aov_backward.h"
+#include "ptir/render/material_maps.h"
 #include "ptir/render/render_path.h"
 
 namespace ptir {
@@ -80,7 +82,25 @@ IterationEstimate estimate_iteration(const Optimizer& opt) {
     h = std::min(h, s.crop_size);
   }
   const double pixels = double(w) * h * s.views_per_iteration;
-  e.seconds = pixels * (double(s.integrator.spp) * (e.primal_per_sample + e.replay_per_sample) + e.primal_per_sample) +
+  // The material-map regulariser (when on): its maps and their adjoint from the kept walks, as the
+  // optimiser runs them, timed on the central window.
+  if (s.lambda_tv > 0.0f || data.has_priors()) {
+    const Camera cam = window(view, view.width / 2, view.height / 2, kRatioSide);
+    AovSettings as;
+    as.interaction = s.integrator.interaction;
+    as.spp = 1;
+    as.seed = is.seed;
+    Image alb, rough, coverage;
+    MaterialMapWalks walks;
+    auto t0 = std::chrono::steady_clock::now();
+    render_material_maps(opt.tracer().accel(), cam, as, {}, &alb, &rough, &coverage, &walks);
+    Image d_alb(cam.width, cam.height, {"R", "G", "B"}), d_rough(cam.width, cam.height, {"Y"});
+    std::fill(d_alb.pixels.begin(), d_alb.pixels.end(), 1e-3f);
+    std::fill(d_rough.pixels.begin(), d_rough.pixels.end(), 1e-3f);
+    render_aov_backward(opt.tracer().accel(), cam, as, &d_alb, &d_rough, grads, &walks);
+    e.regulariser_per_pixel = seconds_of(t0) / (double(cam.width) * cam.height);
+  }
+  e.seconds = pixels * (double(s.integrator.spp) * (e.primal_per_sample + e.replay_per_sample) + e.regulariser_per_pixel) +
               s.views_per_iteration * e.replay_fixed;
   return e;
 }

@@ -10,8 +10,8 @@
 // cost per sample is the primal's times the replay / primal ratio of one central
 // 48 x 48 window. Scaling: per
 // path sample cost x (view pixels x spp x views per iteration), plus the
-// material-map regulariser pass costed as one primal sample per pixel, plus a
-// replay's fixed cost (gradient buffers sized by the scene) per view. The
+// material-map regulariser (its maps and their adjoint, timed on the central
+// window) per pixel, plus a replay's fixed cost (gradient buffers sized by the scene) per view. The
 // iterations' own "s/iter" then tells the truth.
 #pragma once
 
@@ -24,6 +24,7 @@ struct IterationEstimate {
   double primal_per_sample = 0.0;  // seconds per path sample, primal
   double replay_per_sample = 0.0;  // seconds per path sample, replay (backward)
   double replay_fixed = 0.0;       // seconds per replay call, whatever its size
+  double regulariser_per_pixel = 0.0;  // seconds per view pixel, material maps + adjoint (0 when off)
   int probe_pixels = 0, probe_spp = 0;
 };
 
