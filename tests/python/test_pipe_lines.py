@@ -49,6 +49,10 @@ def test_child_job_reads_everything_without_a_thread():
 def test_child_job_cancel_and_timeout():
     job = cli_mod.ChildJob([sys.executable, "-c", "import time\nprint('up', flush=True)\ntime.sleep(60)"])
     assert job.wait(timeout=0.5) is None and job.poll() is None
+    for _ in range(200):  # its first line (a loaded machine may take a while to start Python)
+        if job.lines:
+            break
+        job.wait(timeout=0.05)
     rc = job.cancel(grace=5.0)
     assert rc is not None and rc != 0 and job.lines[:1] == ["up"]
 
