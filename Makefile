@@ -7,6 +7,13 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 PYTHON := /usr/bin/python3
 export PTIR_BUILD_DIR := $(abspath $(BUILD))
+# ccache when present: paths under the checkout are hashed relative to it, so a fresh
+# clone elsewhere on the same machine (CI) reuses the objects of the last build.
+ifneq ($(shell command -v ccache 2>/dev/null),)
+export CMAKE_CXX_COMPILER_LAUNCHER := ccache
+export CCACHE_BASEDIR := $(abspath .)
+export CCACHE_NOHASHDIR := 1
+endif
 
 .PHONY: all setup build install-addon demo test test-native test-python bench clean
 

@@ -4,7 +4,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake pkg-config git
+  build-essential cmake pkg-config git ccache python3-venv
   libembree-dev libtbb-dev libopenexr-dev libimath-dev
   libopenimageio-dev openimageio-tools
   pybind11-dev python3-dev python3-numpy python3-pytest python3-skimage
