@@ -1,7 +1,9 @@
 # PTIR: the two commands of the README.
 #   make demo  -- install everything, build, run the main job on the bundled sample
 #   make test  -- install everything, build, run every test (gtest, pytest, blender -b)
-# Other targets: setup, build, install-addon, bench, clean.
+# Other targets: setup, build, install-addon, package, bench, clean.
+#   make package -- dist/ptir-<version>-linux-x64.zip: the add-on with the CLI and its libraries
+#                   (a Blender 4.2+ Extension; a legacy add-on zip on 3.x): docs/install.md
 
 BUILD ?= build
 JOBS ?= $(shell nproc)
@@ -15,7 +17,7 @@ export CCACHE_BASEDIR := $(abspath .)
 export CCACHE_NOHASHDIR := 1
 endif
 
-.PHONY: all setup build install-addon demo test test-native test-python bench clean
+.PHONY: all setup build install-addon package package-cli demo test test-native test-python bench clean
 
 all: build
 
@@ -29,6 +31,25 @@ build: setup
 install-addon: build
 	./scripts/install_addon.sh $(BUILD)
 
+# The package's CLI: its own build folder, without MPI (whose plugins cannot travel in a zip),
+# without tests or the Python module. The zip is remade when the CLI, the add-on or the script change.
+PKG_BUILD ?= $(BUILD)-package
+VERSION := $(shell grep -m1 -o 'ptir VERSION [0-9.]*' CMakeLists.txt | cut -d' ' -f3)
+PACKAGE_ZIP := dist/ptir-$(VERSION)-linux-x64.zip
+export PTIR_PACKAGE_ZIP := $(abspath $(PACKAGE_ZIP))
+
+package: $(PACKAGE_ZIP)
+
+package-cli: setup
+	cmake -S . -B $(PKG_BUILD) -DCMAKE_BUILD_TYPE=Release -DPTIR_WITH_MPI=OFF -DPTIR_BUILD_TESTS=OFF \
+	  -DPTIR_BUILD_PYTHON=OFF -DPython_EXECUTABLE=/usr/bin/python3.11
+	cmake --build $(PKG_BUILD) -j $(JOBS) --target ptir_cli
+
+$(PKG_BUILD)/bin/ptir: package-cli ;
+
+$(PACKAGE_ZIP): $(PKG_BUILD)/bin/ptir scripts/make_package.py $(shell find addon/ptir_blender -name '*.py')
+	$(PYTHON) scripts/make_package.py --cli $(PKG_BUILD)/bin/ptir --out dist
+
 demo: build install-addon
 	./scripts/demo.sh $(BUILD)
 
@@ -36,7 +57,7 @@ test-native: build
 	# Serial: some test fixtures share folders under build/test_tmp.
 	cd $(BUILD) && ctest --output-on-failure
 
-test-python: build install-addon
+test-python: build install-addon package
 	$(PYTHON) -m pytest -q tests/python tests/blender
 
 test: test-native test-python

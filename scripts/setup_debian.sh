@@ -5,6 +5,8 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake pkg-config git ccache python3-venv
+  patchelf  # make package: the bundled CLI and libraries find each other ($ORIGIN RUNPATH)
+  debootstrap  # scripts/check_package_debootstrap.sh: the zip's CLI in a bare Debian root
   libembree-dev libtbb-dev libopenexr-dev libimath-dev
   libopenimageio-dev openimageio-tools
   pybind11-dev python3-dev python3-numpy python3-pytest python3-skimage

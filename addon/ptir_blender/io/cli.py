@@ -38,25 +38,45 @@ def wait_or_kill(proc, grace):
         proc.wait()
 
 
+def bundled_cli():
+    """The copy of `ptir` inside the add-on (bin/ptir, with its libraries in lib/), or None.
+
+    Blender installs an extension or a legacy add-on zip with Python's zipfile, which drops the
+    files' permissions: the first call gives the bundled binary back its execute bit.
+    """
+    path = os.path.join(_ADDON_DIR, "bin", "ptir")
+    if not os.path.isfile(path):
+        return None
+    if not os.access(path, os.X_OK):
+        try:
+            os.chmod(path, os.stat(path).st_mode | 0o755)
+        except OSError as e:
+            raise JobError("the add-on's own ptir command '%s' is not executable and cannot be made so (%s): "
+                           "reinstall the add-on, or set the command in the add-on preferences" % (path, e)) from e
+    return path
+
+
 def find_cli(preferred=""):
-    """The `ptir` executable: the preference, the copy inside the add-on (bin/ptir), $PTIR_CLI, PATH."""
+    """The `ptir` executable: the preference, the copy inside the add-on (bin/ptir), $PTIR_CLI, PATH.
+
+    The first that is an executable file wins (looked at in that order, so a preference that
+    names one overrides the bundled copy).
+    """
     candidates = []
     if preferred:
-        candidates.append(("the add-on preference", os.path.expanduser(preferred)))
-    candidates.append(("the add-on folder", os.path.join(_ADDON_DIR, "bin", "ptir")))
-    if os.environ.get("PTIR_CLI"):
-        candidates.append(("$PTIR_CLI", os.environ["PTIR_CLI"]))
-    on_path = shutil.which("ptir")
-    if on_path:
-        candidates.append(("PATH", on_path))
-    for _, path in candidates:
+        candidates.append(lambda: os.path.expanduser(preferred))
+    candidates.append(bundled_cli)
+    candidates.append(lambda: os.environ.get("PTIR_CLI"))
+    candidates.append(lambda: shutil.which("ptir"))
+    for candidate in candidates:
+        path = candidate()
         if path and os.path.isfile(path) and os.access(path, os.X_OK):
             return os.path.abspath(path)
     if preferred:
         raise JobError("the ptir command '%s' (add-on preference) is not an executable file" % preferred)
     raise JobError("cannot find the engine's command-line tool 'ptir': not in %s, $PTIR_CLI or PATH "
-                   "(run scripts/install_addon.sh, or set it in the add-on preferences)"
-                   % os.path.join(_ADDON_DIR, "bin"))
+                   "(reinstall the add-on from its zip, run scripts/install_addon.sh, or set it in the "
+                   "add-on preferences)" % os.path.join(_ADDON_DIR, "bin"))
 
 
 class Progress:

@@ -105,7 +105,9 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
     bl_use_preview = False
     bl_use_postprocess = True
 
-    def __init__(self):
+    def __init__(self, *args, **kwargs):
+        # Blender 4.4+ passes arguments that bpy.types.RenderEngine's __init__ must receive.
+        super().__init__(*args, **kwargs)
         self._viewport = None
 
     # ------------------------------------------------------------------ F12
