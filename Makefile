@@ -17,7 +17,7 @@ export CCACHE_BASEDIR := $(abspath .)
 export CCACHE_NOHASHDIR := 1
 endif
 
-.PHONY: all setup build install-addon package package-cli demo test test-native test-python bench clean
+.PHONY: all setup setup-bpy build install-addon package package-cli demo test test-native test-python bench clean
 
 all: build
 
@@ -57,7 +57,11 @@ test-native: build
 	# Serial: some test fixtures share folders under build/test_tmp.
 	cd $(BUILD) && ctest --output-on-failure
 
-test-python: build install-addon package
+# PyPI's bpy 4.5 / 5.0 (cached venvs): tests/blender/test_package.py installs the zip into them.
+setup-bpy:
+	./scripts/setup_bpy.sh
+
+test-python: build install-addon package setup-bpy
 	$(PYTHON) -m pytest -q tests/python tests/blender
 
 test: test-native test-python
