@@ -3,7 +3,8 @@
 # (debootstrap --variant=minbase: glibc, libstdc++, coreutils, apt; no Embree, TBB, OpenEXR,
 # OpenImageIO, ...) into which only the zip's bin/ptir and lib/ are copied. Inside it (chroot,
 # empty environment) the CLI renders a small scene: splats (a PLY), meshes, an area light and an
-# HDR environment, to EXR and PNG. The images are then checked on the host (oiiotool).
+# HDR environment, to EXR and PNG (checked on the host with oiiotool); then with the environment as
+# PNG, JPEG and TIFF, and with a truncated and a garbage image, which must give the CLI's own error.
 #
 #   scripts/check_package_debootstrap.sh [ZIP]     (default: dist/ptir-<CMake version>-linux-x64.zip)
 #
@@ -161,6 +162,30 @@ chroot "$CHROOT" /usr/bin/env -i PATH=/usr/bin:/bin /opt/ptir/bin/ptir --version
 chroot "$CHROOT" /usr/bin/env -i PATH=/usr/bin:/bin HOME=/work sh -c \
   'cd /work && /opt/ptir/bin/ptir render scene.json -o render.exr --stats-json stats.json &&
    /opt/ptir/bin/ptir render scene.json -o render.png -q' || die "ptir render failed inside the root"
+
+# The environment read from each image format the engine meets (PNG, JPEG, TIFF: converted on the
+# host), and two broken files, which must end in the CLI's own error message (exit 1), not a crash.
+for ext in png jpg tif; do
+  oiiotool "$CHROOT/work/sky.hdr" -o "$CHROOT/work/sky.$ext" >/dev/null || die "oiiotool cannot write sky.$ext"
+done
+head -c 3000 "$CHROOT/work/sky.hdr" > "$CHROOT/work/truncated.hdr"
+printf 'not an image' > "$CHROOT/work/garbage.png"
+cp "$CHROOT/work/garbage.png" "$CHROOT/work/garbage.xyz"   # no reader by name: OpenImageIO tries every one
+for env in sky.png sky.jpg sky.tif truncated.hdr garbage.png garbage.xyz; do
+  sed "s/\"sky.hdr\"/\"$env\"/" "$CHROOT/work/scene.json" > "$CHROOT/work/scene_$env.json"
+  set +e
+  msg="$(chroot "$CHROOT" /usr/bin/env -i PATH=/usr/bin:/bin sh -c \
+    "cd /work && /opt/ptir/bin/ptir render scene_$env.json -o env_$env.exr -q --spp 2" 2>&1)"
+  rc=$?
+  set -e
+  case "$env" in
+    sky.*) [ $rc -eq 0 ] || die "rendering with the environment $env failed (exit $rc): $msg"
+           say "environment $env: rendered" ;;
+    *) { [ $rc -eq 1 ] && [[ "$msg" == *"ptir: error: "*"$env"* ]]; } \
+         || die "a broken $env must give the CLI's error and exit 1, got exit $rc: $msg"
+       say "environment $env: exit 1, '$msg'" ;;
+  esac
+done
 
 # On the host: both images exist, are finite, and show the scene (not black, not flat).
 for img in render.exr render.png; do

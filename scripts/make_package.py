@@ -16,7 +16,9 @@ Layout inside the zip:
     ptir_blender/bin/ptir              the CLI, stripped, RUNPATH $ORIGIN/../lib
     ptir_blender/lib/*.so*             every shared library it loads beyond glibc and GCC's
                                        runtime (libstdc++, libgcc_s), found with ldd, stripped,
-                                       RUNPATH $ORIGIN; lib/copyright/ has their Debian copyright files
+                                       RUNPATH $ORIGIN, less what PRUNE removes (OpenCV, which
+                                       Debian's OpenImageIO links for functions the engine never
+                                       calls); lib/copyright/ has their Debian copyright files
 The optional in-process Python module (ptir*.so) is not included: the add-on runs the CLI.
 
 The script checks what it made: ldd of the staged CLI must resolve every library inside lib/
@@ -30,6 +32,7 @@ import os
 import re
 import shutil
 import stat
+import struct
 import subprocess
 import sys
 import zipfile
@@ -47,6 +50,22 @@ BASELINE = re.compile(r"^(linux-vdso\.so|ld-linux-x86-64\.so|libc\.so|libm\.so|l
                       r"libnss_|libthread_db\.so|libstdc\+\+\.so|libgcc_s\.so)")
 # Loaded with dlopen (ldd cannot see them) from the folder of the library that loads them.
 DLOPENED = ("libtbbmalloc.so.2",)   # TBB's scalable allocator (libtbb looks beside itself)
+
+# Dependencies removed from a bundled library, with the symbols that are then left unresolved.
+# Debian's OpenImageIO links OpenCV for ImageBufAlgo::to_OpenCV / from_OpenCV / capture_image only
+# (no image format reader uses it; static init does not touch it), which the engine never calls;
+# OpenCV brings GDAL and its geodata stack: 92 libraries, 108 MB. The dependency is removed and
+# OpenImageIO's references to OpenCV's (unversioned) symbols are made weak, so that the loader binds
+# them to 0 (OpenImageIO is linked with BIND_NOW and full RELRO: lazy binding is not an option).
+# Only function references remain (no data); check_staged() makes sure nothing else is unresolved.
+PRUNE = {
+    "libOpenImageIO.so.2.4": {
+        "needed": ("libopencv_core.so.406", "libopencv_imgproc.so.406", "libopencv_videoio.so.406"),
+        "unresolved": re.compile(r"^(cv::|cv[A-Z])"),   # OpenCV's C++ namespace and its C API
+        # The library's functions that reach those symbols: the CLI must not call any of them.
+        "callers": re.compile(r"ImageBufAlgo::(to_OpenCV|from_OpenCV|to_IplImage|from_IplImage|capture_image)\b"),
+    },
+}
 
 MANIFEST = """schema_version = "1.0.0"
 
@@ -137,6 +156,59 @@ def collect_libraries(cli):
     return wanted
 
 
+def weaken_undefined(path, pattern):
+    """Makes the undefined dynamic symbols of an x86-64 ELF whose demangled names match `pattern`
+    weak: the loader then binds them to 0 instead of refusing to load. Returns their names."""
+    with open(path, "r+b") as f:
+        data = bytearray(f.read())
+        if data[:4] != b"\x7fELF" or data[4] != 2 or data[5] != 1:
+            raise PackageError("%s: not a 64-bit little-endian ELF file" % path)
+        shoff, = struct.unpack_from("<Q", data, 0x28)
+        shentsize, shnum = struct.unpack_from("<HH", data, 0x3A)
+        sections = [struct.unpack_from("<IIQQQQIIQQ", data, shoff + i * shentsize) for i in range(shnum)]
+        dynsym = [sh for sh in sections if sh[1] == 11]   # SHT_DYNSYM
+        if len(dynsym) != 1:
+            raise PackageError("%s: expected one .dynsym section, found %d" % (path, len(dynsym)))
+        _, _, _, _, sym_off, sym_size, link, _, _, entsize = dynsym[0]
+        str_off = sections[link][4]
+        undefined = []
+        for entry in range(sym_off + entsize, sym_off + sym_size, entsize):   # entry 0 is the null symbol
+            st_name, st_info, _, st_shndx = struct.unpack_from("<IBBH", data, entry)
+            if st_shndx == 0 and st_info >> 4 == 1:   # SHN_UNDEF, STB_GLOBAL
+                end = data.index(b"\0", str_off + st_name)
+                undefined.append((entry, st_info, data[str_off + st_name:end].decode()))
+        demangled = run(["c++filt"], input="\n".join(n for _, _, n in undefined)).split("\n")
+        weakened = []
+        for (entry, st_info, name), plain in zip(undefined, demangled):
+            if pattern.match(plain):
+                data[entry + 4] = (2 << 4) | (st_info & 0xF)   # STB_WEAK, same type
+                weakened.append(plain)
+        f.seek(0)
+        f.write(data)
+    return weakened
+
+
+def prune(exe, lib_dir):
+    """Applies PRUNE to the staged libraries, then deletes those the CLI no longer loads."""
+    for name, rule in PRUNE.items():
+        path = os.path.join(lib_dir, name)
+        if not os.path.isfile(path):
+            continue
+        args = ["patchelf"]
+        for dep in rule["needed"]:
+            args += ["--remove-needed", dep]
+        run(args + [path])
+        if not weaken_undefined(path, rule["unresolved"]):
+            raise PackageError("%s: no symbol matches %s: PRUNE is out of date" % (name, rule["unresolved"].pattern))
+    keep = set(ldd(exe, env={"PATH": "/usr/bin:/bin"})) | set(DLOPENED)
+    for name in DLOPENED:
+        if os.path.isfile(os.path.join(lib_dir, name)):
+            keep |= set(ldd(os.path.join(lib_dir, name), env={"PATH": "/usr/bin:/bin"}))
+    for name in os.listdir(lib_dir):
+        if os.path.isfile(os.path.join(lib_dir, name)) and name not in keep:
+            os.remove(os.path.join(lib_dir, name))
+
+
 def copyright_files(paths):
     """{debian package: its /usr/share/doc/<pkg>/copyright} for the packages that own `paths`."""
     real = sorted({os.path.realpath(p) for p in paths})
@@ -175,18 +247,18 @@ def stage(cli, stage_dir, version):
     run(["patchelf", "--set-rpath", "$ORIGIN/../lib", exe])
 
     libs = collect_libraries(cli)
-    sizes = {}
     for name, path in sorted(libs.items()):
         dest = os.path.join(lib_dir, name)
         shutil.copyfile(os.path.realpath(path), dest)   # under its soname: what the loader looks for
         os.chmod(dest, 0o755)
         run(["strip", "--strip-unneeded", dest])
         run(["patchelf", "--set-rpath", "$ORIGIN", dest])
-        sizes[name] = os.path.getsize(dest)
+    prune(exe, lib_dir)
+    sizes = {name: os.path.getsize(os.path.join(lib_dir, name)) for name in os.listdir(lib_dir)}
 
     notices = os.path.join(lib_dir, "copyright")
     os.makedirs(notices)
-    for package, path in copyright_files(libs.values()).items():
+    for package, path in copyright_files([p for n, p in libs.items() if n in sizes]).items():
         shutil.copyfile(path, os.path.join(notices, package))
     return sizes
 
@@ -201,6 +273,11 @@ def check_staged(top):
             continue
         if path is None or os.path.dirname(os.path.realpath(path)) != lib_dir:
             raise PackageError("the staged CLI loads %s from %s, not from its lib/" % (name, path or "nowhere"))
+    # Every relocation resolves (`ldd -r`: data and functions; PRUNE's weakened symbols do not count).
+    out = subprocess.run(["ldd", "-r", exe], capture_output=True, text=True, env=env)
+    missing = sorted(set(re.findall(r"undefined symbol: (\S+)", out.stdout + out.stderr)))
+    if missing:
+        raise PackageError("the staged CLI has unresolved symbols: %s" % ", ".join(missing[:10]))
     out = run([exe, "--version"], env={})
     if not out.strip():
         raise PackageError("the staged CLI printed nothing for --version")
@@ -250,6 +327,11 @@ def main(argv=None):
     cli = os.path.abspath(args.cli)
     if not (os.path.isfile(cli) and os.access(cli, os.X_OK)):
         raise PackageError("no executable CLI at %s (build the ptir_cli target first)" % cli)
+    called = run(["c++filt"], input=run(["nm", "-D", "--undefined-only", cli])).splitlines()
+    for name, rule in PRUNE.items():
+        bad = [c.split()[-1] for c in called if rule["callers"].search(c)]
+        if bad:
+            raise PackageError("%s calls %s, which needs what PRUNE removes from %s" % (cli, ", ".join(bad), name))
     if "libmpi" in " ".join(ldd(cli)):
         raise PackageError("%s is linked with MPI: package a build configured with -DPTIR_WITH_MPI=OFF" % cli)
     version = project_version()

@@ -81,6 +81,8 @@ def test_zip_layout_and_manifest(zip_path):
     assert not [n for n in names if "__pycache__" in n or re.search(r"/ptir[^/]*\.cpython-.*\.so$", n)], \
         "caches or the in-process Python module in the zip"
     assert not [n for n in names if make_package.BASELINE.match(n.rsplit("/", 1)[-1])], "glibc/libstdc++ bundled"
+    # OpenCV (and GDAL, which it brings) is dropped from OpenImageIO's dependencies (make_package.PRUNE).
+    assert not [n for n in names if re.search(r"/lib(opencv_|gdal)", n)], "OpenCV or GDAL bundled"
     assert 'version = "%s"' % make_package.project_version() in manifest
     assert 'blender_version_min = "4.2.0"' in manifest and 'platforms = ["linux-x64"]' in manifest
     # Blender's own extension tool (from bpy 4.5) validates the manifest strictly.
