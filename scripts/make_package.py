@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Builds dist/ptir-<version>-linux-x64.zip: the Blender add-on with the `ptir` CLI and its libraries.
 
-    scripts/make_package.py --cli build-package/bin/ptir [--out dist] [--stage build-package/stage]
+    scripts/make_package.py --cli build-package/bin/ptir [--out dist] [--stage build-package/package-stage]
 
 One zip, two ways to install it:
   * Blender 4.2+: an Extension (Edit > Preferences > Get Extensions > Install from Disk). Blender
@@ -22,9 +22,9 @@ Layout inside the zip:
 The optional in-process Python module (ptir*.so) is not included: the add-on runs the CLI.
 
 The script checks what it made: ldd of the staged CLI must resolve every library inside lib/
-(or to glibc / GCC's runtime), and the staged CLI must run `--version` with an empty
-environment. Needs `ldd`, `strip`, `patchelf` and `dpkg` (Debian packages libc-bin, binutils,
-patchelf, dpkg).
+(or to glibc / GCC's runtime) and every symbol (ldd -r), and the staged CLI must run `--version`
+with an empty environment. Needs ldd, ldconfig, strip, nm, objdump, c++filt, readelf, patchelf
+and dpkg (Debian packages libc-bin, binutils, patchelf, dpkg).
 """
 
 import argparse
@@ -44,7 +44,7 @@ PLATFORM = "linux-x64"
 
 # Loaded from the machine that runs the CLI, never bundled: glibc's libraries (mixing another
 # glibc's pieces with the host's breaks) and GCC's runtime, which every Linux with a C++
-# program installed has (the CLI's symbol versions say which release it needs: see report()).
+# program installed has (the CLI's symbol versions say which release it needs: see symbol_versions()).
 BASELINE = re.compile(r"^(linux-vdso\.so|ld-linux-x86-64\.so|libc\.so|libm\.so|libmvec\.so|libpthread\.so|"
                       r"libdl\.so|librt\.so|libresolv\.so|libutil\.so|libanl\.so|libBrokenLocale\.so|"
                       r"libnss_|libthread_db\.so|libstdc\+\+\.so|libgcc_s\.so)")
@@ -57,7 +57,8 @@ DLOPENED = ("libtbbmalloc.so.2",)   # TBB's scalable allocator (libtbb looks bes
 # OpenCV brings GDAL and its geodata stack: 92 libraries, 108 MB. The dependency is removed and
 # OpenImageIO's references to OpenCV's (unversioned) symbols are made weak, so that the loader binds
 # them to 0 (OpenImageIO is linked with BIND_NOW and full RELRO: lazy binding is not an option).
-# Only function references remain (no data); check_staged() makes sure nothing else is unresolved.
+# prune() checks that they are only called (jump slots, no data or address references), and
+# check_staged() that nothing else is unresolved.
 PRUNE = {
     "libOpenImageIO.so.2.4": {
         "needed": ("libopencv_core.so.406", "libopencv_imgproc.so.406", "libopencv_videoio.so.406"),
@@ -158,7 +159,7 @@ def collect_libraries(cli):
 
 def weaken_undefined(path, pattern):
     """Makes the undefined dynamic symbols of an x86-64 ELF whose demangled names match `pattern`
-    weak: the loader then binds them to 0 instead of refusing to load. Returns their names."""
+    weak: the loader then binds them to 0 instead of refusing to load. Returns their (mangled) names."""
     with open(path, "r+b") as f:
         data = bytearray(f.read())
         if data[:4] != b"\x7fELF" or data[4] != 2 or data[5] != 1:
@@ -182,7 +183,7 @@ def weaken_undefined(path, pattern):
         for (entry, st_info, name), plain in zip(undefined, demangled):
             if pattern.match(plain):
                 data[entry + 4] = (2 << 4) | (st_info & 0xF)   # STB_WEAK, same type
-                weakened.append(plain)
+                weakened.append(name)
         f.seek(0)
         f.write(data)
     return weakened
@@ -198,8 +199,16 @@ def prune(exe, lib_dir):
         for dep in rule["needed"]:
             args += ["--remove-needed", dep]
         run(args + [path])
-        if not weaken_undefined(path, rule["unresolved"]):
+        weakened = set(weaken_undefined(path, rule["unresolved"]))
+        if not weakened:
             raise PackageError("%s: no symbol matches %s: PRUNE is out of date" % (name, rule["unresolved"].pattern))
+        # A weak symbol bound to 0 is harmless only where it is called (through a jump slot) by code
+        # that never runs; a data or address reference would be read as 0 by code that may run.
+        for line in run(["readelf", "-rW", path]).splitlines():
+            fields = line.split()
+            if len(fields) >= 5 and fields[4].split("@")[0] in weakened and fields[2] != "R_X86_64_JUMP_SLOT":
+                raise PackageError("%s refers to %s by %s, not a call: it cannot be dropped"
+                                   % (name, fields[4], fields[2]))
     keep = set(ldd(exe, env={"PATH": "/usr/bin:/bin"})) | set(DLOPENED)
     for name in DLOPENED:
         if os.path.isfile(os.path.join(lib_dir, name)):
