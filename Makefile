@@ -70,4 +70,4 @@ bench: build
 	$(PYTHON) bench/bench_all.py --build $(BUILD)
 
 clean:
-	rm -rf $(BUILD)
+	rm -rf $(BUILD) $(PKG_BUILD) dist
