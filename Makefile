@@ -29,7 +29,13 @@ build: setup
 install-addon: build
 	./scripts/install_addon.sh $(BUILD)
 
-demo: build install-addon
+# The demo builds only what it runs -- the ptir tool and the Python module the add-on
+# carries -- not the test and benchmark binaries (a later `make test` builds those in
+# the same folder, reusing these objects).
+demo: setup
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/python3.11
+	cmake --build $(BUILD) -j $(JOBS) --target ptir_cli ptir_python
+	./scripts/install_addon.sh $(BUILD)
 	./scripts/demo.sh $(BUILD)
 
 test-native: build
