@@ -10,7 +10,7 @@
 //
 // The sRGB curve is concave, so a noisy pixel's sRGB is on average darker than
 // the sRGB of its mean: taken per pixel (Srgb) the loss reads a render with few
-// samples as too dark, and the light and albedo brighten (README, method notes).
+// samples as too dark, and the light and albedo brighten (docs/objective.md).
 // SrgbBlurFirst (the default) takes the loss's 3x3 blur on the linear render and
 // the curve after it, so the curve sees about 1/7 of the variance and the loss
 // weights stay the render's. (The curve's tangent at the target, "srgb-tangent",

@@ -28,7 +28,7 @@
 // (srgb_after_blur, "srgb-blur-first", the default): the curve is concave, so the
 // sRGB of a noisy pixel is on average darker than the sRGB of its mean, and with
 // few samples per decorrelated half the loss read every render as too dark (2 spp
-// from the truth: the albedo 25 % too bright, NVS -5 dB; README, method notes);
+// from the truth: the albedo 25 % too bright, NVS -5 dB; docs/objective.md);
 // blurred first, the variance the curve sees is about 1/7.
 //
 // Mask: the render shows the environment where camera rays escape; targets with
@@ -106,8 +106,8 @@ struct OptimizerSettings {
   AdamSettings adam;
   // Learning-rate schedule: every group's rate is constant up to lr_decay_start x
   // iterations, then decays exponentially to lr_final x its rate at the last
-  // iteration (1 = PTIR's constant rate). See lr_factor(). Measured (README, method
-  // notes): +1.0 dB albedo and roughness MSE 0.0057 -> 0.0050 on the textured set,
+  // iteration (1 = PTIR's constant rate). See lr_factor(). Measured
+  // (docs/inversion.md): +1.0 dB albedo and roughness MSE 0.0057 -> 0.0050 on the textured set,
   // +0.4 dB on the sample; the last steps no longer leave per-Gaussian noise of
   // the full rate.
   float lr_final = 0.1f;
@@ -117,7 +117,7 @@ struct OptimizerSettings {
   // shading goes to the light before per-Gaussian albedos can absorb it (0: off).
   // Roughness keeps its full rate: a highlight's width must go to roughness, not
   // into a sharper environment. Measured
-  // (README, method notes) on the textured set, albedo only at 0.5: +2.5 dB albedo,
+  // (docs/inversion.md) on the textured set, albedo only at 0.5: +2.5 dB albedo,
   // roughness MSE 0.0050 -> 0.0032; on the sample's uniform parts -0.6 dB; a uniform
   // glossy sphere keeps a rougher value (tests/blender/test_optimize_recovery.py).
   float albedo_warmup = 0.5f;
@@ -127,7 +127,7 @@ struct OptimizerSettings {
   // Learn the light-albedo balance (light_balance.h): one log scale per channel
   // moving all albedos against the lat-long environment, driven by the
   // interreflections and highlights that the per-parameter steps cannot resolve.
-  // Measured (README, method notes): see balance_start.
+  // Measured (docs/inversion.md): see balance_start.
   bool light_balance = true;
   // The balance learns from balance_start x iterations on: before, the image's
   // overall misfit drives it (it brightens the highlights through the light,

@@ -42,7 +42,7 @@ struct OptimizeOptions {
   // +0.6 / +0.7 dB relight on two textured sets (whose albedos average ~0.5) but
   // -0.3 / -1.1 dB albedo on the four-colour sample at 100 px and 48 px: the
   // recovered level stays near the start on every set, so a start is a guess about
-  // the data, not a fix (README, method notes).
+  // the data, not a fix (docs/inversion.md).
   float init_albedo = ParameterSettings{}.init_albedo;
   bool init_from_ply = ParameterSettings{}.init_from_field;
   bool light_balance = OptimizerSettings{}.light_balance;
@@ -60,7 +60,7 @@ struct OptimizeOptions {
   // D-SSIM's share of the image loss: 0 by default (PTIR's 0.2 is --lambda-ssim 0.2).
   // The SSIM of a half-sample render counts its noise as signal variance and asks
   // for more contrast than the target's (losses.h); measured with
-  // the bounded self-skip on three sets (400 iterations; README, method notes):
+  // the bounded self-skip on three sets (400 iterations; docs/objective.md):
   // albedo +0.21 / +0.05 / +0.97 dB, relight +0.10 / 0.00 / +0.25, NVS +1.1 / +1.1 /
   // +0.4, roughness MSE +0.0006 / +0.0004 / -0.0009.
   float lambda_ssim = 0.0f;
@@ -68,7 +68,7 @@ struct OptimizeOptions {
   // ... and of the target: on by default, so the loss's optimum is the unblurred
   // match (blurring the render alone asks for a render sharper than the photo).
   // With the bounded self-skip: albedo +0.3 / +0.36 dB, relight +0.1 on two textured
-  // sets, +0.43 dB on the four-colour sample at 48 px (README, method notes).
+  // sets, +0.43 dB on the four-colour sample at 48 px (docs/objective.md).
   bool loss_blur_target = true;
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
