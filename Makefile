@@ -50,7 +50,13 @@ $(PKG_BUILD)/bin/ptir: package-cli ;
 $(PACKAGE_ZIP): $(PKG_BUILD)/bin/ptir scripts/make_package.py $(shell find addon/ptir_blender -name '*.py')
 	$(PYTHON) scripts/make_package.py --cli $(PKG_BUILD)/bin/ptir --out dist
 
-demo: build install-addon
+# The demo builds only what it runs -- the ptir tool and the Python module the add-on
+# carries -- not the test and benchmark binaries (a later `make test` builds those in
+# the same folder, reusing these objects).
+demo: setup
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/python3.11
+	cmake --build $(BUILD) -j $(JOBS) --target ptir_cli ptir_python
+	./scripts/install_addon.sh $(BUILD)
 	./scripts/demo.sh $(BUILD)
 
 test-native: build

@@ -5,7 +5,9 @@ dataset under a set of ablations, one table row each.
     bench/ablate_inversion.py --dataset out/sample_dataset [--build build] [--out out/ablate]
         [--iters 300] [--spp 8] [--rows base,gt_env,gt_normals,...] [--eval-spp 32]
 
-Rows (each changes one thing against `base`, the given iterations x spp):
+Rows (each changes one thing against `base`, the given iterations x spp; the rows of
+options since removed -- --env-adam, --lambda-env-smooth/-chroma,
+--env-fine-warmup, --light-solve, --ssim-cross, --average-from, --huber-delta -- are at commit aa311c4, their tables in docs/inversion.md):
     base          ptir optimize with the defaults but --iters/--spp
     gt_env        the true training environment given and frozen (--env-init + --fix-env)
     gt_normals    the true (face) normals in the PLY (oracle/gaussians.ply; its materials are not used)
@@ -17,37 +19,22 @@ Rows (each changes one thing against `base`, the given iterations x spp):
     no_tv         edge-aware TV off (--lambda-tv 0)
     linear_loss   the image loss on linear values
     lr_decay      the learning rate decays to 0.1x over the second half (--lr-final 0.1)
-    env_shared    one Adam second moment for all environment texels (--env-adam shared)
-    env_texel     per-texel Adam second moments (--env-adam texel)
-    lr_env        lr_decay and env_shared together
     coarse        a 16x8 coarse level learnt with the 128x64 texels (--env-coarse 16)
     coarse8/32    the coarse level 8x4 / 32x16
     coarse_lr     coarse and lr_decay together
     sg            24 spherical Gaussians instead of texels (--env sg)
     warmup        light first: material rates ramp up over the first quarter (--albedo-warmup 0.25)
     tv_warmup     TV weight 10x at the start, falling to 1x at half the iterations (--tv-warmup 10)
-    env_smooth    smoothness prior on the environment's log radiance (--lambda-env-smooth 1e-3)
-    env_smooth10  the same prior at 1e-2; env_smooth_off: 0
-    env_chroma    colour-consistency prior on the environment (--lambda-env-chroma 3); env_chroma30: 30
     init_albedo3/5/7  the albedo starts at 0.3 (PTIR's, the default) / 0.5 / 0.7 (--init-albedo)
     balance       learn the light-albedo balance (--light-balance 1); no_balance: without it (--light-balance 0)
     balance10     the balance's rate 0.1 instead of 0.03 (--lr-balance 0.1)
     lr_env3       the environment's rate 3x (--lr-env 0.105)
-    fine_warmup   coarse first in time: the fine texels' rate ramps up over half the iterations (--env-fine-warmup 0.5)
     correlated    one set of samples for the loss and its replay (--decorrelate-adjoint 0)
     fine_rate25/50  the fine environment texels at 25 % / 50 % of the coarse level's rate (--env-fine-rate)
     no_ssim       the image loss without its D-SSIM term (--lambda-ssim 0, the default now); ssim: PTIR's 0.2
     no_blur       the render not blurred before the loss (--loss-blur 0); no_ssim_blur: both
     blur_both     the target blurred like the render (--loss-blur-target 1, the default now); blur_both_no_ssim: and no
                   D-SSIM; blur_render_only: the render alone blurred (--loss-blur-target 0, the default before)
-    l2            the L1 term quadratic (Huber knee 1: L2 for every residual); l2_plain: L2 alone, no blur
-    average75     write the mean of the last quarter's iterates, not the last one (--average-from 0.75)
-    average50/90  the mean of the iterates from 50 % / 90 % of the run on (--average-from)
-    huber2/5/10   Huber's function with knee 0.02 / 0.05 / 0.1 for the L1 term (--huber-delta)
-    solve0, solve0_50, solve0_25_50, solve0_50_75  the closed-form light solve before those
-                  percentages of the run (--light-solve 0,0.5 ...), its default weights
-    no_solve      no light solve (--light-solve none)
-    ls30_0/50/75  one light solve at 0 / 50 / 75 %, ridge 0.01, smoothness 30; ls3_50: smoothness 3
     oracle        no optimisation: the true materials (the dataset's oracle/), the ceiling
 Extra optimize flags for every row: --extra "...".
 
@@ -78,9 +65,6 @@ ROWS = {
     "no_tv": ["--lambda-tv", "0"],
     "linear_loss": ["--loss-space", "linear"],
     "lr_decay": ["--lr-final", "0.1"],
-    "env_shared": ["--env-adam", "shared"],
-    "env_texel": ["--env-adam", "texel"],
-    "lr_env": ["--lr-final", "0.1", "--env-adam", "shared"],
     "coarse": ["--env-coarse", "16"],
     "no_coarse": ["--env-coarse", "0"],
     "coarse8": ["--env-coarse", "8"],
@@ -92,11 +76,6 @@ ROWS = {
     "warmup50": ["--albedo-warmup", "0.5"],
     "warmup75": ["--albedo-warmup", "0.75"],
     "tv_warmup": ["--tv-warmup", "10"],
-    "env_smooth": ["--lambda-env-smooth", "1e-3"],
-    "env_smooth10": ["--lambda-env-smooth", "1e-2"],
-    "env_smooth_off": ["--lambda-env-smooth", "0"],
-    "env_chroma": ["--lambda-env-chroma", "3"],
-    "env_chroma30": ["--lambda-env-chroma", "30"],
     "init_albedo3": ["--init-albedo", "0.3"],
     "init_albedo5": ["--init-albedo", "0.5"],
     "init_albedo7": ["--init-albedo", "0.7"],
@@ -109,36 +88,18 @@ ROWS = {
     "lr_env_half": ["--lr-env", "0.0175"],
     "lr_env_full": ["--lr-env", "0.035"],
     "lr_env_quarter": ["--lr-env", "0.00875"],
-    "fine_warmup": ["--env-fine-warmup", "0.5"],
     "correlated": ["--decorrelate-adjoint", "0"],
     "bounces3": ["--bounces", "3"],
     "bounces4": ["--bounces", "4"],
-    "huber2": ["--huber-delta", "0.02"],
-    "huber5": ["--huber-delta", "0.05"],
-    "huber10": ["--huber-delta", "0.1"],
     "fine_rate25": ["--env-fine-rate", "0.25"],
     "fine_rate50": ["--env-fine-rate", "0.5"],
     "no_ssim": ["--lambda-ssim", "0"],
     "blur_render_only": ["--loss-blur-target", "0"],
     "ssim": ["--lambda-ssim", "0.2"],
     "no_blur": ["--loss-blur", "0"],
-    "l2": ["--huber-delta", "1"],
     "blur_both": ["--loss-blur-target", "1"],
     "blur_both_no_ssim": ["--loss-blur-target", "1", "--lambda-ssim", "0"],
     "no_ssim_blur": ["--lambda-ssim", "0", "--loss-blur", "0"],
-    "l2_plain": ["--huber-delta", "1", "--lambda-ssim", "0", "--loss-blur", "0"],
-    "average75": ["--average-from", "0.75"],
-    "average50": ["--average-from", "0.5"],
-    "average90": ["--average-from", "0.9"],
-    "solve0": ["--light-solve", "0"],
-    "solve0_50": ["--light-solve", "0,0.5"],
-    "solve0_25_50": ["--light-solve", "0,0.25,0.5"],
-    "solve0_50_75": ["--light-solve", "0,0.5,0.75"],
-    "no_solve": ["--light-solve", "none"],
-    "ls30_0": ["--light-solve", "0", "--light-solve-ridge", "0.01", "--light-solve-smooth", "30"],
-    "ls30_50": ["--light-solve", "0.5", "--light-solve-ridge", "0.01", "--light-solve-smooth", "30"],
-    "ls30_75": ["--light-solve", "0.75", "--light-solve-ridge", "0.01", "--light-solve-smooth", "30"],
-    "ls3_50": ["--light-solve", "0.5", "--light-solve-ridge", "0.01", "--light-solve-smooth", "3"],
 }
 
 

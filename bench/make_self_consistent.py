@@ -6,7 +6,7 @@ materials (the dataset's oracle/gaussians.ply) under the training environment.
     bench/make_self_consistent.py --dataset out/sample_dataset --out out/sample_self [--build build] [--spp 256]
 
 Inverting the twin instead of the original separates what the inversion loses
-from what the forward model's mismatch with Cycles costs (README, method notes):
+from what the forward model's mismatch with Cycles costs (docs/inversion.md):
 on the twin the oracle's materials explain the training images exactly, up to
 Monte Carlo noise. The twin links everything but the training images to the
 original (test views, envmaps, oracle, the input PLY); each training image takes

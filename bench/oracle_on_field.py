@@ -2,7 +2,7 @@
 """The true materials on another field of the same object: each Gaussian of FIELD
 takes the albedo, roughness and metallic of the nearest exact splat of a dataset's
 oracle (oracle/gaussians.ply: one flat splat per face, the face's material), so a
-fitted field gets the oracle it is fairly compared with (README, method notes).
+fitted field gets the oracle it is fairly compared with (docs/fidelity.md).
 
     bench/oracle_on_field.py --dataset DIR --field FITTED.ply --out OUT
 

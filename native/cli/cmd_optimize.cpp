@@ -47,6 +47,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "brdf_option.h"
@@ -71,6 +72,47 @@
 namespace ptir::cli {
 
 namespace {
+
+// `--help` lists the options most runs need; `--help-all` every one (the rest in
+// the group kAdvanced, which the formatter leaves out of the plain help).
+constexpr const char* kAdvanced = "Advanced options (--help-all)";
+const std::set<std::string> kCommonOptions = {
+    "--help", "--help-all", "--dataset", "--gaussians", "--scene", "--out", "--fit-iters", "--iters", "--spp",
+    "--bounces", "--env", "--env-size", "--env-init", "--seed", "--brdf", "--resume", "--threads",
+    "--checkpoint-every", "--images", "--holdout", "--optimize-metallic", "--learn-exposure", "--estimate",
+    "--quiet", "--force"};
+
+class CommonOptionsFormatter : public CLI::Formatter {
+ public:
+  std::string make_help(const CLI::App* app, std::string name, CLI::AppFormatMode mode) const override {
+    all_ = mode == CLI::AppFormatMode::All;
+    std::string help = CLI::Formatter::make_help(app, name, mode);
+    for (size_t at; (at = help.find("\n\n\n")) != std::string::npos;) help.erase(at, 1);  // the empty group's lines
+    return help;
+  }
+  std::string make_group(std::string group, bool positional, std::vector<const CLI::Option*> opts) const override {
+    if (group == kAdvanced && !all_) return "";
+    return CLI::Formatter::make_group(group, positional, opts);
+  }
+  std::string make_footer(const CLI::App* app) const override {
+    const std::string footer = CLI::Formatter::make_footer(app);
+    if (all_) return footer;
+    size_t hidden = 0;
+    for (const CLI::Option* opt : app->get_options()) hidden += opt->get_group() == kAdvanced;
+    return footer + "\n" + std::to_string(hidden) + " more options (schedules, learning rates, loss terms, capture " +
+           "and pixel-filter settings): ptir optimize --help-all\n";
+  }
+
+ private:
+  mutable bool all_ = false;
+};
+
+void show_common_options(CLI::App* cmd) {
+  cmd->set_help_all_flag("--help-all", "print every option (--help lists the common ones)");
+  for (CLI::Option* opt : cmd->get_options())
+    if (!kCommonOptions.count(opt->get_name())) opt->group(kAdvanced);
+  cmd->formatter(std::make_shared<CommonOptionsFormatter>());
+}
 
 // The command's own options around the set-up shared with the Python module.
 struct OptimizeCommand {
@@ -255,7 +297,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (resuming && cmd.count("--loss-space") == 0)
     for (const auto& kv : resumed)
       if (kv.first == "loss")
-        for (const char* space : {"srgb-blur-first", "srgb-tangent", "srgb", "linear"})
+        for (const char* space : {"srgb-blur-first", "srgb", "linear"})
           if ((" " + kv.second + " ").find(std::string(" ") + space + " ") != std::string::npos) {
             o.opt.loss_space = space;
             break;
@@ -372,7 +414,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "iterations between checkpoints (0: only at the end)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all); resumed runs are bit-identical on the same count");
-  cmd->add_option("--loss-space", o->opt.loss_space, "compare images in srgb-blur-first (the sRGB of the render after the loss's 3x3 blur, not before: its noise biases the loss 7x less), srgb-tangent (sRGB through its tangent at the target: the render enters linearly), srgb (the sRGB of each pixel, then the blur) or linear space; a resumed run keeps its own")->capture_default_str();
+  cmd->add_option("--loss-space", o->opt.loss_space, "compare images in srgb-blur-first (the sRGB of the render after the loss's 3x3 blur, not before: its noise biases the loss 7x less), srgb (the sRGB of each pixel, then the blur) or linear space; a resumed run keeps its own")->capture_default_str();
   cmd->add_option("--lambda-tv", o->opt.lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
   cmd->add_option("--lr-final", o->opt.lr_final,
                   "learning rate at the last iteration, as a fraction of the initial one (1: constant)")
@@ -384,23 +426,6 @@ Runner add_optimize_command(CLI::App& app) {
                   "memory for what each sample's replay reuses from its primal (radiance, ray outcomes, walks); "
                   "beyond it the replay traces again (same results)")
       ->capture_default_str();
-  cmd->add_option("--average-from", o->opt.average_from,
-                  "write the mean of the iterates from this fraction of the iterations on, not the last one (1: off)")
-      ->capture_default_str();
-  cmd->add_option("--light-solve", o->opt.light_solve,
-                  "solve the lat-long light in closed form over every training view, before these fractions of the iterations (comma-separated; none: never)")
-      ->capture_default_str();
-  cmd->add_option("--light-solve-spp", o->opt.light_solve_spp, "samples per pixel of the light solve's pass over the views")
-      ->capture_default_str();
-  cmd->add_option("--light-solve-ridge", o->opt.light_solve_ridge,
-                  "light solve: weight keeping each node's scale near 1 (relative to the normal matrix's mean diagonal)")
-      ->capture_default_str();
-  cmd->add_option("--light-solve-smooth", o->opt.light_solve_smooth,
-                  "light solve: weight of the differences between neighbouring nodes' scales (same units)")
-      ->capture_default_str();
-  cmd->add_option("--env-adam", o->opt.env_adam,
-                  "environment step normalisation: shared (one Adam second moment for all texels) or texel")
-      ->capture_default_str();
   cmd->add_option("--env-coarse", o->opt.env_coarse,
                   "lat-long environment: width of a coarse level learnt with the texels (coarse-to-fine; 0: none; -1: 1/8 of the map's width)")
       ->capture_default_str();
@@ -409,9 +434,6 @@ Runner add_optimize_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--tv-warmup", o->opt.tv_warmup,
                   "the TV weight starts at this multiple of --lambda-tv and falls to it at half the iterations")
-      ->capture_default_str();
-  cmd->add_option("--lambda-env-smooth", o->opt.lambda_env_smooth,
-                  "weight of the lat-long environment's smoothness prior (Dirichlet energy of its log radiance; 0: off)")
       ->capture_default_str();
   cmd->add_option("--init-albedo", o->opt.init_albedo, "the Gaussians' starting albedo (linear, every channel)")
       ->capture_default_str();
@@ -424,16 +446,9 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--decorrelate-adjoint", o->opt.decorrelate_adjoint,
                   "weight each half of the samples' gradient by the image loss of the other, independent half (unbiased by the render's noise)")
       ->capture_default_str();
-  cmd->add_option("--huber-delta", o->opt.huber_delta,
-                  "knee of the image loss's L1 term in loss-space units: quadratic below it, so render noise does not bias the gradient (0: plain L1)")
-      ->capture_default_str();
   cmd->add_option("--lambda-ssim", o->opt.lambda_ssim, "D-SSIM's weight in the image loss ((1 - w) L1 + w (1 - SSIM))")
       ->capture_default_str();
   cmd->add_option("--loss-blur", o->opt.loss_blur, "blur the render by a 3x3 binomial filter before the image loss (PTIR's noise suppression)")
-      ->capture_default_str();
-  cmd->add_option("--ssim-cross", o->opt.ssim_cross,
-                  "with the decorrelated adjoint: the SSIM's local moments taken across the two halves' renders, "
-                  "so no half's noise counts as contrast (0: each half's weight from the other half's plain SSIM)")
       ->capture_default_str();
   cmd->add_option("--loss-blur-target", o->opt.loss_blur_target,
                   "with --loss-blur: blur the target image the same way (the optimum is then the unblurred match)")
@@ -453,12 +468,6 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-fine-rate", o->opt.env_fine_rate,
                   "with a coarse level: the fine texels' rate as a fraction of --lr-env (the coarse level's)")
       ->capture_default_str();
-  cmd->add_option("--lambda-env-chroma", o->opt.lambda_env_chroma,
-                  "weight of the lat-long environment's colour-consistency prior (variance of its log chromaticity over the sphere; 0: off)")
-      ->capture_default_str();
-  cmd->add_option("--env-fine-warmup", o->opt.env_fine_warmup,
-                  "fraction of the iterations over which the fine environment texels' rate ramps up from 0 (the coarse level learns first)")
-      ->capture_default_str();
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("--learn-exposure", o->opt.learn_exposure,
@@ -469,6 +478,7 @@ Runner add_optimize_command(CLI::App& app) {
   add_force_flag(cmd, o->force);
   add_capture_flags(cmd, &o->capture);
   add_filter_flags(cmd, &o->filter);
+  show_common_options(cmd);
   return [o, cmd] {
     if (!resolve_dataset_defaults(*o)) return 2;
     return run_optimize(*o, *cmd);

@@ -116,7 +116,7 @@ def test_every_layout_recovers_the_same_albedo(ptir, cli, capture_dirs, tmp_path
     # balance (19.74 / 20.03 dB), 0.31-0.33 dB with it (20.03-20.86 / 20.34-21.19 dB); with the bounded
     # self-skip 0.21 dB (18.72 / 18.93). The run keeps PTIR's D-SSIM (0.2), which these bounds were
     # measured with: this 60-iteration run recovers 1.2 dB less without it (17.52 / 17.74 dB, start
-    # 14.83), the default since the 400-iteration object sets gain from dropping it (README, method notes).
+    # 14.83), the default since the 400-iteration object sets gain from dropping it (docs/objective.md).
     assert max(psnr.values()) - min(psnr.values()) < 0.4, psnr
 
 
@@ -136,7 +136,7 @@ def test_learned_exposure_finds_darker_photos(ptir, cli, capture_dirs, tmp_path)
                         str(out), "--iters", "90", "--spp", "4", "--bounces", "1", "--env", "latlong", "--env-size",
                         "16x8", "--threads", "2", "--seed", "3", "-q", "--learn-exposure", "--fit-iters", "0",
                         # PTIR's environment rate: 90 iterations are too few for the default's half rate
-                        # (set for runs of hundreds of iterations; README, method notes)
+                        # (set for runs of hundreds of iterations; docs/inversion.md)
                         "--lr-env", "0.035"], capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]

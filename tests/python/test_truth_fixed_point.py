@@ -6,8 +6,8 @@ training light, the same cameras and masks) has the true materials and light as
 the optimum of the inversion's objective, up to Monte Carlo noise. Started there
 (`--init-from-ply` on the oracle, `--env-init` the training light), the inversion
 must stay near the truth: a drift means the inversion's forward model, estimator or
-objective disagrees with the renderer (how an outdated twin was found: README,
-method notes). And the test can fail: the same run with the bounces cut to direct
+objective disagrees with the renderer (how an outdated twin was found:
+docs/objective.md). And the test can fail: the same run with the bounces cut to direct
 light only (the twin has two) can no longer explain the images with the truth, and
 must drift.
 

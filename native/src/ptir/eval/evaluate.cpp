@@ -127,6 +127,11 @@ std::string fmt(const json& v, const char* f) {
   return b;
 }
 
+// A PSNR at the cap (kPsnrCap: the images are identical, e.g. the oracle's true environment) reads "exact".
+std::string fmt_db(const json& v) {
+  return v.is_number() && v.get<double>() >= kPsnrCap ? std::string("exact") : fmt(v, "%.2f");
+}
+
 }  // namespace
 
 RelightEnv parse_relight(const std::string& spec) {
@@ -160,8 +165,8 @@ std::string metrics_markdown(const json& m) {
   md << "| Normal MAE (°) ↓ | " << fmt(m.value("normal_mae_deg", json()), "%.2f") << " | 4.03 |\n";
   const json env = m.value("environment", json());
   if (env.is_object())
-    md << "| Environment PSNR (dB, scale-aligned; sky only) ↑ | " << fmt(env["psnr"], "%.2f") << "; "
-       << fmt(env["psnr_upper"], "%.2f") << " | |\n";
+    md << "| Environment PSNR (dB, scale-aligned; sky only) ↑ | " << fmt_db(env["psnr"]) << "; " << fmt_db(env["psnr_upper"])
+       << " | |\n";
   return md.str();
 }
 

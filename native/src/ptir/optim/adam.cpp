@@ -21,16 +21,11 @@ void Adam::step(std::vector<float>& x, const std::vector<float>& g) {
   const float c2 = float(1.0 - std::pow(double(b2), double(t)));
   const float step = lr / c1;
   const float inv_sqrt_c2 = float(1.0 / std::sqrt(double(c2)));
-  double mean_g2 = 0.0;  // shared second moment: a serial sum, the same bits for any thread count
-  if (shared_second_moment) {
-    for (float gi : g) mean_g2 += double(gi) * double(gi);
-    mean_g2 /= double(std::max<size_t>(1, g.size()));
-  }
   tbb::parallel_for(tbb::blocked_range<size_t>(0, x.size(), 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i < r.end(); ++i) {
       const float gi = g[i];
       m[i] = b1 * m[i] + (1.0f - b1) * gi;
-      v[i] = b2 * v[i] + (1.0f - b2) * (shared_second_moment ? float(mean_g2) : gi * gi);
+      v[i] = b2 * v[i] + (1.0f - b2) * (gi * gi);
       x[i] -= step * m[i] / (std::sqrt(v[i]) * inv_sqrt_c2 + eps);
     }
   });

@@ -3,12 +3,6 @@
 //   x -= lr * (m / (1 - b1^t)) / (sqrt(v / (1 - b2^t)) + eps).
 // eps defaults to PTIR's 1e-15. Element-wise and deterministic (any thread count
 // gives the same bits). The state (m, v, t) is what a checkpoint stores.
-//
-// shared_second_moment: v follows the group's mean squared gradient (the same
-// value in every element) instead of each element's own, so steps are in
-// proportion to each element's gradient. Meant for the environment texels: with
-// per-texel v a texel that rarely receives a gradient takes a full lr step
-// whenever it does (speckle in rarely seen directions).
 #pragma once
 
 #include <cstddef>
@@ -32,7 +26,6 @@ class Adam {
   void step(std::vector<float>& x, const std::vector<float>& g);
 
   float lr = 0.0f;
-  bool shared_second_moment = false;
   AdamSettings settings;
   std::vector<float> m, v;
   uint64_t t = 0;  // steps taken

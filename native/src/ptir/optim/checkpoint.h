@@ -50,9 +50,10 @@ struct Checkpoint {
   std::vector<CheckpointGroup> groups;
   std::vector<Vec3> normals;
   std::vector<IterationLog> log;
-  // The iterate average (optimizer.h, average_from): iterates summed, the
-  // iteration after which it began, and per group the sum (empty: none yet).
-  // Version 1 files have none.
+  // The iterate average of --average-from (measured, lost and removed after
+  // aa311c4; docs/inversion.md): iterates summed, the iteration after which it
+  // began, and per group the sum. Written empty; a checkpoint that holds an
+  // average is refused. Version 1 files have none.
   uint64_t averaged = 0;
   int64_t average_begin = 0;
   std::vector<std::vector<double>> average_sum;
@@ -63,5 +64,12 @@ Checkpoint read_checkpoint(const std::string& path);
 
 // Throws Error(path, ...) listing every key whose value differs (or is missing).
 void check_fingerprint(const std::string& path, const Fingerprint& stored, const Fingerprint& current);
+
+// The last commit whose ptir resumes checkpoints of the options removed since
+// (retire_fingerprint_entries, optimizer_fingerprint.cpp; docs/inversion.md).
+inline constexpr const char* kLastCommitWithRetiredOptions = "aa311c4";
+// Drops from `stored` the entries of removed options at the values their
+// defaults wrote; throws Error naming the option (and that commit) otherwise.
+void retire_fingerprint_entries(const std::string& path, Fingerprint& stored);
 
 }  // namespace ptir

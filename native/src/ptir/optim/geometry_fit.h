@@ -59,7 +59,7 @@ struct GeometryFitSettings {
   // Off by default: measured on the dataset maker's Cycles sets at 100^2, the fitted
   // field's depth pseudo-normals (22 degrees from the truth) pull the normals away
   // (normal MAE 9.2 degrees without the term, 13.2 per-hit, 17.5 per-hit on pixels
-  // > 45 degrees off; 15.4 / 23.0 in the first measurements). README, geometry stage.
+  // > 45 degrees off; 15.4 / 23.0 in the first measurements). docs/geometry.md.
   float lambda_normal = 0.0f;
   int normal_from = 0;  // iteration from which the pseudo-normal term applies
   int normal_radius = 2;  // stencil radius of the pseudo-normals (pixels)
@@ -71,7 +71,7 @@ struct GeometryFitSettings {
   // Ldist / extent (render/splat_composite.h; Mip-NeRF 360's, 2DGS's), which gathers
   // each ray's weights at one depth, so the field's depth flattens onto one layer and
   // its pixels blend the normals of that layer, not of a cloud around it. Measured on
-  // the perturbed 100^2 sample (1500 iterations; README, geometry stage): normal MAE
+  // the perturbed 100^2 sample (1500 iterations; docs/geometry.md): normal MAE
   // 9.2 (off) -> 6.7 / 6.1 / 6.4 / 7.1 degrees at 3 / 10 / 30 / 100, NVS 33.2 ->
   // 33.4 / 32.9 / 31.8 / 28.9 dB; from iteration 300 instead of 0: 8.1 degrees.
   float lambda_distortion = 10.0f;

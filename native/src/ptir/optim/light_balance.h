@@ -10,7 +10,7 @@
 // light between parts and the highlights wrong, and the optimiser bends the
 // environment to compensate (the ground's light: the recovered lower hemisphere
 // too bright, fed by too little bounce light off a too-dark pedestal). Starting
-// the albedo at 0.5 measured +0.9 dB albedo on that set (README, method notes).
+// the albedo at 0.5 measured +0.9 dB albedo on that set (docs/inversion.md).
 // The balance's gradient is the derivative of the loss along the move,
 //     dL/d delta_c = sum_i a_ic dL/da_ic  -  sum_t E_tc dL/dE_tc,
 // in which the direct diffuse terms cancel exactly (the same path contributes C

@@ -40,10 +40,7 @@ Image LossSpace::encode(const Image& render) const {
   for (size_t p = 0; p < px; ++p)
     for (int c = 0; c < 3; ++c) {
       const size_t i = p * 3 + c;
-      const float v = render.pixels[p * 4 + c], t = target_rgb_.pixels[i];
-      pred.pixels[i] = mask_.pixels[p] == 0.0f               ? target_.pixels[i]
-                       : curve_ == LossCurve::SrgbTangent ? target_.pixels[i] + slope(t) * (v - t)
-                                                          : curve(v);
+      pred.pixels[i] = mask_.pixels[p] == 0.0f ? target_.pixels[i] : curve(render.pixels[p * 4 + c]);
     }
   return pred;
 }
@@ -66,8 +63,7 @@ Image LossSpace::adjoint(const Image& d_pred, const Image& render) const {
     if (mask_.pixels[p] == 0.0f) continue;  // the target stands there: no gradient
     for (int c = 0; c < 3; ++c) {
       const size_t i = p * 3 + c;
-      const float at = curve_ == LossCurve::SrgbTangent ? target_rgb_.pixels[i] : render.pixels[p * 4 + c];
-      d_render.pixels[i] = d_pred.pixels[p * d_pred.channels + c] * slope(at);
+      d_render.pixels[i] = d_pred.pixels[p * d_pred.channels + c] * slope(render.pixels[p * 4 + c]);
     }
   }
   return d_render;

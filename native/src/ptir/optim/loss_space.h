@@ -10,12 +10,11 @@
 //
 // The sRGB curve is concave, so a noisy pixel's sRGB is on average darker than
 // the sRGB of its mean: taken per pixel (Srgb) the loss reads a render with few
-// samples as too dark, and the light and albedo brighten (README, method notes).
+// samples as too dark, and the light and albedo brighten (docs/objective.md).
 // SrgbBlurFirst (the default) takes the loss's 3x3 blur on the linear render and
 // the curve after it, so the curve sees about 1/7 of the variance and the loss
-// weights stay the render's; SrgbTangent linearises the curve at the target
-// (srgb(T) + srgb'(T) (I - T)): the render enters linearly, with the target's
-// noise-free weight.
+// weights stay the render's. (The curve's tangent at the target, "srgb-tangent",
+// was measured and removed: docs/inversion.md.)
 #pragma once
 
 #include "ptir/io/image.h"
@@ -23,7 +22,7 @@
 
 namespace ptir {
 
-enum class LossCurve { Linear, Srgb, SrgbTangent, SrgbBlurFirst };
+enum class LossCurve { Linear, Srgb, SrgbBlurFirst };
 
 class LossSpace {
  public:

@@ -415,19 +415,14 @@ double ssim(const Image& a, const Image& b, const Image* mask) {
   return sum / nc;
 }
 
-namespace {
-
-// image_loss (pred_b null) and image_loss_pair: one pass over the channels.
-double image_loss_impl(const Image& pred_a, const Image* pred_b, const Image& target, const Image* mask,
-                       const ImageLossSettings& settings, Image* d_a, Image* d_b) {
-  check_size(pred_a, target, "image_loss: prediction", "target");
-  if (pred_b) check_size(*pred_b, target, "image_loss: second prediction", "target");
-  const int w = pred_a.width, h = pred_a.height;
-  const int nc = pred_b ? std::min(compared_channels(pred_a, target), compared_channels(*pred_b, target))
-                        : compared_channels(pred_a, target);
+double image_loss(const Image& pred, const Image& target, const Image* mask, const ImageLossSettings& settings,
+                  Image* d_pred) {
+  check_size(pred, target, "image_loss: prediction", "target");
+  const int w = pred.width, h = pred.height;
+  const int nc = compared_channels(pred, target);
   const size_t n = size_t(w) * size_t(h);
   const double lambda = settings.lambda_ssim;
-  Plane wts = mask_weights(mask, pred_a);
+  Plane wts = mask_weights(mask, pred);
   double wsum = 0.0;
   for (double e : wts) wsum += e;
   bool ssim_empty = false;
@@ -438,9 +433,7 @@ double image_loss_impl(const Image& pred_a, const Image* pred_b, const Image& ta
   Separable g = ssim_window(w, h);
 
   double l1 = 0.0, ssim_sum = 0.0;
-  Image* outs[2] = {d_a, pred_b ? d_b : nullptr};
-  for (Image* d : outs)
-    if (d) *d = image_like(w, h, nc);
+  if (d_pred) *d_pred = image_like(w, h, nc);
   Plane tmp;
   SsimScratch scratch;
   const auto blurred = [&](Plane p) {
@@ -452,68 +445,44 @@ double image_loss_impl(const Image& pred_a, const Image* pred_b, const Image& ta
     return p;
   };
   for (int c = 0; c < nc; ++c) {
-    const Plane xa = blurred(channel_plane(pred_a, c));
-    const Plane xb = pred_b ? blurred(channel_plane(*pred_b, c)) : Plane();
-    const Plane& x_b = pred_b ? xb : xa;
+    const Plane x = blurred(channel_plane(pred, c));
     const Plane y = settings.blur_target ? blurred(channel_plane(target, c)) : channel_plane(target, c);
-    // L1 (or Huber): the value at the mean of the renders; each render's gradient
-    // is the derivative at the *other* one (the decorrelated weight), at xa alone
-    // for one render.
-    Plane dx[2] = {Plane(d_a ? n : 0, 0.0), Plane(outs[1] ? n : 0, 0.0)};
+    // L1 (or Huber) and its derivative.
+    Plane dx(d_pred ? n : 0, 0.0);
     if (wsum > 0.0) {
       const double scale = 1.0 / (double(nc) * wsum), delta = settings.huber_delta;
       const auto dl1 = [&](double diff) {
         return std::abs(diff) < delta ? diff / delta : diff > 0.0 ? 1.0 : diff < 0.0 ? -1.0 : 0.0;
       };
       for (size_t i = 0; i < n; ++i) {
-        const double diff = 0.5 * (xa[i] + x_b[i]) - y[i], a = std::abs(diff);
+        const double diff = x[i] - y[i], a = std::abs(diff);
         l1 += wts[i] * (a < delta ? 0.5 * diff * diff / delta : a - 0.5 * delta);
-        const double k = (1.0 - lambda) * scale * wts[i];
-        if (d_a) dx[0][i] = k * dl1(x_b[i] - y[i]);
-        if (outs[1]) dx[1][i] = k * dl1(xa[i] - y[i]);
+        if (d_pred) dx[i] = (1.0 - lambda) * scale * wts[i] * dl1(diff);
       }
     }
     if (ssim_empty) {
       ssim_sum += 1.0;
     } else {
+      // ssim_channel takes the prediction twice (its moments are written for two
+      // planes); d/dx is the sum of the two derivatives.
       Plane gs[2];
-      ssim_sum += ssim_channel(g, xa, x_b, y, v, d_a ? &gs[0] : nullptr, d_a ? &gs[1] : nullptr, scratch);
-      // One render: d/dx = d/dxa + d/dxb. Two: each render's gradient is taken as
-      // the mean image's seen through it, 2 d/dxa (so with a == b both equal the
-      // one render's; the optimiser weights each half by its share, 1/2).
-      if (d_a && !pred_b)
-        for (size_t i = 0; i < n; ++i) gs[0][i] += gs[1][i];
-      const double k_ssim = lambda / nc * (pred_b ? 2.0 : 1.0);
-      for (int k = 0; k < 2; ++k)
-        if (outs[k])
-          for (size_t i = 0; i < n; ++i) dx[k][i] -= k_ssim * gs[k][i];
-    }
-    for (int k = 0; k < 2; ++k) {
-      if (!outs[k]) continue;
-      if (blur) {
-        Plane back;
-        blur->adjoint(dx[k], back, tmp);
-        dx[k].swap(back);
+      ssim_sum += ssim_channel(g, x, x, y, v, d_pred ? &gs[0] : nullptr, d_pred ? &gs[1] : nullptr, scratch);
+      if (d_pred) {
+        const double k_ssim = lambda / nc;
+        for (size_t i = 0; i < n; ++i) dx[i] -= k_ssim * (gs[0][i] + gs[1][i]);
       }
-      for (size_t i = 0; i < n; ++i) outs[k]->pixels[i * size_t(nc) + size_t(c)] = float(dx[k][i]);
     }
+    if (!d_pred) continue;
+    if (blur) {
+      Plane back;
+      blur->adjoint(dx, back, tmp);
+      dx.swap(back);
+    }
+    for (size_t i = 0; i < n; ++i) d_pred->pixels[i * size_t(nc) + size_t(c)] = float(dx[i]);
   }
   double l1_mean = wsum > 0.0 ? l1 / (double(nc) * wsum) : 0.0;
   double mean_ssim = ssim_sum / nc;
   return (1.0 - lambda) * l1_mean + lambda * (1.0 - mean_ssim);
-}
-
-}  // namespace
-
-double image_loss(const Image& pred, const Image& target, const Image* mask, const ImageLossSettings& settings,
-                  Image* d_pred) {
-  return image_loss_impl(pred, nullptr, target, mask, settings, d_pred, nullptr);
-}
-
-double image_loss_pair(const Image& pred_a, const Image& pred_b, const Image& target, const Image* mask,
-                       const ImageLossSettings& settings, Image* d_a, Image* d_b) {
-  if ((d_a == nullptr) != (d_b == nullptr)) throw Error("image_loss_pair: both gradients or neither");
-  return image_loss_impl(pred_a, &pred_b, target, mask, settings, d_a, d_b);
 }
 
 double edge_aware_tv(const Image& map, const Image& guide, const Image* mask, Image* d_map) {

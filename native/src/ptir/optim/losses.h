@@ -42,14 +42,10 @@ struct ImageLossSettings {
   // L1): x^2 / (2 delta) below delta, |x| - delta / 2 above. Its derivative is
   // linear in the prediction inside the knee, so a Monte Carlo render's noise
   // there averages out of the expected gradient instead of biasing it toward the
-  // noise's median (sign(x) of a skewed estimate).
+  // noise's median (sign(x) of a skewed estimate). As a lever of the inversion
+  // (--huber-delta) it was measured, lost and removed (docs/inversion.md); the
+  // tests keep it for an L2 loss (test_decorrelated_adjoint.cpp).
   float huber_delta = 0.0f;
-  // The optimiser's decorrelated halves (optimizer.h) through image_loss_pair: the
-  // SSIM's moments across the halves (false: each half's weight is image_loss's
-  // gradient at the other half, whose SSIM counts that half's noise as contrast).
-  // Off: measured on two fitted textured sets (400 x 8) it moved the albedo by
-  // +0.09 / -0.02 dB and cost 0.85 dB of NVS (README, method notes).
-  bool cross_moments = false;
 };
 
 // (1 - lambda) * masked mean |blur(pred) - target| + lambda * (1 - masked mean SSIM(blur(pred), target))
@@ -60,19 +56,6 @@ struct ImageLossSettings {
 // d_pred (if not null) gets dLoss/dpred, same size as pred, 3 channels.
 double image_loss(const Image& pred, const Image& target, const Image* mask, const ImageLossSettings& settings,
                   Image* d_pred);
-
-// The same loss of two independent renders a, b of one image (the halves of a
-// decorrelated adjoint), each blurred like pred: the L1 term of their mean, and
-// the SSIM with the prediction's local moments taken across the two (mean^2 ->
-// mean_a mean_b, variance -> covariance of a and b), which holds no render's noise
-// squared: the plain SSIM of a noisy render counts its noise as contrast, and
-// descending it lowers the contrast of what is rendered. d_a gets the gradient
-// that weights a's replay, as the mean image's gradient seen through a: the L1
-// derivative at b (the decorrelated weight) and twice the SSIM's derivative
-// w.r.t. a (a function of b but for second-order terms); d_b alike. Both
-// gradients or neither. With a == b: image_loss's value, and d_a = d_b = its gradient.
-double image_loss_pair(const Image& pred_a, const Image& pred_b, const Image& target, const Image* mask,
-                       const ImageLossSettings& settings, Image* d_a, Image* d_b);
 
 // Mean SSIM over channels and (masked) pixels, as above.
 double ssim(const Image& a, const Image& b, const Image* mask = nullptr);

@@ -12,7 +12,6 @@
 #include "ptir/core/error.h"
 #include "ptir/math/rng.h"
 #include "ptir/optim/data_parallel.h"
-#include "ptir/optim/env_smoothness.h"
 #include "ptir/optim/light_balance.h"
 #include "ptir/optim/loss_space.h"
 #include "ptir/render/aov.h"
@@ -73,8 +72,6 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   if (!(settings_.lr_final > 0.0f && settings_.lr_final <= 1.0f)) throw Error("the final learning-rate factor must be in (0, 1]");
   if (!(settings_.lr_decay_start >= 0.0f && settings_.lr_decay_start < 1.0f))
     throw Error("the learning-rate decay start must be in [0, 1)");
-  if (!(settings_.average_from >= 0.0f && settings_.average_from <= 1.0f))
-    throw Error("the start of the iterate average must be in [0, 1]");
   GaussianField& field = *scene_->gaussians;
   const size_t n = field.size();
   if (field.normal.size() != n) init_normals_shortest_axis(field);
@@ -88,10 +85,7 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
     params_.groups.push_back({ParamKind::Exposure, settings_.params.lr_exposure, std::vector<float>(dataset_->size(), 0.0f)});
   if (settings_.light_balance && light_balance_applies(params_, *scene_))  // light_balance.h
     params_.groups.push_back({ParamKind::LightBalance, settings_.params.lr_balance, std::vector<float>(3, 0.0f)});
-  for (const ParameterGroup& g : params_.groups) {
-    adam_.emplace_back(g.raw.size(), g.lr, settings_.adam);
-    adam_.back().shared_second_moment = g.kind == ParamKind::Environment && settings_.env_shared_moment;
-  }
+  for (const ParameterGroup& g : params_.groups) adam_.emplace_back(g.raw.size(), g.lr, settings_.adam);
   apply();
   tracer_ = std::make_unique<PathTracer>(*scene_, settings_.accel);
   if (settings_.orient_normals && !field.normals_from_file && n > 0) {
@@ -198,7 +192,6 @@ void Optimizer::set_parameters(const Parameters& p) {
 IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   const auto t_start = Clock::now();
   const double cpu_start = process_cpu_seconds();
-  if (light_solve_due(iteration_)) solve_light(cancel);
   IterationLog log = evaluate(iteration_, true, cancel);
 
   // Adam on the raw parameters (only now does the state change).
@@ -218,10 +211,8 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
       for (int c = 0; c < 3; ++c) raw[i][c] = float(balance_grad_[c]);
     const ParamKind kind = params_.groups[i].kind;
     const bool albedo = kind == ParamKind::GaussianAlbedo || kind == ParamKind::MeshColour;
-    const bool fine_env = kind == ParamKind::Environment && params_.find(ParamKind::EnvironmentCoarse);
     if (kind == ParamKind::LightBalance && double(iteration_) < double(settings_.balance_start) * settings_.iterations) continue;
-    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0) *
-                        (fine_env ? warmup_factor(settings_.env_fine_warmup, iteration_) : 1.0));
+    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0));
     const std::vector<float> before = kind == ParamKind::LightBalance ? params_.groups[i].raw : std::vector<float>();
     adam_[i].step(params_.groups[i].raw, raw[i]);
     if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);
@@ -235,46 +226,8 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   log.seconds = seconds_since(t_start);
   log.cpu_s = process_cpu_seconds() - cpu_start;
   ++iteration_;
-  update_average();
   log_.push_back(log);
   return log;
-}
-
-// The iterates after completed iteration counts begin+1 .. iterations are averaged,
-// begin = floor(average_from x iterations). A changed target (set_iterations on a
-// resumed run) moves begin: the average then starts again.
-void Optimizer::update_average() {
-  const int begin = int(std::floor(double(settings_.average_from) * double(settings_.iterations)));
-  if (iteration_ <= begin || settings_.average_from >= 1.0f) {
-    average_sum_.clear();
-    averaged_ = 0;
-    return;
-  }
-  if (averaged_ == 0 || average_begin_ != begin) {
-    average_sum_.assign(params_.groups.size(), {});
-    for (size_t i = 0; i < params_.groups.size(); ++i) average_sum_[i].assign(params_.groups[i].raw.size(), 0.0);
-    averaged_ = 0;
-    average_begin_ = begin;
-  }
-  for (size_t i = 0; i < params_.groups.size(); ++i)
-    for (size_t j = 0; j < params_.groups[i].raw.size(); ++j) average_sum_[i][j] += double(params_.groups[i].raw[j]);
-  ++averaged_;
-}
-
-Parameters Optimizer::result_parameters() const {
-  Parameters p = params_;
-  if (averaged_ == 0) return p;
-  for (size_t i = 0; i < p.groups.size(); ++i)
-    for (size_t j = 0; j < p.groups[i].raw.size(); ++j) p.groups[i].raw[j] = float(average_sum_[i][j] / double(averaged_));
-  return p;
-}
-
-std::shared_ptr<const Scene> Optimizer::result_scene() const {
-  if (averaged_ == 0) return std::shared_ptr<const Scene>(scene_.get(), [](const Scene*) {});
-  auto s = std::make_shared<Scene>(*scene_);  // copies the environment; the Gaussians are shared, so copy them too
-  s->gaussians = std::make_shared<GaussianField>(*scene_->gaussians);
-  apply_parameters(result_parameters(), settings_.params, *s);
-  return s;
 }
 
 // One view of an iteration: its camera (cropped), targets and path seed.
@@ -382,7 +335,6 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   if (masked == 0) return;
   // The loss space (loss_space.h): the target outside the mask, the sRGB curve after the blur by default.
   const LossCurve curve = !settings_.srgb_loss        ? LossCurve::Linear
-                          : settings_.srgb_tangent    ? LossCurve::SrgbTangent
                           : settings_.srgb_after_blur ? LossCurve::SrgbBlurFirst
                                                       : LossCurve::Srgb;
   const LossSpace space(curve, settings_.loss, w.target_rgb, mask);
@@ -409,17 +361,8 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     log.image += inv_k * l;
   } else {
     log.image += inv_k * image_loss(loss_space(render), target, mask_ptr, loss_settings, nullptr);
-    if (settings_.loss.cross_moments) {  // SSIM's moments across the halves (losses.h)
-      Image d_a, d_b;
-      image_loss_pair(loss_space(parts[0].render), loss_space(parts[1].render), target, mask_ptr, loss_settings,
-                      &d_a, &d_b);
-      // Each half's weight through the curve at the other half (independent of its own noise).
-      d_renders.push_back(through_curve(d_a, parts[1].render));
-      d_renders.push_back(through_curve(d_b, parts[0].render));
-    } else {
-      d_renders.push_back(adjoint(parts[1].render, nullptr));  // weights half A's replay
-      d_renders.push_back(adjoint(parts[0].render, nullptr));  // weights half B's replay
-    }
+    d_renders.push_back(adjoint(parts[1].render, nullptr));  // weights half A's replay
+    d_renders.push_back(adjoint(parts[0].render, nullptr));  // weights half B's replay
   }
   // Each part's replay: inv_k x its share of the samples x the (other) adjoint.
   auto t0 = Clock::now();
@@ -501,24 +444,6 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
   log.regulariser_s += seconds_since(t0);
 }
 
-// The environment's priors (env_smoothness.h: smoothness, colour consistency), on
-// the log radiance of the lat-long texels; their gradient goes into the texels' value gradients (d log L / dL
-// = 1 / L), so the raw chain (fine texels and coarse level) carries it like the
-// image's. Added after the ranks' sum: every rank adds the same numbers once.
-void Optimizer::environment_smoothness_term(bool with_gradients, IterationLog& log) {
-  const Environment* env = scene_->environment.as<Environment>();
-  const float ls = settings_.lambda_env_smooth, lc = settings_.lambda_env_chroma;
-  if (!(ls > 0.0f || lc > 0.0f) || !env || !params_.find(ParamKind::Environment)) return;
-  const std::vector<float>& texels = env->texels();
-  std::vector<float> log_l(texels.size()), d_log(texels.size(), 0.0f);
-  for (size_t i = 0; i < texels.size(); ++i) log_l[i] = std::log(std::max(texels[i], 1e-8f));
-  float* d = with_gradients ? d_log.data() : nullptr;
-  if (ls > 0.0f) log.tv += ls * latlong_log_dirichlet(log_l.data(), env->width(), env->height(), d, ls);
-  if (lc > 0.0f) log.tv += lc * latlong_log_chroma_variance(log_l.data(), env->width(), env->height(), d, lc);
-  if (with_gradients)
-    for (size_t i = 0; i < texels.size(); ++i) grads_.environment[i] += d_log[i] / std::max(texels[i], 1e-8f);
-}
-
 IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<bool>* cancel) {
   const auto t_start = Clock::now();
   IterationLog log;
@@ -552,7 +477,6 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
     allreduce_gradients(*comm_, grads_);  // data-parallel: the ranks' bands summed in rank order
     comm_->allreduce_sum(balance_grad_.data(), balance_grad_.size());
   }
-  environment_smoothness_term(with_gradients, log);
   log.loss = log.image + log.tv + log.prior;
   log.seconds = seconds_since(t_start);
   return log;

@@ -28,7 +28,7 @@
 // (srgb_after_blur, "srgb-blur-first", the default): the curve is concave, so the
 // sRGB of a noisy pixel is on average darker than the sRGB of its mean, and with
 // few samples per decorrelated half the loss read every render as too dark (2 spp
-// from the truth: the albedo 25 % too bright, NVS -5 dB; README, method notes);
+// from the truth: the albedo 25 % too bright, NVS -5 dB; docs/objective.md);
 // blurred first, the variance the curve sees is about 1/7.
 //
 // Mask: the render shows the environment where camera rays escape; targets with
@@ -63,7 +63,6 @@
 #include "ptir/optim/adam.h"
 #include "ptir/optim/checkpoint.h"
 #include "ptir/optim/exposure.h"
-#include "ptir/optim/light_solve.h"
 #include "ptir/optim/losses.h"
 #include "ptir/optim/parameters.h"
 #include "ptir/optim/run_loop.h"
@@ -97,10 +96,6 @@ struct OptimizerSettings {
   int crop_size = 0;              // 0: whole images; else square crops of this side
   ImageLossSettings loss;         // lambda_s 0.2, binomial filter on
   bool srgb_loss = true;          // compare in sRGB space (false: linear)
-  // With srgb_loss: the sRGB curve taken as its tangent at the target, so the render
-  // enters the loss linearly (srgb(T) + srgb'(T) (I - T)) and its noise adds no
-  // Jensen bias (loss space "srgb-tangent"; optimizer.cpp, image_term).
-  bool srgb_tangent = false;
   // With srgb_loss and the loss's blur: blur the linear render, then take the curve ("srgb-blur-first").
   bool srgb_after_blur = true;
   float mask_threshold = 0.99f;
@@ -111,40 +106,28 @@ struct OptimizerSettings {
   AdamSettings adam;
   // Learning-rate schedule: every group's rate is constant up to lr_decay_start x
   // iterations, then decays exponentially to lr_final x its rate at the last
-  // iteration (1 = PTIR's constant rate). See lr_factor(). Measured (README, method
-  // notes): +1.0 dB albedo and roughness MSE 0.0057 -> 0.0050 on the textured set,
+  // iteration (1 = PTIR's constant rate). See lr_factor(). Measured
+  // (docs/inversion.md): +1.0 dB albedo and roughness MSE 0.0057 -> 0.0050 on the textured set,
   // +0.4 dB on the sample; the last steps no longer leave per-Gaussian noise of
   // the full rate.
   float lr_final = 0.1f;
   float lr_decay_start = 0.5f;
-  // The environment's Adam uses one second moment for all its texels (adam.h).
-  bool env_shared_moment = false;
   // Light first: the albedo groups' rates (Gaussians' and meshes' base colours) ramp
   // linearly from 0 to full over the first albedo_warmup x iterations, so the
   // shading goes to the light before per-Gaussian albedos can absorb it (0: off).
   // Roughness keeps its full rate: a highlight's width must go to roughness, not
   // into a sharper environment. Measured
-  // (README, method notes) on the textured set, albedo only at 0.5: +2.5 dB albedo,
+  // (docs/inversion.md) on the textured set, albedo only at 0.5: +2.5 dB albedo,
   // roughness MSE 0.0050 -> 0.0032; on the sample's uniform parts -0.6 dB; a uniform
   // glossy sphere keeps a rougher value (tests/blender/test_optimize_recovery.py).
   float albedo_warmup = 0.5f;
   // The TV weight starts at tv_warmup x lambda_tv and falls linearly to lambda_tv at
   // half the iterations (1: constant).
   float tv_warmup = 1.0f;
-  // Smoothness prior on the lat-long environment's log radiance (env_smoothness.h):
-  // weight of its Dirichlet energy (0: off). Logged with the TV term.
-  float lambda_env_smooth = 0.0f;
-  // Colour consistency of the lat-long environment (env_smoothness.h: variance of
-  // its log chromaticity over the sphere; 0: off). Logged with the TV term.
-  float lambda_env_chroma = 0.0f;
-  // Coarse first in time: the fine environment texels' rate ramps linearly from 0
-  // to full over the first env_fine_warmup x iterations while the coarse level
-  // (EnvironmentCoarse) learns at full rate from the start (0: off).
-  float env_fine_warmup = 0.0f;
   // Learn the light-albedo balance (light_balance.h): one log scale per channel
   // moving all albedos against the lat-long environment, driven by the
   // interreflections and highlights that the per-parameter steps cannot resolve.
-  // Measured (README, method notes): see balance_start.
+  // Measured (docs/inversion.md): see balance_start.
   bool light_balance = true;
   // The balance learns from balance_start x iterations on: before, the image's
   // overall misfit drives it (it brightens the highlights through the light,
@@ -166,16 +149,6 @@ struct OptimizerSettings {
   // that term (for an L2 loss exactly; Mitsuba 3 decorrelates its adjoint render
   // for the same reason) at no extra cost: the same samples, split.
   bool decorrelate_adjoint = true;
-  // Iterate averaging (Polyak-Ruppert; SWA): the outputs are the mean of the raw
-  // parameters after every iteration from average_from x iterations on, not the
-  // last iterate (1: off). Per-Gaussian albedos and light texels end a stochastic
-  // run as a random walk about their optimum; the mean of the last iterates cancels
-  // most of that noise at no cost. The iterates themselves (what the run renders
-  // with and the checkpoints continue from) are unchanged. Measured (README, method
-  // notes; textured set, 400 x 8): from 75 % 28.34 dB albedo, from 50 % 28.27,
-  // against 28.37 for the last iterate -- with the rate decayed to 0.1x the last
-  // iterates are not noisy, the error is systematic -- so it is off by default.
-  float average_from = 1.0f;
   bool orient_normals = true;     // shortest-axis normals faced toward the training cameras
   // The primal pass keeps every sample's radiance and shadow-ray outcomes (20 bytes
   // per pixel and sample) so the replay need not recompute them, while that fits this budget; beyond it
@@ -184,10 +157,6 @@ struct OptimizerSettings {
   // that the replay need not walk them again; the samples beyond it walk.
   size_t sample_cache_bytes = size_t(256) << 20;
   AccelSettings accel;
-  // The light solve (light_solve.h): at these fractions of the run the lat-long
-  // environment is replaced by the one that best explains every training view
-  // under the current materials, in closed form (empty: never).
-  LightSolveSettings light_solve;
 };
 
 class Optimizer {
@@ -243,15 +212,8 @@ class Optimizer {
   // (optimizer_outputs.cpp; checkpoint()/restore()/run_optimizer in
   // optimizer_checkpoint.cpp; fingerprint() in optimizer_fingerprint.cpp.)
   void write_outputs(const std::string& dir) const;
-  // The result: the iterate average (average_from) once it has begun, else the
-  // current parameters; and how many iterates it holds.
-  Parameters result_parameters() const;
-  int averaged_iterates() const { return averaged_; }
-  // The scene at result_parameters() (the live scene itself while there is no
-  // average; else a copy). write_outputs and environment_image read it.
-  std::shared_ptr<const Scene> result_scene() const;
   std::string log_csv() const;
-  // The recovered environment (result_scene's) as a lat-long RGB image (a lat-long
+  // The recovered environment as a lat-long RGB image (a lat-long
   // map's own texels; other models rasterised at env_width x env_height).
   Image environment_image() const;
 
@@ -264,8 +226,6 @@ class Optimizer {
   const std::vector<Adam>& adam() const { return adam_; }
   const std::vector<IterationLog>& log() const { return log_; }
   size_t nonfinite_gradients() const { return nonfinite_; }
-  // The light solves made so far (iteration before which each ran, and its report).
-  const std::vector<std::pair<int, LightSolveReport>>& light_solves() const { return light_solves_; }
 
   // The views and crop windows iteration `it` (0-based) uses: (view index, x0, y0, w, h).
   struct ViewPick {
@@ -281,7 +241,6 @@ class Optimizer {
   Primal primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients, size_t cache_bytes, int part,
                 const RenderControl& control, IterationLog& log) const;
   void apply();
-  void update_average();  // after a step: add the iterate to the average (average_from)
   const std::array<int, 4>& mask_box(size_t view) const;
   ViewWork view_work(int it, size_t v, const ViewPick& pick) const;
   float loss_encode(float c) const;             // linear -> loss space
@@ -289,11 +248,6 @@ class Optimizer {
   // The image loss of one view (and its gradient through the path replay), then
   // the regularisers on its primary-hit material maps; both add to `log`.
   void image_term(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control, IterationLog& log);
-  void environment_smoothness_term(bool with_gradients, IterationLog& log);
-  // The light solve (light_solve.h; optimizer_light.cpp): whether one is due
-  // before (0-based) iteration it, and the solve itself.
-  bool light_solve_due(int it) const;
-  void solve_light(const std::atomic<bool>* cancel);
   void regulariser_terms(const ViewWork& w, float inv_k, bool with_gradients, const RenderControl& control,
                          IterationLog& log);
 
@@ -306,13 +260,9 @@ class Optimizer {
   SceneGradients grads_;
   std::vector<IterationLog> log_;
   int iteration_ = 0;
-  std::vector<std::vector<double>> average_sum_;  // per group: sum of the averaged raw iterates
-  int averaged_ = 0;        // iterates in average_sum_
-  int average_begin_ = 0;   // the completed-iteration count after which the average began
   size_t nonfinite_ = 0;
   std::array<double, 3> balance_grad_{};  // dL/d balance of the image terms (light_balance.h)
   ExposureGradients exposure_grads_;  // --learn-exposure (exposure.h)
-  std::vector<std::pair<int, LightSolveReport>> light_solves_;
   mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
   // The primal renders' kept walks, per part and row band (memory reused from one
   // iteration to the next; walk_store.h).

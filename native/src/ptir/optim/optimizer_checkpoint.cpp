@@ -26,14 +26,17 @@ Checkpoint Optimizer::checkpoint() const {
   }
   c.normals = scene_->gaussians->normal;
   c.log = log_;
-  c.averaged = uint64_t(averaged_);
-  c.average_begin = average_begin_;
-  c.average_sum = average_sum_;
   return c;
 }
 
 void Optimizer::restore(const Checkpoint& c, const std::string& path) {
-  check_fingerprint(path, c.fingerprint, fingerprint());
+  if (c.averaged > 0)
+    throw Error(path, std::string("checkpoint was written with --average-from, which was measured, lost and removed ") +
+                          "(docs/inversion.md); ptir at commit " + kLastCommitWithRetiredOptions +
+                          " still resumes it (git checkout " + kLastCommitWithRetiredOptions + ")");
+  Fingerprint stored = c.fingerprint;
+  retire_fingerprint_entries(path, stored);
+  check_fingerprint(path, stored, fingerprint());
   if (c.groups.size() != params_.groups.size()) throw Error(path, "checkpoint has a different set of parameter groups");
   for (size_t i = 0; i < c.groups.size(); ++i) {
     const CheckpointGroup& g = c.groups[i];
@@ -53,11 +56,6 @@ void Optimizer::restore(const Checkpoint& c, const std::string& path) {
   scene_->gaussians->normal = c.normals;
   iteration_ = int(c.iteration);
   log_ = c.log;
-  if (c.averaged > 0 && c.average_sum.size() != params_.groups.size())
-    throw Error(path, "checkpoint's iterate average does not match its parameter groups");
-  averaged_ = int(c.averaged);
-  average_begin_ = int(c.average_begin);
-  average_sum_ = c.average_sum;
   apply();
 }
 

@@ -6,6 +6,7 @@
 #include <functional>
 #include <sstream>
 
+#include "ptir/core/error.h"
 #include "ptir/core/number_text.h"
 #include "ptir/math/rng.h"
 #include "ptir/optim/optimizer.h"
@@ -82,8 +83,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"crop", std::to_string(settings_.crop_size)},
       {"loss", num(settings_.loss.lambda_ssim) + (settings_.loss.binomial_filter ? " blur" : " noblur") +
                    (settings_.loss.binomial_filter && settings_.loss.blur_target ? " target" : "") +
-                   (settings_.srgb_loss ? (settings_.srgb_tangent ? " srgb-tangent" : settings_.srgb_after_blur ? " srgb-blur-first" : " srgb") : " linear") +
-                   (settings_.decorrelate_adjoint && settings_.loss.cross_moments ? " cross ssim" : "")},
+                   (settings_.srgb_loss ? (settings_.srgb_after_blur ? " srgb-blur-first" : " srgb") : " linear")},
       {"mask_threshold", num(settings_.mask_threshold)},
       {"lambda_tv", num(settings_.lambda_tv)},
       {"prior", num(settings_.prior_start) + " " + num(settings_.prior_end) + " " + std::to_string(settings_.prior_iterations)},
@@ -98,27 +98,54 @@ Fingerprint Optimizer::fingerprint() const {
       {"lr", num(ps.lr_albedo) + " " + num(ps.lr_roughness) + " " + num(ps.lr_metallic) + " " + num(ps.lr_env) + " " +
                  num(ps.lr_mesh) + (ps.env_fine_lr_scale != 1.0f ? " fine " + num(ps.env_fine_lr_scale) : std::string())},
       {"lr_schedule", num(settings_.lr_final) + " from " + num(settings_.lr_decay_start)},
-      {"env_adam", settings_.env_shared_moment ? "shared" : "texel"},
       {"env_coarse", std::to_string(ps.env_coarse_width)},
       {"warmup", num(settings_.albedo_warmup) + " tv " + num(settings_.tv_warmup)},
-      {"environment prior", "smooth " + num(settings_.lambda_env_smooth) + " chroma " + num(settings_.lambda_env_chroma) + " fine warmup " + num(settings_.env_fine_warmup)},
       {"light balance", settings_.light_balance ? "on " + num(ps.lr_balance) + " from " + num(settings_.balance_start) : std::string("off")},
       {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},
       {"adjoint", settings_.decorrelate_adjoint ? "decorrelated" : "same samples"},
-      {"huber", num(settings_.loss.huber_delta)},
       {"orient_normals", settings_.orient_normals ? "1" : "0"},
   };
   // Only then: checkpoints of path-traced bounce light (and from before) still resume.
   if (is.indirect_from_field) fp.push_back({"indirect", "field"});
-  const LightSolveSettings& ls = settings_.light_solve;
-  if (!ls.at.empty()) {  // only then: checkpoints from before the light solve still resume
-    std::string at;
-    for (float f : ls.at) at += num(f) + " ";
-    fp.push_back({"light solve", at + "spp " + std::to_string(ls.spp) + " ridge " + num(ls.ridge) + " smooth " +
-                                     num(ls.smooth) + " range " + num(ls.min_scale) + " " + num(ls.max_scale) + " grid " +
-                                     std::to_string(ls.grid_width)});
-  }
   return fp;
+}
+
+// Options measured, lost and removed (docs/inversion.md) left these entries in
+// checkpoints written before their removal. At the values the removed options'
+// defaults wrote they are dropped (such a run resumes: it ran the code that is
+// left); any other value names an option this binary no longer has.
+void retire_fingerprint_entries(const std::string& path, Fingerprint& stored) {
+  const std::string off = num(0.0);
+  auto refuse = [&](const std::string& option) {
+    throw Error(path, "checkpoint was written with " + option + ", which was measured, lost and removed " +
+                          "(docs/inversion.md); ptir at commit " + kLastCommitWithRetiredOptions +
+                          " still resumes it (git checkout " + kLastCommitWithRetiredOptions + ")");
+  };
+  Fingerprint kept;
+  for (auto& kv : stored) {
+    const std::string& k = kv.first;
+    std::string& v = kv.second;
+    if (k == "light solve") refuse("--light-solve");
+    if (k == "huber") {
+      if (v != off) refuse("--huber-delta " + v);
+      continue;
+    }
+    if (k == "env_adam") {
+      if (v != "texel") refuse("--env-adam " + v);
+      continue;
+    }
+    if (k == "environment prior") {
+      if (v != "smooth " + off + " chroma " + off + " fine warmup " + off)
+        refuse("--lambda-env-smooth, --lambda-env-chroma or --env-fine-warmup (" + v + ")");
+      continue;
+    }
+    if (k == "loss") {
+      if (v.find(" srgb-tangent") != std::string::npos) refuse("--loss-space srgb-tangent");
+      if (v.find(" cross ssim") != std::string::npos) refuse("--ssim-cross 1");
+    }
+    kept.push_back(kv);
+  }
+  stored.swap(kept);
 }
 
 }  // namespace ptir

@@ -55,15 +55,15 @@ std::string Optimizer::log_csv() const {
   return s.str();
 }
 
-Image Optimizer::environment_image() const { return latlong_image(*result_scene(), settings_.params); }
+Image Optimizer::environment_image() const { return latlong_image(*scene_, settings_.params); }
 
 void Optimizer::write_outputs(const std::string& dir) const {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) throw Error(dir, "cannot create the output folder");
   const fs::path out(dir);
-  const auto scene = result_scene();  // the iterate average (average_from), when it has begun
-  const Parameters result = result_parameters();
+  const Scene* scene = scene_.get();
+  const Parameters& result = params_;
   save_gaussians((out / "gaussians.ply").string(), *scene->gaussians);
   write_image((out / "env.exr").string(), latlong_image(*scene, settings_.params), Encoding::Colour);
   io::write_text_atomic((out / "log.csv").string(), log_csv());

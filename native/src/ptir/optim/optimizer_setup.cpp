@@ -1,7 +1,5 @@
 #include "ptir/optim/optimizer_setup.h"
 
-#include <sstream>
-
 #include "ptir/core/error.h"
 #include "ptir/scene/scene_json.h"
 
@@ -15,37 +13,6 @@ std::string cli_option_name(const std::string& snake_case) {
 }
 
 std::string python_option_name(const std::string& snake_case) { return snake_case; }
-
-std::string light_solve_text(const std::vector<float>& at) {
-  if (at.empty()) return "none";
-  std::string t;
-  for (float f : at) {
-    std::ostringstream os;
-    os << f;
-    t += (t.empty() ? "" : ",") + os.str();
-  }
-  return t;
-}
-
-std::vector<float> parse_light_solve(const std::string& text, const std::string& what) {
-  std::vector<float> at;
-  if (text.empty() || text == "none") return at;
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    size_t used = 0;
-    float f = -1.0f;
-    try {
-      f = std::stof(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != item.size() || !(f >= 0.0f && f < 1.0f))
-      throw Error(what + " must be comma-separated fractions in [0, 1) or 'none', got '" + text + "'");
-    at.push_back(f);
-  }
-  return at;
-}
 
 OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames& names) {
   if (o.iters < 0) throw Error(names("iters") + " must be >= 0");
@@ -66,17 +33,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");
   s.lr_final = o.lr_final;
   s.lr_decay_start = o.lr_decay_start;
-  if (!(o.average_from >= 0.0f && o.average_from <= 1.0f)) throw Error(names("average_from") + " must be in [0, 1]");
-  s.average_from = o.average_from;
   if (o.sample_cache_mb < 0) throw Error(names("sample_cache_mb") + " must be >= 0");
   s.sample_cache_bytes = size_t(o.sample_cache_mb) << 20;
-  s.light_solve.at = parse_light_solve(o.light_solve, names("light_solve"));
-  if (o.light_solve_spp < 2 || o.light_solve_spp > 16) throw Error(names("light_solve_spp") + " must be in [2, 16]");
-  s.light_solve.spp = o.light_solve_spp;
-  if (!(o.light_solve_ridge > 0.0f)) throw Error(names("light_solve_ridge") + " must be > 0");
-  s.light_solve.ridge = o.light_solve_ridge;
-  if (!(o.light_solve_smooth >= 0.0f)) throw Error(names("light_solve_smooth") + " must be >= 0");
-  s.light_solve.smooth = o.light_solve_smooth;
   if (!(o.lr_env > 0.0f)) throw Error(names("lr_env") + " must be > 0");
   s.params.lr_env = o.lr_env;
   if (!(o.lr_albedo > 0.0f)) throw Error(names("lr_albedo") + " must be > 0");
@@ -95,34 +53,21 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.lr_balance = o.lr_balance;
   if (!(o.balance_start >= 0.0f && o.balance_start < 1.0f)) throw Error(names("balance_start") + " must be in [0, 1)");
   s.balance_start = o.balance_start;
-  if (o.env_adam != "shared" && o.env_adam != "texel")
-    throw Error(names("env_adam") + " must be 'shared' or 'texel', got '" + o.env_adam + "'");
-  s.env_shared_moment = o.env_adam == "shared";
   if (o.env_coarse < -1) throw Error(names("env_coarse") + " must be >= 0 (0: no coarse level; -1: automatic)");
   s.params.env_coarse_width = o.env_coarse;
   if (!(o.albedo_warmup >= 0.0f && o.albedo_warmup < 1.0f)) throw Error(names("albedo_warmup") + " must be in [0, 1)");
   if (!(o.tv_warmup >= 1.0f)) throw Error(names("tv_warmup") + " must be >= 1");
   s.albedo_warmup = o.albedo_warmup;
   s.tv_warmup = o.tv_warmup;
-  if (!(o.lambda_env_smooth >= 0.0f)) throw Error(names("lambda_env_smooth") + " must be >= 0");
-  if (!(o.env_fine_warmup >= 0.0f && o.env_fine_warmup < 1.0f)) throw Error(names("env_fine_warmup") + " must be in [0, 1)");
-  s.lambda_env_smooth = o.lambda_env_smooth;
-  if (!(o.lambda_env_chroma >= 0.0f)) throw Error(names("lambda_env_chroma") + " must be >= 0");
-  s.lambda_env_chroma = o.lambda_env_chroma;
-  s.env_fine_warmup = o.env_fine_warmup;
   s.decorrelate_adjoint = o.decorrelate_adjoint;
-  if (!(o.huber_delta >= 0.0f)) throw Error(names("huber_delta") + " must be >= 0");
-  s.loss.huber_delta = o.huber_delta;
   if (!(o.lambda_ssim >= 0.0f && o.lambda_ssim <= 1.0f)) throw Error(names("lambda_ssim") + " must be in [0, 1]");
   s.loss.lambda_ssim = o.lambda_ssim;
   s.loss.binomial_filter = o.loss_blur;
   s.loss.blur_target = o.loss_blur_target;
-  s.loss.cross_moments = o.ssim_cross;
   s.accel.k = o.k;
-  if (o.loss_space == "srgb" || o.loss_space == "srgb-tangent" || o.loss_space == "srgb-blur-first") s.srgb_loss = true;
+  if (o.loss_space == "srgb" || o.loss_space == "srgb-blur-first") s.srgb_loss = true;
   else if (o.loss_space == "linear") s.srgb_loss = false;
-  else throw Error(names("loss_space") + " must be 'srgb-blur-first', 'srgb-tangent', 'srgb' or 'linear', got '" + o.loss_space + "'");
-  s.srgb_tangent = o.loss_space == "srgb-tangent";
+  else throw Error(names("loss_space") + " must be 'srgb-blur-first', 'srgb' or 'linear', got '" + o.loss_space + "'");
   s.srgb_after_blur = o.loss_space == "srgb-blur-first";  // (also the engine default, optimizer.h)
   s.params.env = parse_env_mode(o.env, names("env"));
   if (o.env_width < 1 || o.env_height < 1) throw Error(names("env_size") + " must be positive");

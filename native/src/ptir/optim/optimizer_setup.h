@@ -21,10 +21,6 @@ using OptionNames = std::function<std::string(const std::string& snake_case)>;
 std::string cli_option_name(const std::string& snake_case);     // "env_init" -> "--env-init"
 std::string python_option_name(const std::string& snake_case);  // unchanged
 
-// "0,0.5" <-> {0, 0.5}; "none" (or "") <-> {}. parse throws Error naming `what`.
-std::string light_solve_text(const std::vector<float>& at);
-std::vector<float> parse_light_solve(const std::string& text, const std::string& what);
-
 struct OptimizeOptions {
   int iters = 800;
   int spp = 32;
@@ -38,16 +34,15 @@ struct OptimizeOptions {
   uint64_t seed = 0;
   int views_per_iter = 1;
   int crop = 0;
-  std::string loss_space = "srgb-blur-first";  // srgb-blur-first, srgb-tangent, srgb or linear (optimizer.h)
+  std::string loss_space = "srgb-blur-first";  // srgb-blur-first, srgb or linear (optimizer.h)
   float lambda_tv = 0.095f;
   float lr_final = OptimizerSettings{}.lr_final;
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
-  float average_from = OptimizerSettings{}.average_from;
   // The albedos' start: PTIR's 0.3. A 0.5 start measured +1.5 / +2.0 dB albedo and
   // +0.6 / +0.7 dB relight on two textured sets (whose albedos average ~0.5) but
   // -0.3 / -1.1 dB albedo on the four-colour sample at 100 px and 48 px: the
   // recovered level stays near the start on every set, so a start is a guess about
-  // the data, not a fix (README, method notes).
+  // the data, not a fix (docs/inversion.md).
   float init_albedo = ParameterSettings{}.init_albedo;
   bool init_from_ply = ParameterSettings{}.init_from_field;
   bool light_balance = OptimizerSettings{}.light_balance;
@@ -58,19 +53,14 @@ struct OptimizeOptions {
   float lr_roughness = ParameterSettings{}.lr_roughness;  // the Gaussians' roughness logits' Adam rate
   float lr_metallic = ParameterSettings{}.lr_metallic;    // the Gaussians' metallic logits' Adam rate (when optimised)
   float env_fine_rate = ParameterSettings{}.env_fine_lr_scale;  // the fine texels' share of it
-  std::string env_adam = OptimizerSettings{}.env_shared_moment ? "shared" : "texel";
   int env_coarse = ParameterSettings{}.env_coarse_width;
   float albedo_warmup = OptimizerSettings{}.albedo_warmup;
   float tv_warmup = OptimizerSettings{}.tv_warmup;
-  float lambda_env_smooth = OptimizerSettings{}.lambda_env_smooth;
-  float lambda_env_chroma = OptimizerSettings{}.lambda_env_chroma;
-  float env_fine_warmup = OptimizerSettings{}.env_fine_warmup;
   bool decorrelate_adjoint = OptimizerSettings{}.decorrelate_adjoint;
-  float huber_delta = ImageLossSettings{}.huber_delta;
   // D-SSIM's share of the image loss: 0 by default (PTIR's 0.2 is --lambda-ssim 0.2).
   // The SSIM of a half-sample render counts its noise as signal variance and asks
-  // for more contrast than the target's (losses.h, image_loss_pair); measured with
-  // the bounded self-skip on three sets (400 iterations; README, method notes):
+  // for more contrast than the target's (losses.h); measured with
+  // the bounded self-skip on three sets (400 iterations; docs/objective.md):
   // albedo +0.21 / +0.05 / +0.97 dB, relight +0.10 / 0.00 / +0.25, NVS +1.1 / +1.1 /
   // +0.4, roughness MSE +0.0006 / +0.0004 / -0.0009.
   float lambda_ssim = 0.0f;
@@ -78,9 +68,8 @@ struct OptimizeOptions {
   // ... and of the target: on by default, so the loss's optimum is the unblurred
   // match (blurring the render alone asks for a render sharper than the photo).
   // With the bounded self-skip: albedo +0.3 / +0.36 dB, relight +0.1 on two textured
-  // sets, +0.43 dB on the four-colour sample at 48 px (README, method notes).
+  // sets, +0.43 dB on the four-colour sample at 48 px (docs/objective.md).
   bool loss_blur_target = true;
-  bool ssim_cross = ImageLossSettings{}.cross_moments;      // decorrelated halves: SSIM moments across them
   std::string env = "latlong";  // EnvMode name: latlong, sg, color
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start
@@ -91,12 +80,6 @@ struct OptimizeOptions {
   int k = AccelSettings{}.k;     // k-buffer size of the tracer
   // What the primal keeps for the replay (OptimizerSettings::sample_cache_bytes), MB.
   int sample_cache_mb = int(OptimizerSettings{}.sample_cache_bytes >> 20);
-  // The light solve (light_solve.h): comma-separated fractions of the iterations
-  // before which it runs ("none" or "": never), its samples per pixel and weights.
-  std::string light_solve = light_solve_text(OptimizerSettings{}.light_solve.at);
-  int light_solve_spp = LightSolveSettings{}.spp;
-  float light_solve_ridge = LightSolveSettings{}.ridge;
-  float light_solve_smooth = LightSolveSettings{}.smooth;
 };
 
 // The checked settings; throws Error naming the offending option.

@@ -63,13 +63,13 @@ struct ParameterSettings {
   // Coarse-to-fine lat-long environment (env_pyramid.h): the width of the coarse
   // level (its height is half, at least 1); 0 = texels only; -1 (default) = 1/8 of
   // the map's width for maps at least 32 texels wide (16x8 for 128x64), else none.
-  // Measured (README, method notes): +1.2 to +1.9 dB albedo, environment PSNR
+  // Measured (docs/inversion.md): +1.2 to +1.9 dB albedo, environment PSNR
   // 18.5 -> 22.4 dB, at the same cost.
   int env_coarse_width = -1;
   // With a coarse level: the fine texels learn at lr_env x this (the coarse level at
   // lr_env). Below 1 the fine texels' random walk on converged pixels' noise
   // (see lr_env) shrinks while the coarse level keeps the light's broad shape moving.
-  // Half, with lr_balance 0.1 (measured together, README method notes, 400 x 8):
+  // Half, with lr_balance 0.1 (measured together, docs/inversion.md, 400 x 8):
   // the sample +0.7 / +0.4 dB albedo on two seeds (linear +1.3 / +1.7), the
   // textured set unchanged (+0.01 / +0.05); alone, 25 % lost 0.15 dB textured.
   float env_fine_lr_scale = 0.5f;
@@ -84,7 +84,7 @@ struct ParameterSettings {
   // decorrelated adjoint a converged pixel's L1 sign is noise independent of the texels its
   // replay reaches, and Adam's per-texel normalisation turns that noise into a random walk of
   // about lr per step (speckle, colour noise in the light). Measured at 400 iterations x 8 spp
-  // (README, method notes): albedo +0.8 dB on the textured set, +1.3 dB on the sample; a quarter
+  // (docs/inversion.md): albedo +0.8 dB on the textured set, +1.3 dB on the sample; a quarter
   // of PTIR's rate loses on the textured set.
   float lr_albedo = 0.035f, lr_roughness = 0.025f, lr_metallic = 0.035f, lr_env = 0.0175f, lr_mesh = 0.035f;
 };

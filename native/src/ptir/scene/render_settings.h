@@ -62,7 +62,7 @@ struct IntegratorSettings {
   // behind a gap) often do not -- measured on fitted textured sets, 12 % of the
   // rays a mesh blocks went through, and the true materials rendered 31.5 dB from
   // Cycles against 33.5 dB at 8 (2: 33.4, 4: 33.4, 16: 32.1; exact one-per-face
-  // splats 29.9-30.0 dB at every range). README, method notes.
+  // splats 29.9-30.0 dB at every range). docs/fidelity.md.
   float self_range_scale = 8.0f;
   float fixed_offset = 0.02f;            // fixed-offset variant: origin offset (world units)
   float fixed_range = 0.08f;             // fixed-offset variant: skip range (world units)

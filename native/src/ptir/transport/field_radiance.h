@@ -10,7 +10,7 @@
 // the light down) and is pinned only by what scales differently -- the light
 // between surfaces, which under a path-traced estimate scales with the albedo's
 // square. Taken from the data it is a fixed amount: an albedo level or a light
-// shape that does not fit it no longer explains the images. README, method notes.
+// shape that does not fit it no longer explains the images. docs/objective.md.
 #pragma once
 
 #include <vector>

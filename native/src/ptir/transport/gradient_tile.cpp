@@ -64,14 +64,7 @@ void GradientTile::grow() {
   }
 }
 
-void GradientTile::log_environment_only() {
-  clear();
-  environment_only_ = true;
-  env_dense_.clear();  // the log, not the dense buffer
-}
-
 void GradientTile::add_gaussian(uint32_t id, Vec3 d_albedo, float d_roughness, float d_metallic) {
-  if (environment_only_) return;
   const uint32_t mask = uint32_t(table_.size() - 1);
   for (uint32_t s = slot_of(id, shift_);; s = (s + 1) & mask) {
     Entry& x = table_[s];
@@ -90,7 +83,6 @@ void GradientTile::add_gaussian(uint32_t id, Vec3 d_albedo, float d_roughness, f
 }
 
 void GradientTile::add_mesh(uint32_t mesh, Vec3 d_base_colour, float d_roughness, float d_metallic) {
-  if (environment_only_) return;
   mesh_base_colour_[mesh] += d_base_colour;
   mesh_roughness_[mesh] += d_roughness;
   mesh_metallic_[mesh] += d_metallic;

@@ -39,17 +39,11 @@ class GradientTile {
   size_t gaussian_entries() const { return count_; }
   size_t bytes() const;  // heap held by the tile
 
+ private:
   // One environment adjoint call: the adjoint d_Le of the radiance seen along d.
   struct EnvRecord {
     Vec3 d, d_Le;
   };
-  // Environment only, call by call: from now on Gaussian and mesh adjoints are
-  // dropped and every environment adjoint call is logged in order, never summed
-  // (the light solve, optim/light_solve.h, reads one sample's calls at a time).
-  void log_environment_only();
-  const std::vector<EnvRecord>& environment_log() const { return env_log_; }
-
- private:
   struct Entry {  // 24 bytes
     uint32_t id;   // kEmpty: a free slot of the table
     Vec3 albedo;
@@ -72,7 +66,6 @@ class GradientTile {
   std::vector<float> env_dense_;
   std::vector<EnvRecord> env_log_;
   bool env_touched_ = false;
-  bool environment_only_ = false;
 };
 
 }  // namespace ptir

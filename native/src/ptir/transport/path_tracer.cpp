@@ -11,6 +11,7 @@
 #include "ptir/transport/field_radiance.h"
 #include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/interaction.h"
+#include "ptir/transport/path_record.h"
 #include "ptir/transport/scattering.h"
 
 namespace ptir {
@@ -159,12 +160,11 @@ void PathTracer::sample_adjoint_batch(const Ray* camera_rays, int n, const uint6
 
 Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                        const PathAdjoint* adj, const TraceIO& io) const {
-  float* coverage = io.coverage;
-  PathStats* stats = io.stats;
-  uint64_t* shadow_bits = io.shadow_bits;
   const Scene& scene = scene_;
   const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_, radiance());
+  // What the replay reuses from the primal: recorded there, read back here (path_record.h).
+  PathRecord record(adj, io.shadow_bits, io.walks, io.first, io.first_hits, io.first_walk);
 
   // Primal: L accumulates. Replay: L_rem starts at the primal L and loses every
   // contribution as it is passed; what is left is what later vertices bring.
@@ -173,30 +173,11 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     if (adj) L_rem -= contribution;
     else L += contribution;
   };
-  thread_local std::vector<WeightedHit> vertex_hits;  // the current vertex's Gaussians (replay only)
-  // Walks: the primal records those the replay will need (bounce <= max_bounces),
-  // the replay reads them back instead of walking (walk_store.h).
-  thread_local WalkCapture walk;
-  PathWalkWriter* walks_out = adj || (io.first && !io.first_walk) ? nullptr : io.walks;
-  if (io.walks) io.walks->clear();  // (empty: nothing kept)
-  PathWalkReader walks_in = adj ? adj->walks : PathWalkReader();
-  // Ray outcomes (shadow rays, escapes): recorded by the primal pass, read back by
-  // the replay (same rays, same order).
-  ShadowLog shadow_log;
-  ShadowLog* shadows = nullptr;
-  if (adj && adj->shadow_bits) {
-    shadow_log.bits = *adj->shadow_bits;
-    shadow_log.replay = true;
-    shadows = &shadow_log;
-  } else if (!adj && shadow_bits) {
-    shadows = &shadow_log;
-  }
-
   Ray ray = camera_ray;
   SpawnContext spawn;          // the camera ray leaves no surface
   float prev_brdf_pdf = 0.0f;  // density of the BRDF sample that produced `ray` (0: camera ray)
-  if (coverage) *coverage = 0.0f;
-  if (stats) stats->paths++;
+  if (io.coverage) *io.coverage = 0.0f;
+  if (io.stats) io.stats->paths++;
 
   // Escape: the environment, MIS-weighted against its own sampling.
   auto escape = [&]() {
@@ -211,12 +192,11 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
   };
 
   for (int bounce = 0;; ++bounce) {
-    // The primal records whether each ray escaped. A replay that knows it walks
-    // only the rays that lead to a vertex: an escaped ray needs its direction
-    // alone, and whatever the last ray meets otherwise (after the last vertex)
-    // only takes radiance off L_rem, which nothing reads afterwards.
+    // A replay that knows the ray escaped needs its direction alone; past the last
+    // vertex, whatever it meets otherwise only takes radiance off L_rem, which
+    // nothing reads afterwards.
     bool escaped;
-    if (shadows && shadows->replay && shadows->recall(&escaped)) {
+    if (record.recall_escape(&escaped)) {
       if (escaped) {
         escape();
         break;
@@ -229,34 +209,14 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     if (bounce > settings.max_bounces && scatterer.escape_query_applies() &&
         max_component(lights_crossed(scene, ray, INFINITY, prev_brdf_pdf, scatterer.light_pick_probability())) <= 0.0f) {
       escaped = scatterer.escapes(ray, spawn, path_key, uint32_t(bounce));
-      if (shadows && !shadows->replay) shadows->record(escaped);
+      record.record_escape(escaped);
       if (escaped) escape();
       break;
     }
-    // Next event along the ray: a Gaussian interaction, a mesh, or an escape (the
-    // camera ray's may be given, found with others in a packet).
-    const bool given = bounce == 0 && io.first;
-    const bool walk_kept = bounce <= settings.max_bounces;  // a walk the replay needs
-    const std::vector<WeightedHit>& hits = given && io.first_hits ? *io.first_hits : vertex_hits;
-    vertex_hits.clear();
-    NextEvent ev;
-    if (given) {
-      ev = *io.first;
-    } else if (walks_in.recorded() && walk_kept) {
-      if (walks_in.next(&walk.hits, &walk.end))
-        ev = scatterer.recorded_event(ray, walk.hits, walk.end, path_key, uint32_t(bounce), &vertex_hits);
-      else
-        ev.kind = NextEvent::Escape;
-    } else {
-      ev = scatterer.next_event(ray, spawn, path_key, uint32_t(bounce), adj ? &vertex_hits : nullptr,
-                                walks_out && walk_kept ? &walk : nullptr);
-    }
-    if (walks_out && walk_kept) {
-      const WalkCapture& w = given ? *io.first_walk : walk;
-      walks_out->add(w.hits.data(), w.hits.size(), w.end, ev.kind == NextEvent::Escape);
-    }
-    if (shadows && !shadows->replay) shadows->record(ev.kind == NextEvent::Escape);
-    if (bounce == 0 && coverage) *coverage = (ev.kind == NextEvent::Gaussian || ev.kind == NextEvent::Mesh) ? 1.0f : 0.0f;
+    // Next event along the ray: a Gaussian interaction, a mesh, or an escape.
+    const NextEvent ev = record.next_event(scatterer, ray, spawn, path_key, bounce, bounce <= settings.max_bounces);
+    if (bounce == 0 && io.coverage)
+      *io.coverage = (ev.kind == NextEvent::Gaussian || ev.kind == NextEvent::Mesh) ? 1.0f : 0.0f;
 
     // Lights the ray crosses before the event (it goes on through them).
     add(beta * lights_crossed(scene, ray, ev.t, prev_brdf_pdf, scatterer.light_pick_probability()));
@@ -287,7 +247,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     }
 
     // Shade the interaction in its local frame.
-    if (stats) stats->vertices++;
+    if (io.stats) io.stats->vertices++;
     Frame frame(ev.n);
     Vec3 wo = frame.to_local(-ray.d);
     const Bsdf bsdf(resolve_bsdf(settings.brdf, ev.shader), ev.material, wo, settings.min_specular_probability);
@@ -296,20 +256,11 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
 
     // Next-event estimation: one sample of every light and of the environment.
     DirectAdjoint direct_adj{beta, adj ? adj->dL : Vec3(0.0f), &vertex_grad, adj ? adj->grads : nullptr};
-    // (A kept path's light samples are kept with its walks, and read back by its replay.)
-    const LightSampleLog light_samples{walks_out, walks_in.recorded() ? &walks_in : nullptr};
-    add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), stats, adj ? &direct_adj : nullptr,
-                                      shadows, light_samples));
+    add(beta * scatterer.direct_light(here, frame, bsdf, path_key, uint32_t(bounce), io.stats, adj ? &direct_adj : nullptr,
+                                      record.shadows(), record.light_samples()));
 
-    // Continue with a BSDF sample (a kept path's replay reads the primal's).
-    BsdfSample bs;
-    if (walks_in.recorded()) {
-      bs = walks_in.next_bsdf();
-    } else {
-      PathRng rng(path_key, uint64_t(bounce), kStreamBrdf);
-      bs = bsdf.sample(rng.at(0), rng.at(1), rng.at(2));
-    }
-    if (walks_out) walks_out->add_bsdf(bs);
+    // Continue with a BSDF sample.
+    const BsdfSample bs = record.bsdf_sample(bsdf, path_key, bounce);
     if (adj && bs.valid) {
       // Everything still remaining arrives through this BRDF value:
       // d L_rem / d f~ = L_rem / f~ (the L f / detach(f) trick), channel by channel.
@@ -318,7 +269,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
       for (int c = 0; c < 3; ++c) d_f[c] = f[c] > 0.0f ? adj->dL[c] * L_rem[c] / f[c] : 0.0f;
       bsdf.eval_grad(bs.wi, d_f, vertex_grad);
     }
-    if (adj && adj->grads) scatter_vertex_adjoint(ev, hits, vertex_grad, settings.interaction.mode, *adj->grads);
+    if (adj && adj->grads) scatter_vertex_adjoint(ev, record.hits(), vertex_grad, settings.interaction.mode, *adj->grads);
     if (!bs.valid) break;
     beta *= bs.weight;
     if (max_component(beta) < settings.min_throughput) break;
@@ -326,7 +277,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     ray = scatterer.spawn_ray(here, frame.to_world(bs.wi));
     spawn = here;
   }
-  if (shadow_bits && !adj) *shadow_bits = shadow_log.bits;
+  record.finish();
   return L;
 }
 
