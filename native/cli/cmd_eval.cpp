@@ -74,7 +74,7 @@ int run_eval(const EvalOptions& options, const CLI::App& cmd) {
   s.aov_spp = o.aov_spp;
   s.seed = o.seed;
   if (!o.brdf.empty()) {
-    BsdfModel m = BsdfModel::Principled;
+    BsdfModel m = BsdfModel::PrincipledV1;
     cli::apply_brdf_option(o.brdf, m);
     s.brdf = m;
   }
