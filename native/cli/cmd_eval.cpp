@@ -34,7 +34,7 @@ namespace {
 
 struct EvalOptions {
   std::string dataset, result, split = "test", scene;
-  std::string brdf;  // --brdf (empty: the scene file's, else principled)
+  std::string brdf;  // --brdf (empty: the scene file's, else the dataset's "ptir_brdf", else principled-v2)
   std::vector<std::string> relight;
   int spp = 64, bounces = 4, aov_spp = 16;
   uint64_t seed = 0;

@@ -427,10 +427,10 @@ Scene parse_scene(const json& root, const Ctx& ctx) {
   scene.source_path = ctx.file;
   if (n.has("cameras")) parse_cameras(n["cameras"], scene.cameras);
   if (n.has("integrator")) parse_integrator(n["integrator"], scene.integrator);
-  // The model: the file's "brdf" ("principled" = v1, as files before v2 wrote it), else v1.
+  // The model: the file's "brdf" ("principled" = v1, as files before v2 wrote it), else the default (v2).
   scene.brdf_from_file = n.has("brdf");
   scene.integrator.brdf = *parse_bsdf_model(n.choice(
-      "brdf", "principled-v1", {"principled-v1", "principled-v2", "disney-simplified", "principled"}));
+      "brdf", to_string(kDefaultBsdfModel), {"principled-v1", "principled-v2", "disney-simplified", "principled"}));
   if (n.has("environment")) parse_environment(n["environment"], scene.environment);
   if (n.has("lights")) {
     Node l = n["lights"];
