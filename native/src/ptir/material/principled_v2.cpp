@@ -80,21 +80,21 @@ Vertex<T> prepare(const Inputs<T>& in, const MaterialParams& p, Vec3 wo, bool mu
     const T s5 = cycles_table_read(CyclesTable::GenSchlickS, r, mu, 0.5f);  // exponent 5
     const bool white = std::min(tint[0], 1.0f) == 1.0f && std::min(tint[1], 1.0f) == 1.0f &&
                        std::min(tint[2], 1.0f) == 1.0f;
-    float est = 0.0f, dk = 0.0f;
     for (int c = 0; c < 3; ++c) {
       const T& F0 = base_c[c];
       v.F0_metal[c] = F0;
       v.B_metal[c] = white ? T(0.0f) : fresnel_f82tint_B(F0, std::min(tint[c], 1.0f));
-      est += value_of(F0 + (1.0f - F0) * s5);
       if (multiscatter) {
         const T Dk = darkening(F0 + (1.0f - F0) * (1.0f / 21.0f) - v.B_metal[c] * (1.0f / 126.0f));
         v.w_metal[c] = m * Dk / E;
-        dk += value_of(Dk);
       } else {
         v.w_metal[c] = m;
       }
     }
-    sw_metal = value_of(m) * est / 3.0f * (multiscatter ? dk / 3.0f : 1.0f);
+    // Pick weight as Cycles' (m lerp(F0, 1, s5) [Dk]) with the nominal base colour (see principled_v2.h).
+    const float F0n = kNominalBaseColour, est = F0n + (1.0f - F0n) * value_of(s5);
+    const float dk = multiscatter ? value_of(darkening(T(F0n + (1.0f - F0n) / 21.0f))) : 1.0f;
+    sw_metal = value_of(m) * est * dk;
   }
   const T W = 1.0f - m;
 
@@ -136,11 +136,8 @@ Vertex<T> prepare(const Inputs<T>& in, const MaterialParams& p, Vec3 wo, bool mu
   }
 
   // Diffuse: Lambert, or the energy-preserving Oren-Nayar from Diffuse Roughness.
-  float sw_diffuse = 0.0f;
-  for (int c = 0; c < 3; ++c) {
-    v.w_diffuse[c] = base[c] * W_diffuse;
-    sw_diffuse += value_of(v.w_diffuse[c]) / 3.0f;
-  }
+  for (int c = 0; c < 3; ++c) v.w_diffuse[c] = base[c] * W_diffuse;
+  const float sw_diffuse = kNominalBaseColour * value_of(W_diffuse);  // Cycles: avg(base) W_diffuse
   const float sigma = std::clamp(p.diffuse_roughness, 0.0f, 1.0f);
   if (sigma >= kClosureWeightCutoff) {
     v.oren_nayar = true;

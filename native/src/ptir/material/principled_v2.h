@@ -5,7 +5,7 @@
 // Sampling follows Cycles' closure pick: the two GGX lobes (metal and dielectric
 // share alpha and the normal, so one visible-normal strategy serves both) with
 // probability P_spec = (sw_metal + sw_dielectric) / (sw_metal + sw_dielectric +
-// sw_diffuse) (Cycles' sample weights, principled_v2_lobes.h), else the cosine
+// sw_diffuse) (Cycles' sample weights with a nominal grey base colour, principled_v2_lobes.h), else the cosine
 // hemisphere. P_spec is kept within [min_specular_prob, 1 - kMinDiffuseProb] (as v1,
 // principled_bsdf.h): both strategies then have density everywhere, so the
 // derivative of either lobe is estimated everywhere (a pure metal's metallic
@@ -41,7 +41,7 @@ class PrincipledV2Bsdf {
   Vec3 eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const;
 
   float specular_probability() const { return p_spec_; }
-  // Cycles' own pick probability of the GGX lobes (before the bounds).
+  // The pick probability of the GGX lobes before the bounds.
   float cycles_specular_probability() const;
 
  private:

@@ -26,7 +26,10 @@
 //          Fss = lerp(F0, 1, 1/21) - B / 126 (metal), lerp(F0', 1, sat((Fss_d(eta_s) - F0) / (1 - F0))) (dielectric)
 //
 // Sample weights (Cycles' closure pick): metal m avg(lerp(F0, 1, s5_tab)) [avg Dk],
-// dielectric (1 - m) avg(lerp(F0', 1, s_tab)) [avg Dk], diffuse avg(w_d).
+// dielectric (1 - m) avg(lerp(F0', 1, s_tab)) [avg Dk], diffuse avg(w_d) -- with the base
+// colour b replaced by a nominal kNominalBaseColour grey (as v1 does), so that the albedo
+// changes no sampling decision: path replay holds sampling fixed, and the albedo gradient
+// then equals the difference quotient of the estimator exactly.
 //
 // Departures from Cycles, all below the noise of a render: the metal lobe exists for
 // every m (Cycles drops it below m = 1e-5, which would zero the metallic gradient at
@@ -48,6 +51,8 @@ namespace ptir {
 
 // Smallest closure weight Cycles creates, and the Diffuse Roughness below which it is Lambert.
 constexpr float kClosureWeightCutoff = 1e-5f;
+// The base colour the lobe pick assumes (sample weights only; see below).
+constexpr float kNominalBaseColour = 0.5f;
 
 // The dielectric remap of IOR by Specular IOR Level (closure.h "Apply IOR adjustment").
 struct SpecularIor {
@@ -108,7 +113,7 @@ struct Vertex {
   bool oren_nayar = false;
   float on_a = 0.0f, on_b = 0.0f;           // Oren-Nayar a, b
   Rgb<T> on_ms{};                           // M = Ems (1 - E_on(mu))
-  float sw_specular = 0.0f, sw_diffuse = 0.0f;  // Cycles' sample weights (metal + dielectric, diffuse)
+  float sw_specular = 0.0f, sw_diffuse = 0.0f;  // pick weights (metal + dielectric, diffuse), nominal base
 };
 
 template <class T>
