@@ -123,7 +123,10 @@ def write_transforms(path, prefix, poses, res):
     frames = [{"file_path": "./%s_%03d/rgba" % (prefix, i), "transform_matrix": np.round(m, 7).tolist()}
               for i, m in enumerate(poses)]
     with open(path, "w") as f:
-        json.dump({"camera_angle_x": dscene.FOV_X, "w": res, "h": res, "frames": frames}, f, indent=1)
+        # ptir_brdf: the Principled model this Blender's Cycles rendered with (the engine's default for the set).
+        json.dump({"camera_angle_x": dscene.FOV_X, "w": res, "h": res,
+                   "ptir_brdf": "principled-v1" if bpy.app.version < (4, 0, 0) else "principled-v2",
+                   "frames": frames}, f, indent=1)
 
 
 # ---------------------------------------------------------------- passes -> PNG files

@@ -34,7 +34,7 @@ namespace {
 
 struct EvalOptions {
   std::string dataset, result, split = "test", scene;
-  std::string brdf;  // --brdf (empty: the scene file's, else principled)
+  std::string brdf;  // --brdf (empty: the scene file's, else the dataset's "ptir_brdf", else principled-v2)
   std::vector<std::string> relight;
   int spp = 64, bounces = 4, aov_spp = 16;
   uint64_t seed = 0;
@@ -74,7 +74,7 @@ int run_eval(const EvalOptions& options, const CLI::App& cmd) {
   s.aov_spp = o.aov_spp;
   s.seed = o.seed;
   if (!o.brdf.empty()) {
-    BsdfModel m = BsdfModel::Principled;
+    BsdfModel m = BsdfModel::PrincipledV1;
     cli::apply_brdf_option(o.brdf, m);
     s.brdf = m;
   }

@@ -117,7 +117,7 @@ void show_common_options(CLI::App* cmd) {
 // The command's own options around the set-up shared with the Python module.
 struct OptimizeCommand {
   std::string dataset, gaussians, scene, out;
-  std::string brdf;  // --brdf (empty: the scene file's, else principled)
+  std::string brdf;  // --brdf (empty: the checkpoint's on --resume, the scene file's, the dataset's, else principled-v2)
   std::string split = "train";
   std::string prior;
   std::string env_size = "128x64";
@@ -175,9 +175,16 @@ std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, const CLI::A
   };
   Scene scene = prepare_optimizer_scene(o.scene, std::make_shared<GaussianField>(load_gaussians(o.gaussians)), s,
                                         cli_option_name, note);
-  cli::apply_brdf_option(o.brdf, s.integrator.brdf);
-  auto optimizer = std::make_unique<Optimizer>(std::move(scene), *data, s);
+  // The model: --brdf; else a resumed run's own (its checkpoint's: "principled" = v1);
+  // else the scene file's, the dataset's recorded one, or principled-v2.
   const std::string ckpt = (std::filesystem::path(o.out) / "checkpoint.bin").string();
+  s.integrator.brdf = resolve_bsdf_model(scene.brdf_from_file, s.integrator.brdf, (*data)->brdf);
+  if (o.resume && o.brdf.empty() && std::filesystem::exists(ckpt))
+    for (const auto& kv : read_checkpoint(ckpt).fingerprint)
+      if (kv.first == "brdf" && parse_bsdf_model(kv.second)) s.integrator.brdf = *parse_bsdf_model(kv.second);
+  cli::apply_brdf_option(o.brdf, s.integrator.brdf);
+  if (!o.quiet) std::fprintf(stderr, "optimize: surface model %s\n", to_string(s.integrator.brdf));
+  auto optimizer = std::make_unique<Optimizer>(std::move(scene), *data, s);
   if (o.resume) {
     std::error_code ec;
     if (!std::filesystem::exists(ckpt, ec)) throw Error(ckpt, "--resume: no checkpoint to continue from");

@@ -47,6 +47,7 @@
 #include "ptir/eval/relight.h"
 #include "ptir/render/render_path.h"
 #include "ptir/scene/camera.h"
+#include "ptir/scene/dataset.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/mesh.h"
 #include "ptir/scene/scene.h"
@@ -62,7 +63,7 @@ namespace {
 
 struct RelightOptions {
   std::string result, scene, camera, cameras, env, output;
-  std::string brdf;  // --brdf (empty: the scene file's, else principled)
+  std::string brdf;  // --brdf (empty: the scene file's, else the --cameras file's "ptir_brdf", else principled-v2)
   std::vector<int> frames;
   int width = 0, height = 0;
   float env_strength = 1.0f, env_rotation = 0.0f;
@@ -243,6 +244,9 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   if (o.scene.empty() || cmd.count("--spp")) is.spp = o.spp;
   if (o.scene.empty() || cmd.count("--bounces")) is.max_bounces = o.bounces;
   if (cmd.count("--seed")) is.seed = o.seed;
+  // The model: --brdf, else the scene file's, else what the --cameras file records, else principled-v2.
+  is.brdf = resolve_bsdf_model(scene.brdf_from_file, is.brdf,
+                               o.cameras.empty() ? std::nullopt : read_recorded_bsdf_model(o.cameras));
   cli::apply_brdf_option(o.brdf, is.brdf);
   apply_filter_flags(o.filter, cmd, is.filter);
 

@@ -219,7 +219,9 @@ json ServeSession::update(const json& request) {
     changed.push_back("environment");
   }
   if (parts.contains("integrator") || parts.contains("brdf")) {
+    const BsdfModel kept = scene_->integrator.brdf;
     scene_->integrator = part.integrator;
+    if (!parts.contains("brdf")) scene_->integrator.brdf = kept;  // an integrator update keeps the model
     changed.push_back("integrator");
   }
   return {{"changed", changed}, {"builds", builds_}};

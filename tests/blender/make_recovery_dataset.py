@@ -227,7 +227,9 @@ def main():
         frames.append({"file_path": "./%s/rgba" % name,
                        "transform_matrix": [list(map(float, row)) for row in np.array(cam.matrix_world)]})
     with open(os.path.join(out, "transforms_train.json"), "w") as f:
-        json.dump({"camera_angle_x": FOV_X, "w": args.res, "h": args.res, "frames": frames}, f, indent=1)
+        json.dump({"camera_angle_x": FOV_X, "w": args.res, "h": args.res,
+                   "ptir_brdf": "principled-v1" if bpy.app.version < (4, 0, 0) else "principled-v2",
+                   "frames": frames}, f, indent=1)
 
     # Faces -> flat Gaussians, part by part.
     depsgraph = bpy.context.evaluated_depsgraph_get()

@@ -6,7 +6,7 @@ and tint 0 / 1, a metal, a half-metal with tint) over an Oren-Nayar ground under
 sky-and-sun world, for the distributions GGX and Multiscatter GGX, renders Cycles
 references with two seeds (SAMPLES each) and exports the scene with the add-on's
 exporter (the path F12 takes). We render the exported scene with the native module
-(Principled model, the default) at OUR_SPP.
+(Principled v1, named in the scene: v2 is the default) at OUR_SPP.
 
 Metrics:
   per sphere and channel, the relative error of the mean linear radiance over the
@@ -91,15 +91,16 @@ def sphere_errors(ours, a, b, index, ours2=None):
     return rows
 
 
-def render_ours(ptir, cycles, job, model=None, spp=OUR_SPP, seed=0):
+def render_ours(ptir, cycles, job, model="principled-v1", spp=OUR_SPP, seed=0):
+    """The exported scene under `model` (default v1: these are Blender 3.4's spheres; a scene file
+    without "brdf" would render v2)."""
     path = cycles["jobs"][job]["scene"]
-    if model is not None:
-        with open(path) as f:
-            doc = json.load(f)
-        doc["brdf"] = model
-        path = str(Path(path).with_name("scene_%s.json" % model))
-        with open(path, "w") as f:
-            json.dump(doc, f)
+    with open(path) as f:
+        doc = json.load(f)
+    doc["brdf"] = model
+    path = str(Path(path).with_name("scene_%s.json" % model))
+    with open(path, "w") as f:
+        json.dump(doc, f)
     return ptir.load_scene(path).render(spp=spp, bounces=2, seed=seed)[..., :3]
 
 
@@ -163,6 +164,7 @@ def splat_twin_scene(cycles, job):
                                        specular=col("specular"), specular_tint=col("specular_tint"))
     doc["meshes"] = keep
     doc["gaussians"] = [{"file": "twin.ply"}]
+    doc["brdf"] = "principled-v1"  # Blender 3.4's model
     twin = path.parent / "scene_twin.json"
     twin.write_text(json.dumps(doc))
     return twin

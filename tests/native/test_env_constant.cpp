@@ -111,7 +111,7 @@ TEST(ConstantEnvironment, PdfIntegratesToOneAndMatchesSampling) {
 TEST(ConstantEnvironment, PlaneFurnaceMatchesQuadrature) {
   // A large plane under a constant sky, direct light only: the reflected radiance
   // is the BRDF's directional albedo times the sky (MIS of light and BRDF samples).
-  for (BsdfModel model : {BsdfModel::Principled, BsdfModel::DisneySimplified})
+  for (BsdfModel model : {BsdfModel::PrincipledV1, BsdfModel::DisneySimplified})
     for (float metallic : {0.0f, 1.0f}) {
       Scene scene;
       TriangleMesh floor = test::quad_z(0.0f, 50.0f);

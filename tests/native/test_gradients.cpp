@@ -134,6 +134,9 @@ TEST(Gradients, GaussianAlbedoAndMetallicMatchFiniteDifferences) {
   IntegratorSettings settings = settings_with(4);
   SceneGradients g = prb(gs.scene, gs.camera, settings, gs.weights);
   expect_albedo_sums_match(gs, settings, g);
+  IntegratorSettings v2 = settings;  // Principled v2: its gradients too
+  v2.brdf = BsdfModel::PrincipledV2;
+  expect_albedo_sums_match(gs, v2, prb(gs.scene, gs.camera, v2, gs.weights));
   IntegratorSettings disney = settings;
   disney.brdf = BsdfModel::DisneySimplified;
   SceneGradients gd = prb(gs.scene, gs.camera, disney, gs.weights);
@@ -179,6 +182,13 @@ TEST(Gradients, MeshMaterialMatchesFiniteDifferences) {
   for (int c = 0; c < 3; ++c) {
     double fd = central_difference(gs, settings, 1e-2, [c](Scene& s, float h) { s.meshes[0].material.base_colour[c] += h; });
     EXPECT_NEAR(g.mesh_base_colour[0][c], fd, 5e-3 * std::fabs(fd) + 1e-4) << "channel " << c;
+  }
+  IntegratorSettings v2 = settings;
+  v2.brdf = BsdfModel::PrincipledV2;
+  SceneGradients g2 = prb(gs.scene, gs.camera, v2, gs.weights);
+  for (int c = 0; c < 3; ++c) {
+    double fd = central_difference(gs, v2, 1e-2, [c](Scene& s, float h) { s.meshes[0].material.base_colour[c] += h; });
+    EXPECT_NEAR(g2.mesh_base_colour[0][c], fd, 5e-3 * std::fabs(fd) + 1e-4) << "v2 channel " << c;
   }
   IntegratorSettings disney = settings;
   disney.brdf = BsdfModel::DisneySimplified;

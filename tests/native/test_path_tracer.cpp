@@ -62,7 +62,7 @@ Image render_under_white_sky(Scene& scene, const IntegratorSettings& settings, c
 TEST(PathTracer, PlaneUnderAreaLightMatchesQuadrature) {
   // Direct light only: a glossy plane under a square area light; MIS combines light
   // and BRDF sampling, the reference integrates f~ L over the light's solid angle.
-  for (BsdfModel model : {BsdfModel::Principled, BsdfModel::DisneySimplified})
+  for (BsdfModel model : {BsdfModel::PrincipledV1, BsdfModel::DisneySimplified})
   for (float roughness : {0.3f, 0.8f}) {
     Scene scene;
     scene.meshes.push_back(floor_quad(50.0f, Vec3(0.7f, 0.5f, 0.3f), roughness, 0.0f));
@@ -104,7 +104,7 @@ TEST(PathTracer, PlaneUnderEnvironmentMatchesQuadrature) {
       map.at(x, y, 1) = 0.3f + band;
       map.at(x, y, 2) = 0.5f + 0.5f * band + 0.01f * y;
     }
-  for (BsdfModel model : {BsdfModel::Principled, BsdfModel::DisneySimplified})
+  for (BsdfModel model : {BsdfModel::PrincipledV1, BsdfModel::DisneySimplified})
   for (float metallic : {0.0f, 1.0f}) {
     Scene scene;
     scene.meshes.push_back(floor_quad(50.0f, Vec3(0.8f, 0.6f, 0.4f), 0.4f, metallic));
@@ -131,7 +131,7 @@ TEST(PathTracer, WhiteGaussianSphereFurnace) {
   // The simplified Disney model stays <= 1 at normal incidence (Schlick Fresnel
   // moves energy between the lobes, GGX loses a little); Cycles' Principled v1
   // adds its lobes uncoupled and reflects ~1.04 (test_principled.cpp's table).
-  for (BsdfModel model : {BsdfModel::Principled, BsdfModel::DisneySimplified}) {
+  for (BsdfModel model : {BsdfModel::PrincipledV1, BsdfModel::DisneySimplified}) {
   Scene scene;
   *scene.gaussians = test::gaussian_sphere(40000, 1.0f, Vec3(1.0f), 0.5f, 0.0f);
   IntegratorSettings settings;
@@ -157,7 +157,7 @@ TEST(PathTracer, WhiteGaussianSphereFurnace) {
   double albedo_normal = quadrature(model, brdf, Vec3(0, 0, 1), [](Vec3) { return 1.0f; }).x;
   EXPECT_NEAR(mean, albedo_normal, 0.03) << to_string(model) << ": directional albedo at normal incidence " << albedo_normal;
   EXPECT_GT(mean, 0.9);
-  EXPECT_LT(mean, (model == BsdfModel::Principled ? 1.06 : 1.0) + 0.02);
+  EXPECT_LT(mean, (model == BsdfModel::PrincipledV1 ? 1.06 : 1.0) + 0.02);
   }
 }
 
@@ -375,7 +375,7 @@ TEST(PathTracer, IndirectFromFieldEndsOnTheSplatsRadiance) {
   const double from_field = centre_mean(render_path(tracer, cam, settings), 0, 4);
   // The ceiling covers the directions with |wi.x|, |wi.y| <= h wi.z (seen from the floor's centre, 1 below).
   const MaterialParams floor_brdf{Vec3(0.5f), 0.5f, 0.0f};
-  const double expected = R * quadrature(BsdfModel::Principled, floor_brdf, Vec3(0, 0, 1), [h](Vec3 wi) {
+  const double expected = R * quadrature(BsdfModel::PrincipledV1, floor_brdf, Vec3(0, 0, 1), [h](Vec3 wi) {
                                 return std::fabs(wi.x) <= h * wi.z && std::fabs(wi.y) <= h * wi.z ? 1.0f : 0.0f;
                               }).x;
   std::printf("floor: path-traced %.4f, bounce light from the field %.4f, quadrature %.4f\n", path_traced, from_field,

@@ -226,6 +226,7 @@ void load_eval_scene(EvalRun& run) {
     scene.meshes = std::move(extra.meshes);
     scene.emitters = std::move(extra.emitters);
     scene.integrator = extra.integrator;
+    scene.brdf_from_file = extra.brdf_from_file;
   }
   *scene.gaussians = load_gaussians(ply.string());
   scene.environment = Environment::load(env_path.string());
@@ -247,6 +248,8 @@ void build_tracer(EvalRun& run) {
   run.is.russian_roulette = false;
   run.is.spp = s.spp;
   run.is.max_bounces = s.bounces;
+  // The model: --brdf, else the scene file's, else the dataset's recorded one, else principled-v2.
+  run.is.brdf = resolve_bsdf_model(run.scene.brdf_from_file, run.is.brdf, run.data->brdf);
   if (s.brdf) run.is.brdf = *s.brdf;
   run.is.seed = s.seed;
   run.is.filter = dataset_pixel_filter(*run.data);

@@ -63,7 +63,7 @@ struct EvalSettings {
   int bounces = 4;                // indirect bounces (the dataset maker's Cycles limit)
   int aov_spp = 16;               // jittered AOV samples (GT passes are pixel averages)
   uint64_t seed = 0;
-  std::optional<BsdfModel> brdf;  // surface model (unset: the scene file's, else principled)
+  std::optional<BsdfModel> brdf;  // surface model (unset: the scene file's, else the dataset's "ptir_brdf", else principled-v2)
   // Pixel filter; what is unset comes from the dataset (dataset.json), else Blender's default.
   std::optional<PixelFilterType> filter_type;
   std::optional<float> filter_width;

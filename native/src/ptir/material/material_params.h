@@ -12,14 +12,21 @@ namespace ptir {
 
 // Blender's Principled BSDF inputs that PTIR models (anisotropy, sheen, clearcoat,
 // transmission and subsurface are 0). albedo is Blender's Base Color (linear RGB).
-// specular and specular_tint are fixed inputs (read from Blender or the PLY, never
-// optimised); the simplified Disney model ignores them.
+// Only albedo, roughness and metallic are optimised; the rest are fixed inputs (read
+// from Blender, the scene file or the PLY). Which model reads which:
+//   Principled v1 (3.x)  specular, specular_tint
+//   Principled v2 (4.x+) ior, specular_ior_level, specular_tint_color, diffuse_roughness
+//   simplified Disney    none of them
 struct MaterialParams {
   Vec3 albedo{0.5f};
   float roughness = 0.5f;
   float metallic = 0.0f;
-  float specular = 0.5f;       // Blender's Specular (0.5: F0 = 0.04, eta = 1.5)
-  float specular_tint = 0.0f;  // Blender's Specular Tint
+  float specular = 0.5f;       // v1 Specular (0.5: F0 = 0.04, eta = 1.5)
+  float specular_tint = 0.0f;  // v1 Specular Tint (a float)
+  float ior = 1.5f;                  // v2 IOR
+  float specular_ior_level = 0.5f;   // v2 Specular IOR Level (0.5: no adjustment)
+  Vec3 specular_tint_color{1.0f};    // v2 Specular Tint (a colour; on metals the F82 edge tint)
+  float diffuse_roughness = 0.0f;    // v2 Diffuse Roughness (0: Lambert)
 };
 
 // Adjoints of the optimised material parameters (accumulated by eval_grad).

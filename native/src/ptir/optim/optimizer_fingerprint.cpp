@@ -72,7 +72,8 @@ Fingerprint Optimizer::fingerprint() const {
       {"seed", std::to_string(settings_.seed)},
       {"spp", std::to_string(is.spp)},
       {"bounces", std::to_string(is.max_bounces)},
-      {"brdf", to_string(is.brdf)},
+      // v1 keeps the name checkpoints carried before v2 existed, so they still resume.
+      {"brdf", is.brdf == BsdfModel::PrincipledV1 ? std::string("principled") : std::string(to_string(is.brdf))},
       {"min_specular_probability", num(is.min_specular_probability)},
       {"interaction", interaction_mode_name(is.interaction.mode)},
       {"tau_g", num(is.interaction.tau_g)},

@@ -253,6 +253,27 @@ std::optional<PixelFilter> read_dataset_filter(const fs::path& root) {
 
 PixelFilter dataset_pixel_filter(const Dataset& data) { return data.pixel_filter.value_or(PixelFilter{}); }
 
+std::optional<BsdfModel> read_recorded_bsdf_model(const std::string& transforms_path) {
+  if (fs::path(transforms_path).extension() != ".json" || !fs::is_regular_file(transforms_path)) return std::nullopt;
+  nlohmann::json j;
+  try {
+    std::ifstream in(transforms_path);
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw Error(transforms_path, std::string("not valid JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("ptir_brdf")) return std::nullopt;
+  const nlohmann::json& v = j["ptir_brdf"];
+  std::optional<BsdfModel> m = v.is_string() ? parse_bsdf_model(v.get<std::string>()) : std::nullopt;
+  if (!m) throw Error(transforms_path, std::string("ptir_brdf must be one of ") + bsdf_model_names() + ", got " + v.dump());
+  return m;
+}
+
+BsdfModel resolve_bsdf_model(bool scene_named, BsdfModel scene_model, std::optional<BsdfModel> recorded) {
+  if (scene_named) return scene_model;
+  return recorded.value_or(kDefaultBsdfModel);
+}
+
 namespace {
 
 std::unique_ptr<Dataset> load_layout(const std::string& dir, const DatasetOptions& options) {
@@ -272,6 +293,7 @@ std::unique_ptr<Dataset> load_layout(const std::string& dir, const DatasetOption
 std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptions& options) {
   std::unique_ptr<Dataset> data = load_layout(dir, options);
   data->pixel_filter = read_dataset_filter(data->root);
+  if (data->layout == "nerf") data->brdf = read_recorded_bsdf_model(data->transforms_path);
   return data;
 }
 

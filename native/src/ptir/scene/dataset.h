@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "ptir/io/image.h"
+#include "ptir/material/shading_model.h"
 #include "ptir/math/pixel_filter.h"
 #include "ptir/scene/camera.h"
 
@@ -112,6 +113,10 @@ class Dataset {
   // ("cycles": {"pixel_filter": {"type": "box", "width": 1.0}}, or the older text
   // "box 1px"); unset when the dataset does not say (photographs, other makers).
   std::optional<PixelFilter> pixel_filter;
+  // The surface model its images were rendered with: "ptir_brdf" of its
+  // transforms_<split>.json ("principled-v1" for Cycles 3.x, "principled-v2" for 4.x+,
+  // as scripts/make_dataset.py writes it); unset when the file does not say.
+  std::optional<BsdfModel> brdf;
 
   size_t size() const { return views.size(); }
   std::vector<Camera> cameras() const;
@@ -145,6 +150,14 @@ std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptio
 // The filter to render a dataset's views with: the dataset's own when it records
 // one (DIR/dataset.json), else Blender's default (Blackman-Harris, 1.5 px).
 PixelFilter dataset_pixel_filter(const Dataset& data);
+
+// "ptir_brdf" of a transforms_*.json (a NeRF-layout camera file): unset when absent;
+// an unknown name is an error naming the file.
+std::optional<BsdfModel> read_recorded_bsdf_model(const std::string& transforms_path);
+
+// The model a command renders with when --brdf is not given: the scene file's "brdf"
+// when it names one (scene_named), else the dataset's recorded one, else kDefaultBsdfModel.
+BsdfModel resolve_bsdf_model(bool scene_named, BsdfModel scene_model, std::optional<BsdfModel> recorded);
 
 // One RGB(A) image as a TrainingImage (see above for the encodings). With a mask
 // file, its first channel (8/16-bit: v / max; float: as is), clamped to [0, 1],

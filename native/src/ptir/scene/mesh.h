@@ -19,6 +19,11 @@ struct MeshMaterial {
   float metallic = 0.0f;
   float specular = 0.5f;                // Principled Specular (fixed input)
   float specular_tint = 0.0f;           // Principled Specular Tint (fixed input)
+  // Principled v2 (Blender 4.0+) inputs, fixed; v1 reads specular / specular_tint instead.
+  float ior = 1.5f;                     // IOR
+  float specular_ior_level = 0.5f;      // Specular IOR Level
+  Vec3 specular_tint_color{1.0f, 1.0f, 1.0f};  // Specular Tint (colour)
+  float diffuse_roughness = 0.0f;       // Diffuse Roughness
   Vec3 emission{0.0f, 0.0f, 0.0f};  // emitted radiance (W/m^2/sr), zero for non-emitters
 };
 

@@ -45,7 +45,7 @@ struct IntegratorSettings {
   int spp = 32;
   int max_bounces = 2;  // indirect bounces, as Cycles counts them (0: direct light only)
   uint64_t seed = 0;
-  BsdfModel brdf = BsdfModel::Principled;  // surface model of every vertex (scene JSON "brdf", --brdf)
+  BsdfModel brdf = BsdfModel::PrincipledV1;  // surface model of every vertex (scene JSON "brdf", --brdf)
   // Lower bound on the Principled BSDF's specular-lobe sampling probability: 0.1
   // renders with Cycles-like noise; the optimiser uses 1/2 (more specular samples
   // for roughness and highlight gradients). Sampling only: same expectation.

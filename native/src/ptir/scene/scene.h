@@ -30,6 +30,7 @@ struct Scene {
   std::vector<Camera> cameras;
   IntegratorSettings integrator;
   std::string source_path;  // the scene file, for messages
+  bool brdf_from_file = false;  // the file named its model ("brdf"); else integrator.brdf is the default
 
   bool emitter_visible_to_camera(size_t i) const { return i >= emitter_visible_camera.size() || emitter_visible_camera[i]; }
 

@@ -181,7 +181,8 @@ namespace {
 // Sections
 
 MeshMaterial parse_material(const Node& n, const std::string& default_name) {
-  n.check_keys({"name", "shader", "base_color", "roughness", "metallic", "specular", "specular_tint", "emission"});
+  n.check_keys({"name", "shader", "base_color", "roughness", "metallic", "specular", "specular_tint", "ior",
+                "specular_ior_level", "specular_tint_color", "diffuse_roughness", "emission"});
   MeshMaterial m;
   m.name = n.string("name", default_name);
   m.shader = *parse_surface_shader(n.choice("shader", "principled", {"principled", "principled-multiscatter", "diffuse"}));
@@ -195,6 +196,16 @@ MeshMaterial parse_material(const Node& n, const std::string& default_name) {
   m.metallic = n.number_in("metallic", m.metallic, 0.0f, 1.0f);
   m.specular = n.number_in("specular", m.specular, 0.0f, 12.0f);  // 12.5 would be an infinite IOR
   m.specular_tint = n.number_in("specular_tint", m.specular_tint, 0.0f, 1.0f);
+  // Principled v2 (docs/scene_format.md: which model reads which field).
+  m.ior = n.number_in("ior", m.ior, 1e-3f, 1000.0f);
+  m.specular_ior_level = n.number_in("specular_ior_level", m.specular_ior_level, 0.0f, 1.0f);
+  if (n.has("specular_tint_color")) {
+    Node c = n["specular_tint_color"];
+    m.specular_tint_color = c.vec3();
+    for (int k = 0; k < 3; ++k)
+      if (!(m.specular_tint_color[k] >= 0.0f && m.specular_tint_color[k] <= 1.0f)) c.fail("components must be in [0, 1] (linear RGB)");
+  }
+  m.diffuse_roughness = n.number_in("diffuse_roughness", m.diffuse_roughness, 0.0f, 1.0f);
   m.emission = n.colour("emission", m.emission);
   return m;
 }
@@ -416,7 +427,10 @@ Scene parse_scene(const json& root, const Ctx& ctx) {
   scene.source_path = ctx.file;
   if (n.has("cameras")) parse_cameras(n["cameras"], scene.cameras);
   if (n.has("integrator")) parse_integrator(n["integrator"], scene.integrator);
-  scene.integrator.brdf = *parse_bsdf_model(n.choice("brdf", "principled", {"principled", "disney-simplified"}));
+  // The model: the file's "brdf" ("principled" = v1, as files before v2 wrote it), else the default (v2).
+  scene.brdf_from_file = n.has("brdf");
+  scene.integrator.brdf = *parse_bsdf_model(n.choice(
+      "brdf", to_string(kDefaultBsdfModel), {"principled-v1", "principled-v2", "disney-simplified", "principled"}));
   if (n.has("environment")) parse_environment(n["environment"], scene.environment);
   if (n.has("lights")) {
     Node l = n["lights"];

@@ -149,7 +149,8 @@ NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, cons
     ev.p = ray.at(end.mesh.t);
     ev.n = dot(ng, ray.d) > 0.0f ? -ng : ng;
     const MeshMaterial& mm = mesh.material;
-    ev.material = {mm.base_colour, mm.roughness, mm.metallic, mm.specular, mm.specular_tint};
+    ev.material = {mm.base_colour, mm.roughness, mm.metallic, mm.specular, mm.specular_tint,
+                   mm.ior, mm.specular_ior_level, mm.specular_tint_color, mm.diffuse_roughness};
     ev.shader = mm.shader;
     ev.emission = mesh_emission(mesh, end.mesh, ray.d);
     return ev;
