@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 import addon_common as ac
+import blenders
 
 pytestmark = pytest.mark.skipif(not ac.have_blender(), reason="blender not installed")
 
@@ -40,19 +41,21 @@ def _stats(result, key):
     return json.loads(line[len(key) + 2:])
 
 
-def test_engine_renders_sample_blend_like_the_cli(tmp_path):
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_engine_renders_sample_blend_like_the_cli(blender, tmp_path):
     assert SAMPLE.exists(), "missing %s (run sample_blends/make_cornell_splats.py)" % SAMPLE
-    r = ac.run_blender("addon_render_check.py", "sample", tmp_path, blend=SAMPLE)
+    r = ac.run_blender("addon_render_check.py", "sample", tmp_path, blend=SAMPLE, blender=blender)
     assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
     stats = _stats(r, "RENDER_STATS")
     print("sample render: %s" % stats)
     assert stats["engine_vs_cli_max_abs"] == 0.0
 
 
-def test_render_break_stops_the_engine_process(tmp_path):
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_render_break_stops_the_engine_process(blender, tmp_path):
     """Esc sets Blender's break flag; the engine then ends its ptir process and returns (in blender -b
     the flag is set by Ctrl-C, which the check sends to itself)."""
-    r = ac.run_blender("addon_render_check.py", "cancel", tmp_path, blend=SAMPLE)
+    r = ac.run_blender("addon_render_check.py", "cancel", tmp_path, blend=SAMPLE, blender=blender)
     assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
     assert _stats(r, "CANCEL_STATS")["seconds"] < 60
 
@@ -75,8 +78,9 @@ def e_l1(x, y):
     return np.abs(bx - by).sum() / by.sum()
 
 
-def test_mesh_scene_agrees_with_cycles(tmp_path):
-    r = ac.run_blender("addon_render_check.py", "cycles", tmp_path, 64, 128, 3)
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_mesh_scene_agrees_with_cycles(blender, tmp_path):
+    r = ac.run_blender("addon_render_check.py", "cycles", tmp_path, 64, 128, 3, blender=blender)
     assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
     cyc = [np.load(tmp_path / ("cycles_%d.npy" % i)) for i in range(2)]
     ours = [np.load(tmp_path / ("ptir_%d.npy" % i)) for i in range(2)]
