@@ -18,8 +18,9 @@ the engine exactly as Cycles does):
     non-uniform scale or shear is folded into a world-space copy of the PLY instead
     (gaussians_entry; the rule is io/splat_transform.py's).
   - Lights: POINT (position, Power, Color, Radius), SUN (matrix, Strength, Color,
-    Angle), AREA (matrix, Shape, Size, Size Y, Power, Color). SPOT lights are not
-    supported (skipped with a warning).
+    Angle), AREA (matrix, Shape, Size, Size Y, Power, Color), in the scene file's units
+    (Cycles 3.x's; io/light_units.py converts 4.0+'s area power and angled suns). SPOT
+    lights are not supported (skipped with a warning).
   - World: Background node -> Strength; its Color from an Environment Texture
     (the image file; a packed or generated image is written to an .exr next to the
     scene) with an optional Mapping node's Z rotation, or a constant colour.
@@ -39,7 +40,7 @@ import os
 import bpy
 import numpy as np
 
-from ..io import mesh_ply, scene_file, splat_ply, splat_transform
+from ..io import light_units, mesh_ply, scene_file, splat_ply, splat_transform
 from . import compat, material_export
 from ..errors import ExportError
 
@@ -111,11 +112,13 @@ def light_entry(obj, warnings):
         entry.update({"type": "point", "position": [float(x) for x in m.translation], "power": float(light.energy),
                       "radius": float(light.shadow_soft_size)})
     elif light.type == "SUN":
-        entry.update({"type": "sun", "transform": scene_file.matrix_rows(m), "strength": float(light.energy),
+        entry.update({"type": "sun", "transform": scene_file.matrix_rows(m),
+                      "strength": light_units.sun_strength(light.energy, light.angle, bpy.app.version),
                       "angle": float(light.angle)})
     elif light.type == "AREA":
         entry.update({"type": "area", "shape": light.shape.lower(), "transform": scene_file.matrix_rows(m),
-                      "size": float(light.size), "size_y": float(light.size_y), "power": float(light.energy)})
+                      "size": float(light.size), "size_y": float(light.size_y),
+                      "power": light_units.area_power(light.energy, bpy.app.version)})
         spread = getattr(light, "spread", math.pi)
         if abs(spread - math.pi) > 1e-4:
             warnings.append("light '%s': Spread %.1f deg is not modelled (180 deg used)" % (obj.name, math.degrees(spread)))

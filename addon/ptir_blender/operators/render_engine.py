@@ -105,7 +105,9 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
     bl_use_preview = False
     bl_use_postprocess = True
 
-    def __init__(self):
+    def __init__(self, *args, **kwargs):
+        # (Blender 4.x and later pass the engine's data to __init__; 3.x passes nothing)
+        super().__init__(*args, **kwargs)
         self._viewport = None
 
     # ------------------------------------------------------------------ F12
