@@ -31,7 +31,7 @@ import addon_blender_harness as h  # noqa: E402
 import blender_kit as kit  # noqa: E402  (scripts/, put on sys.path by the harness)
 
 h.enable_addon()
-from ptir_blender.blender import scene_bridge  # noqa: E402
+from ptir_blender.blender import compat, scene_bridge  # noqa: E402
 from ptir_blender.operators import render_engine  # noqa: E402
 
 
@@ -125,8 +125,7 @@ def sample_mode(tmp):
 def diffuse(name, colour):
     """A Diffuse BSDF (Lambert) material; the exporter maps it to base colour, roughness 1, metallic 0."""
     m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nodes = m.node_tree.nodes
+    nodes = compat.ensure_nodes(m).nodes
     nodes.remove(nodes["Principled BSDF"])
     d = nodes.new("ShaderNodeBsdfDiffuse")
     d.inputs["Color"].default_value = (*colour, 1.0)
@@ -172,7 +171,7 @@ def build_mesh_cornell(size):
     lo.visible_camera = True  # the engine shows area lights to camera rays; make Cycles do the same
     scene.collection.objects.link(lo)
     world = bpy.data.worlds.new("black")
-    world.use_nodes = True
+    compat.ensure_nodes(world)
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
     scene.world = world
