@@ -81,9 +81,9 @@ def check_panels(before):
 
 
 def check_restored(before):
+    now = panels()
     changed = sorted(n for n, (ident, engines) in before.items()
-                     if n in panels() and (id(panels()[n].COMPAT_ENGINES) != ident
-                                           or frozenset(panels()[n].COMPAT_ENGINES) != engines))
+                     if n in now and (id(now[n].COMPAT_ENGINES) != ident or frozenset(now[n].COMPAT_ENGINES) != engines))
     h.check(not changed, "COMPAT_ENGINES not restored after disabling: %s" % changed[:8])
     print("panels: every COMPAT_ENGINES restored on disable")
 
