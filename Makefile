@@ -1,7 +1,8 @@
 # PTIR: the two commands of the README.
 #   make demo  -- install everything, build, run the main job on the bundled sample
-#   make test  -- install everything, build, run every test (gtest, pytest, blender -b)
-# Other targets: setup, build, install-addon, package, bench, clean.
+#   make test  -- install everything, build, run every test (gtest, pytest, blender -b; the headless add-on
+#                 tests in Debian's Blender 3.4 and in PyPI's bpy 4.5 LTS and 5.0: tests/blender/blenders.py)
+# Other targets: setup, setup-bpy, build, install-addon, package, bench, clean.
 #   make package -- dist/ptir-<version>-linux-x64.zip: the add-on with the CLI and its libraries
 #                   (a Blender 4.2+ Extension; a legacy add-on zip on 3.x): docs/install.md
 
@@ -23,6 +24,10 @@ all: build
 
 setup:
 	./scripts/setup_debian.sh
+
+# Test dependency only: bpy 4.5 / 5.0 in cached venvs (the Blenders artists run; headless).
+setup-bpy: setup
+	./scripts/setup_bpy.sh
 
 build: setup
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=/usr/bin/python3.11

@@ -38,6 +38,9 @@ try:
 except ImportError:  # plain Python: the numpy-only helpers
     bpy = None
 
+# Scene-linear Rec.709 as Blender names it: "Linear" in 3.x, "Linear Rec.709" from 4.0 on.
+LINEAR = "Linear Rec.709" if bpy is not None and bpy.app.version >= (4, 0, 0) else "Linear"
+
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ADDON_PARENT = os.path.join(REPO, "addon")
 if ADDON_PARENT not in sys.path:
@@ -84,8 +87,7 @@ def reset_scene(images=False):
     scene = bpy.context.scene
     world = scene.world or bpy.data.worlds.new("World")
     scene.world = world
-    world.use_nodes = True
-    nt = world.node_tree
+    nt = _world_tree(world)
     nt.nodes.clear()
     bg = nt.nodes.new("ShaderNodeBackground")
     out = nt.nodes.new("ShaderNodeOutputWorld")
@@ -182,6 +184,26 @@ def separate_suzanne(material_of, subdiv, smooth_shading=False):
     return parts
 
 
+def _world_tree(world):
+    """The world's node tree, in use (5.0 deprecates World.use_nodes: always on)."""
+    from ptir_blender.blender import compat
+    return compat.ensure_nodes(world)
+
+
+def set_world_colour(scene, colour, strength=1.0):
+    """World = a Background node of that colour and strength (every Blender; 5.0 has no node-less worlds)."""
+    world = scene.world or bpy.data.worlds.new("World")
+    scene.world = world
+    nt = _world_tree(world)
+    nt.nodes.clear()
+    bg = nt.nodes.new("ShaderNodeBackground")
+    bg.inputs["Color"].default_value = (*colour[:3], 1.0)
+    bg.inputs["Strength"].default_value = strength
+    out = nt.nodes.new("ShaderNodeOutputWorld")
+    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
+    return world
+
+
 def set_environment(scene, path, rotation_z=None, strength=1.0, sampling="MANUAL", linear=True):
     """World = Environment Texture of the image file (equirectangular, Closest interpolation = PTIR's
     nearest lookup) x strength. rotation_z: a Mapping node (Point, Z rotation, radians) in front of it;
@@ -189,7 +211,7 @@ def set_environment(scene, path, rotation_z=None, strength=1.0, sampling="MANUAL
     left as it is). linear: the image's colour space set to Linear."""
     world = scene.world or bpy.data.worlds.new("World")
     scene.world = world
-    world.use_nodes = True
+    _world_tree(world)
     if sampling is not None:
         world.cycles.sampling_method = sampling
         if sampling == "MANUAL":
@@ -206,7 +228,7 @@ def set_environment(scene, path, rotation_z=None, strength=1.0, sampling="MANUAL
     env.projection = "EQUIRECTANGULAR"
     env.image = bpy.data.images.load(os.path.abspath(path), check_existing=True)
     if linear:
-        env.image.colorspace_settings.name = "Linear"
+        env.image.colorspace_settings.name = LINEAR
     bg = nt.nodes.new("ShaderNodeBackground")
     bg.inputs["Strength"].default_value = strength
     out = nt.nodes.new("ShaderNodeOutputWorld")
@@ -299,11 +321,11 @@ def render_still(scene, path, seed=None):
 
 def read_pixels(path, linear=True):
     """The pixels of an image file as float32 (height, width, channels), rows bottom-up (Blender's
-    order), read by Blender (colour space Linear unless linear=False); the image is not kept."""
+    order), read by Blender (colour space scene-linear unless linear=False); the image is not kept."""
     img = bpy.data.images.load(path, check_existing=False)
     try:
         if linear:
-            img.colorspace_settings.name = "Linear"
+            img.colorspace_settings.name = LINEAR
         w, h, ch = img.size[0], img.size[1], img.channels
         px = np.empty(w * h * ch, np.float32)
         img.pixels.foreach_get(px)

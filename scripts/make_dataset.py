@@ -2,7 +2,7 @@
 inverse-rendering dataset with known answers, plus the object's surface as a
 3DGS splat file.
 
-Run inside Blender 3.4 (headless):
+Run inside Blender 3.4 (headless), or in PyPI's bpy 4.5 / 5.0 (tests/blender/bpy_run.py runs it the same way):
 
     blender -b --factory-startup -noaudio --python-exit-code 1 -P scripts/make_dataset.py -- \
         --out DIR [--blend FILE] [--res 100] [--train 16] [--test 8] [--spp 64] [--bounces 4]
@@ -19,7 +19,8 @@ material's base colour and roughness (and, with --metal-fraction, metallic patch
 become per-polygon noise patterns (scripts/dataset/textures.py); the oracle stays exact.
 
 Writes (docs/dataset_format.md has the conventions):
-    DIR/transforms_train.json, transforms_test.json   NeRF-synthetic cameras
+    DIR/transforms_train.json, transforms_test.json   NeRF-synthetic cameras, "ptir_brdf": the model Cycles
+                                                      rendered with (principled-v1 on 3.x, principled-v2 on 4.0+)
     DIR/train_XXX/rgba.png                            under the training environment
     DIR/test_XXX/rgba.png                             novel view, training environment
     DIR/test_XXX/albedo.png, roughness.png, normal.png ground truth
@@ -50,6 +51,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
 from dataset import capture, envmaps, exr, png, scene as dscene, splat, textures  # noqa: E402
+from ptir_blender.blender import compat  # noqa: E402
 
 
 def parse_args():
@@ -120,12 +122,12 @@ def test_poses(n, distance):
 
 
 def write_transforms(path, prefix, poses, res):
+    """NeRF-synthetic cameras, with "ptir_brdf": the engine model of the Principled BSDF that Cycles rendered
+    the images with (principled-v1 in Blender 3.x, principled-v2 from 4.0 on; the engine's default --brdf)."""
     frames = [{"file_path": "./%s_%03d/rgba" % (prefix, i), "transform_matrix": np.round(m, 7).tolist()}
               for i, m in enumerate(poses)]
     with open(path, "w") as f:
-        # ptir_brdf: the Principled model this Blender's Cycles rendered with (the engine's default for the set).
-        json.dump({"camera_angle_x": dscene.FOV_X, "w": res, "h": res,
-                   "ptir_brdf": "principled-v1" if bpy.app.version < (4, 0, 0) else "principled-v2",
+        json.dump({"camera_angle_x": dscene.FOV_X, "w": res, "h": res, "ptir_brdf": compat.principled_model(),
                    "frames": frames}, f, indent=1)
 
 
@@ -146,8 +148,8 @@ def write_rgba_png(path, rgba):
 
 def write_gt_pngs(view_dir, passes, alpha):
     a = alpha[..., None]
-    # Albedo: the Diffuse Color pass (= base colour x (1 - metallic) for a Principled
-    # BSDF, 1 - transmission aside), sRGB-encoded colour like TensoIR's albedo.png.
+    # Albedo: the "albedo" AOV (base colour x (1 - metallic) of the Principled BSDF),
+    # sRGB-encoded colour like TensoIR's albedo.png.
     albedo = png.srgb_encode(unpremultiply(passes["albedo"][..., :3], a))
     png.write_png(os.path.join(view_dir, "albedo.png"), png.to_8bit(np.concatenate([albedo, a], -1)))
     # Normal: world space, 0.5 + 0.5 n (renormalised after the pixel average).
@@ -160,25 +162,14 @@ def write_gt_pngs(view_dir, passes, alpha):
     png.write_png(os.path.join(view_dir, "roughness.png"), png.to_8bit(np.concatenate([r, r, r, a], -1)))
 
 
-def read_pass(path):
-    ch = exr.read_exr(path)
-    names = list(ch)
-    if set("RGBA") <= set(names):
-        return np.stack([ch[c] for c in "RGBA"], -1)
-    if set("RGB") <= set(names):
-        return np.stack([ch[c] for c in "RGB"], -1)
-    return np.stack([ch[names[0]]], -1)
-
-
-def render_view(scene, cam, matrix, seed, tmp):
+def render_view(scene, cam, matrix, seed):
     cam.matrix_world = matrix.T.tolist()  # mathutils takes rows
     scene.cycles.seed = seed
-    for name in dscene.PASSES:
-        f = dscene.pass_file(tmp, name)
-        if os.path.exists(f):
-            os.remove(f)
-    bpy.ops.render.render(write_still=False)
-    return {name: read_pass(dscene.pass_file(tmp, name)) for name in dscene.PASSES}
+    path = dscene.pass_file(scene)
+    if os.path.exists(path):
+        os.remove(path)
+    bpy.ops.render.render(write_still=True)
+    return dscene.read_passes(path, scene.view_layers[0].name)
 
 
 # ---------------------------------------------------------------- splats
@@ -232,8 +223,8 @@ def main():
         objs = dscene.object_meshes()
         for o in objs:
             for s in o.material_slots:
-                if s.material and s.material.use_nodes:
-                    dscene.ensure_roughness_aov(s.material)
+                if s.material and compat.uses_nodes(s.material):
+                    dscene.ensure_aovs(s.material)
         # The environment is the only light: the file's lamps and emitters are not part of the dataset.
         lamps = [o for o in bpy.context.scene.objects if o.type == "LIGHT" and not o.hide_render]
         for o in lamps:
@@ -294,7 +285,7 @@ def main():
             os.makedirs(view_dir, exist_ok=True)
             t0 = time.time()
             seed = n_renders + 1
-            passes = render_view(scene, cam, m, seed, tmp)
+            passes = render_view(scene, cam, m, seed)
             n_renders += 1
             rgba = passes["rgba"]
             name = "rgba.png" if env == a.train_env else "rgba_%s.png" % env
@@ -308,7 +299,8 @@ def main():
     shutil.rmtree(tmp, ignore_errors=True)
     render_s = time.time() - t_render
     if a.capture_layouts:
-        made = capture.write_capture_layouts(os.path.join(out, "capture"), capture_views, intrinsics)
+        made = capture.write_capture_layouts(os.path.join(out, "capture"), capture_views, intrinsics,
+                                             extra={"ptir_brdf": compat.principled_model()})
         log("capture layouts: " + ", ".join(sorted(made)))
 
     # The surface as Gaussians, and the oracle result.
@@ -334,6 +326,7 @@ def main():
     meta = {
         "format": "ptir-dataset/1",
         "generator": "scripts/make_dataset.py (Blender %s, Cycles)" % bpy.app.version_string,
+        "ptir_brdf": compat.principled_model(),
         "source": source,
         "resolution": [a.res, a.res],
         "train_views": a.train, "test_views": a.test,
@@ -349,7 +342,7 @@ def main():
         "materials": parts,
         "textured": {"seed": a.texture_seed, "metal_fraction": a.metal_fraction} if a.textured else None,
         "encodings": {"rgba": "sRGB 8-bit, straight alpha = coverage",
-                      "albedo": "sRGB 8-bit (Diffuse Color pass = base colour x (1 - metallic)), alpha = coverage",
+                      "albedo": "sRGB 8-bit (AOV: base colour x (1 - metallic)), alpha = coverage",
                       "roughness": "linear 8-bit grey, alpha = coverage",
                       "normal": "world space, 0.5 + 0.5 n, 8-bit, alpha = coverage"},
     }

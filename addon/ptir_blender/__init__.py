@@ -40,7 +40,7 @@ except ImportError:  # pragma: no cover - outside Blender
 if bpy is not None:
     from . import properties
     from .operators import capture_ops, io_ops, material_ops, optimize_ops, render_engine
-    from .ui import panels
+    from .ui import compat_panels, panels
 
     # Registered in order, unregistered in reverse (Blender convention).
     classes = (properties.classes + io_ops.classes + material_ops.classes + optimize_ops.classes + capture_ops.classes
@@ -91,12 +91,12 @@ def register():
     properties.register_pointers()
     bpy.types.TOPBAR_MT_file_import.append(io_ops.menu_import)
     bpy.types.TOPBAR_MT_file_export.append(io_ops.menu_export)
-    render_engine.register_compat_panels()
+    compat_panels.register()
 
 
 def unregister():
     import bpy
-    render_engine.unregister_compat_panels()
+    compat_panels.unregister()
     from .blender import engine_sync
     engine_sync.shutdown()
     bpy.types.TOPBAR_MT_file_export.remove(io_ops.menu_export)

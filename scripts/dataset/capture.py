@@ -106,11 +106,12 @@ def box_downsample(img, k):
 
 
 def write_capture_layouts(out, views, intrinsics, distortion=DEFAULT_DISTORTION, masks=True, holdout=8,
-                          layouts_wanted=LAYOUTS, supersample=1):
+                          layouts_wanted=LAYOUTS, supersample=1, extra=None):
     """views: [(name, c2w OpenGL 4x4, rgb linear (h, w, 3), mask (h, w) in [0, 1])] in any order,
     rendered at `supersample` times the output size; intrinsics: (fx, fy, cx, cy) of the
     output-size pinhole. Every photo is box-filtered down to the output size (after the
-    lens warp, which is done at the render's resolution). Returns {layout: folder}."""
+    lens warp, which is done at the render's resolution). extra: top-level keys added to every
+    transforms JSON written (the NeRF and nerfstudio layouts). Returns {layout: folder}."""
     out = Path(out)
     k = int(supersample)
     views = sorted(views, key=lambda v: v[0])
@@ -128,7 +129,7 @@ def write_capture_layouts(out, views, intrinsics, distortion=DEFAULT_DISTORTION,
         pin = {"fl_x": fx, "fl_y": fy, "cx": cx, "cy": cy, "w": w, "h": h}
         for split, keep in (("train", lambda i: i not in test), ("test", lambda i: i in test)):
             frames = [("images/%s.png" % name, c2w) for i, (name, c2w, _, _) in enumerate(encoded) if keep(i)]
-            layouts.write_nerfstudio(root / ("transforms_%s.json" % split), frames, pin)
+            layouts.write_nerfstudio(root / ("transforms_%s.json" % split), frames, pin, extra)
         (root / "images").mkdir(parents=True, exist_ok=True)
         for name, _, enc, mask in encoded:
             px = np.concatenate([enc, mask[..., None]], -1) if masks else enc
@@ -164,7 +165,7 @@ def write_capture_layouts(out, views, intrinsics, distortion=DEFAULT_DISTORTION,
                 "k1": k1, "k2": k2, "p1": p1, "p2": p2}
         frames = [("images/%s.png" % name, c2w, {"mask_path": "masks/%s.png" % name} if masks else {})
                   for name, c2w, _, _ in distorted]
-        layouts.write_nerfstudio(root / "transforms.json", frames, intr)
+        layouts.write_nerfstudio(root / "transforms.json", frames, intr, extra)
         photos(root)
         made["nerfstudio"] = root
     return made

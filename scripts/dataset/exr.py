@@ -5,10 +5,10 @@ and reading EXR through bpy.data.images mixes in Blender's colour management and
 alpha conventions. This module writes and reads the bytes directly, so the
 values on disk are exactly the linear floats we computed.
 
-Supported: single-part scanline files, channels HALF or FLOAT (UINT read too),
-compression NONE, ZIPS (1 line per block) or ZIP (16 lines per block). That
-covers what Blender's File Output node writes with codec NONE/ZIP and what
-OpenImageIO writes by default (ZIP).
+Supported: scanline files, single-part or multi-part (Blender 5.0 writes multilayer EXRs as one part
+per pass, named "<view layer>.<pass>"), channels HALF or FLOAT (UINT read too), compression NONE, ZIPS
+(1 line per block) or ZIP (16 lines per block). That covers what Blender's File Output node and
+multilayer render output write with codec NONE/ZIP and what OpenImageIO writes by default (ZIP).
 """
 
 import struct
@@ -65,13 +65,7 @@ def write_exr(path, image, channels=None):
             f.write(planar[y].tobytes())
 
 
-def _read_header(buf):
-    magic, version = struct.unpack_from("<ii", buf, 0)
-    if magic != _MAGIC:
-        raise ValueError("not an OpenEXR file")
-    if version & 0x200 or version & 0x1000:
-        raise ValueError("tiled or multi-part EXR files are not supported")
-    pos = 8
+def _read_attrs(buf, pos):
     attrs = {}
     while buf[pos] != 0:
         end = buf.index(b"\0", pos)
@@ -82,6 +76,25 @@ def _read_header(buf):
         attrs[name] = (type_name, buf[tend + 5:tend + 5 + size])
         pos = tend + 5 + size
     return attrs, pos + 1
+
+
+def _read_headers(buf):
+    """([attrs of each part], position after the headers, multi-part?)."""
+    magic, version = struct.unpack_from("<ii", buf, 0)
+    if magic != _MAGIC:
+        raise ValueError("not an OpenEXR file")
+    if version & 0x200:
+        raise ValueError("tiled EXR files are not supported")
+    if not version & 0x1000:
+        attrs, pos = _read_attrs(buf, 8)
+        return [attrs], pos, False
+    parts, pos = [], 8
+    while buf[pos] != 0:
+        attrs, pos = _read_attrs(buf, pos)
+        if attrs.get("type", ("", b"scanlineimage\0"))[1].rstrip(b"\0") != b"scanlineimage":
+            raise ValueError("only scanline parts of multi-part EXR files are supported")
+        parts.append(attrs)
+    return parts, pos + 1, True
 
 
 def _channels(payload):
@@ -111,35 +124,53 @@ def _unzip(data, expected):
     return out.tobytes()
 
 
-def read_exr(path):
-    """Reads a scanline EXR: returns {channel name: (H, W) float32 array}, row 0 = top."""
-    with open(path, "rb") as f:
-        buf = f.read()
-    attrs, pos = _read_header(buf)
+def _part_layout(path, attrs):
     chans = _channels(attrs["channels"][1])
     comp = attrs.get("compression", ("", b"\0"))[1][0]
     if comp not in _LINES_PER_BLOCK:
         raise ValueError("%s: EXR compression %d is not supported (use NONE or ZIP)" % (path, comp))
     x0, y0, x1, y1 = struct.unpack("<iiii", attrs["dataWindow"][1])
-    w, h = x1 - x0 + 1, y1 - y0 + 1
-    lines = _LINES_PER_BLOCK[comp]
-    nblocks = (h + lines - 1) // lines
-    offsets = struct.unpack_from("<%dQ" % nblocks, buf, pos)
-    out = {name: np.empty((h, w), np.float32) for name, _ in chans}
-    for off in offsets:
-        y, size = struct.unpack_from("<ii", buf, off)
-        data = buf[off + 8:off + 8 + size]
-        n = min(lines, y1 - y + 1)
-        expected = sum(dt.itemsize for _, dt in chans) * w * n
-        if size < expected:
-            data = _unzip(data, expected)
-        p = 0
-        for row in range(n):
-            for name, dt in chans:
-                k = dt.itemsize * w
-                out[name][y - y0 + row] = np.frombuffer(data, dt, w, p).astype(np.float32)
-                p += k
-    return out
+    return chans, _LINES_PER_BLOCK[comp], (x0, y0, x1, y1)
+
+
+def _read_block(buf, off, layout, out, multi):
+    chans, lines, (x0, y0, x1, y1) = layout
+    w = x1 - x0 + 1
+    head = 12 if multi else 8
+    y, size = struct.unpack_from("<ii", buf, off + head - 8)
+    data = buf[off + head:off + head + size]
+    n = min(lines, y1 - y + 1)
+    expected = sum(dt.itemsize for _, dt in chans) * w * n
+    if size < expected:
+        data = _unzip(data, expected)
+    p = 0
+    for row in range(n):
+        for name, dt in chans:
+            out[name][y - y0 + row] = np.frombuffer(data, dt, w, p).astype(np.float32)
+            p += dt.itemsize * w
+
+
+def read_exr(path):
+    """Reads a scanline EXR: returns {channel name: (H, W) float32 array}, row 0 = top. Channels of a
+    multi-part file are named "<part name>.<channel>" (unless their own name already has a dot)."""
+    with open(path, "rb") as f:
+        buf = f.read()
+    parts, pos, multi = _read_headers(buf)
+    result = {}
+    for attrs in parts:
+        layout = _part_layout(path, attrs)
+        chans, lines, (x0, y0, x1, y1) = layout
+        w, h = x1 - x0 + 1, y1 - y0 + 1
+        nblocks = (h + lines - 1) // lines
+        offsets = struct.unpack_from("<%dQ" % nblocks, buf, pos)
+        pos += 8 * nblocks
+        out = {name: np.empty((h, w), np.float32) for name, _ in chans}
+        for off in offsets:
+            _read_block(buf, off, layout, out, multi)
+        prefix = attrs["name"][1].rstrip(b"\0").decode() + "." if multi and "name" in attrs else ""
+        for name, a in out.items():
+            result[name if "." in name or not prefix else prefix + name] = a
+    return result
 
 
 def read_exr_array(path, names):

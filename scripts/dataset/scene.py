@@ -1,7 +1,7 @@
-"""Blender side of the dataset maker: the sample object, materials with a
-roughness AOV, the camera, Cycles settings and the compositor that writes every
-pass as an uncompressed float EXR (the environment world and look_at are
-scripts/blender_kit.py's).
+"""Blender side of the dataset maker (Blender 3.4, bpy 4.5 and 5.0): the sample object, materials
+(Principled BSDF in this Blender's model) with a roughness AOV, the camera, Cycles settings and the
+render output that writes every pass into one uncompressed float multilayer EXR (the environment
+world and look_at are scripts/blender_kit.py's).
 """
 
 import math
@@ -10,9 +10,11 @@ import os
 import blender_kit as kit
 import bpy
 import numpy as np
+from ptir_blender.blender import compat  # (blender_kit puts the add-on on sys.path)
 
 OBJECT_COLLECTION = "PTIR_Object"
 ROUGHNESS_AOV = "roughness"
+ALBEDO_AOV = "albedo"
 FOV_X = 0.6911112  # NeRF-synthetic's camera_angle_x
 
 # The bundled sample: part -> (linear base colour, roughness). Metallic 0 everywhere.
@@ -26,33 +28,41 @@ SAMPLE_PARTS = {
 
 # ---------------------------------------------------------------- materials
 
+# The rest of the Principled BSDF, per model: dielectric F0 0.04, no tint, no other layer.
+# v1 (3.x): Specular 0.5 = F0 0.08 x 0.5; v2 (4.0+): IOR 1.5 at Specular IOR Level 0.5, white tint,
+# Lambert diffuse (Diffuse Roughness 0, 4.3+).
+PLAIN_INPUTS = {
+    "principled-v1": {"Specular": 0.5, "Specular Tint": 0.0, "Sheen": 0.0, "Clearcoat": 0.0, "Subsurface": 0.0,
+                      "Transmission": 0.0},
+    "principled-v2": {"IOR": 1.5, "Specular IOR Level": 0.5, "Specular Tint": (1.0, 1.0, 1.0, 1.0),
+                      "Diffuse Roughness": 0.0, "Sheen Weight": 0.0, "Coat Weight": 0.0, "Subsurface Weight": 0.0,
+                      "Transmission Weight": 0.0},
+}
+
+
 def principled_material(name, base_colour, roughness, metallic=0.0):
-    """A Principled BSDF (GGX, specular 0.5 = F0 0.04, nothing else) plus an AOV
-    Output writing the roughness into the view layer's "roughness" AOV."""
+    """A Principled BSDF (GGX, dielectric F0 0.04, nothing else: PLAIN_INPUTS of this Blender's
+    model) plus an AOV Output writing the roughness into the view layer's "roughness" AOV."""
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    nt = mat.node_tree
+    nt = compat.ensure_nodes(mat)
     p = nt.nodes["Principled BSDF"]
     p.distribution = "GGX"
     p.inputs["Base Color"].default_value = (*base_colour, 1.0)
     p.inputs["Metallic"].default_value = metallic
-    p.inputs["Specular"].default_value = 0.5
-    p.inputs["Specular Tint"].default_value = 0.0
     p.inputs["Roughness"].default_value = roughness
-    p.inputs["Sheen"].default_value = 0.0
-    p.inputs["Clearcoat"].default_value = 0.0
-    p.inputs["Subsurface"].default_value = 0.0
-    p.inputs["Transmission"].default_value = 0.0
+    for socket, value in PLAIN_INPUTS[compat.principled_model()].items():
+        if p.inputs.get(socket) is not None:  # (Diffuse Roughness: 4.3+)
+            p.inputs[socket].default_value = value
     mat.diffuse_color = (*base_colour, 1.0)  # viewport colour
     mat["ptir_base_color"] = list(base_colour)
     mat["ptir_roughness"] = float(roughness)
     mat["ptir_metallic"] = float(metallic)
-    ensure_roughness_aov(mat)
+    ensure_aovs(mat)
     return mat
 
 
 def principled_node(mat):
-    if not mat or not mat.use_nodes:
+    if not mat or not compat.uses_nodes(mat):
         return None
     for node in mat.node_tree.nodes:
         if node.type == "BSDF_PRINCIPLED":
@@ -60,24 +70,55 @@ def principled_node(mat):
     return None
 
 
-def ensure_roughness_aov(mat):
-    """Adds (once) an AOV Output "roughness" fed by the Principled node's roughness
-    (its link when it is textured, else its value). Materials without a Principled
-    node write 0.5 and are reported by material_values()."""
-    nt = mat.node_tree
-    for node in nt.nodes:
-        if node.bl_idname == "ShaderNodeOutputAOV" and node.name == ROUGHNESS_AOV:
-            return node
-    aov = nt.nodes.new("ShaderNodeOutputAOV")
-    aov.name = ROUGHNESS_AOV  # ShaderNodeOutputAOV.name is the AOV's name
-    p = principled_node(mat)
-    if p is None:
-        aov.inputs["Value"].default_value = 0.5
-    elif p.inputs["Roughness"].is_linked:
-        nt.links.new(p.inputs["Roughness"].links[0].from_socket, aov.inputs["Value"])
+GT_LABEL = "PTIR ground truth"  # the nodes ensure_aovs makes
+
+
+def _aov_output(nt, name):
+    node = nt.nodes.new("ShaderNodeOutputAOV")
+    node.label = GT_LABEL
+    node.name = name  # the AOV's name before 4.0 ...
+    if hasattr(node, "aov_name"):
+        node.aov_name = name  # ... and its own property from 4.0 on
+    return node
+
+
+def _feed(nt, source_socket, target, default):
+    """target <- the link into source_socket when it has one, else default."""
+    if source_socket is not None and source_socket.is_linked:
+        nt.links.new(source_socket.links[0].from_socket, target)
     else:
-        aov.inputs["Value"].default_value = p.inputs["Roughness"].default_value
-    return aov
+        target.default_value = default
+
+
+def ensure_aovs(mat):
+    """AOV Outputs of the ground truth, fed by the Principled node's inputs (their links when textured,
+    else their values): "roughness" (Value) and "albedo" (Color: base colour x (1 - metallic), what
+    albedo.png holds; Cycles' Diffuse Color pass is that only in 3.x, v2 scales it by the specular
+    layer's albedo). Rebuilt on each call (textures.py rewires the inputs). Materials without a
+    Principled node write 0.5 and 0.8 grey and are reported by material_values()."""
+    nt = mat.node_tree
+    for node in list(nt.nodes):
+        if node.label == GT_LABEL or (node.bl_idname == "ShaderNodeOutputAOV"
+                                      and getattr(node, "aov_name", node.name) in (ROUGHNESS_AOV, ALBEDO_AOV)):
+            nt.nodes.remove(node)
+    p = principled_node(mat)
+    rough = _aov_output(nt, ROUGHNESS_AOV)
+    _feed(nt, p.inputs["Roughness"] if p else None, rough.inputs["Value"],
+          p.inputs["Roughness"].default_value if p else 0.5)
+    albedo = _aov_output(nt, ALBEDO_AOV)
+    one_minus = nt.nodes.new("ShaderNodeMath")
+    one_minus.label = GT_LABEL
+    one_minus.operation = "SUBTRACT"
+    one_minus.inputs[0].default_value = 1.0
+    _feed(nt, p.inputs["Metallic"] if p else None, one_minus.inputs[1], p.inputs["Metallic"].default_value if p else 0.0)
+    scale = nt.nodes.new("ShaderNodeVectorMath")
+    scale.label = GT_LABEL
+    scale.operation = "SCALE"
+    _feed(nt, p.inputs["Base Color"] if p else None, scale.inputs[0],
+          tuple(p.inputs["Base Color"].default_value)[:3] if p else (0.8, 0.8, 0.8))
+    nt.links.new(one_minus.outputs[0], scale.inputs["Scale"])
+    nt.links.new(scale.outputs["Vector"], albedo.inputs["Color"])
+    return rough, albedo
 
 
 def material_values(mat):
@@ -229,43 +270,52 @@ def setup_cycles(scene, res, samples, bounces, threads):
 
 
 PASSES = ("rgba", "albedo", "normal", "roughness")
+# pass -> (its names in the multilayer EXR: 3.x / 4.x, 5.x; its channels in order)
+_PASS_CHANNELS = {"rgba": (("Combined",), "RGBA"), "albedo": ((ALBEDO_AOV,), "RGB"),
+                  "normal": (("Normal",), "XYZ"), "roughness": ((ROUGHNESS_AOV,), None)}
 
 
 def setup_passes(scene, out_dir):
-    """Diffuse Color and Normal passes, the roughness AOV, and a File Output node
-    writing rgba/albedo/normal/roughness as uncompressed 32-bit EXR into out_dir."""
+    """The Normal pass and the roughness and albedo AOVs, written by every render (no compositor:
+    its Python API changed in 5.0) as one multilayer EXR, 32-bit float, uncompressed, in out_dir."""
     vl = scene.view_layers[0]
-    vl.use_pass_diffuse_color = True
     vl.use_pass_normal = True
-    if ROUGHNESS_AOV not in [a.name for a in vl.aovs]:
-        aov = vl.aovs.add()
-        aov.name = ROUGHNESS_AOV
-        aov.type = "VALUE"
-    scene.use_nodes = True
-    nt = scene.node_tree
-    nt.nodes.clear()
-    rl = nt.nodes.new("CompositorNodeRLayers")
-    comp = nt.nodes.new("CompositorNodeComposite")
-    nt.links.new(rl.outputs["Image"], comp.inputs["Image"])
-    fo = nt.nodes.new("CompositorNodeOutputFile")
-    fo.base_path = out_dir
-    fo.format.file_format = "OPEN_EXR"
-    fo.format.color_depth = "32"
-    fo.format.exr_codec = "NONE"
-    fo.format.color_mode = "RGBA"
-    fo.file_slots.clear()
-    sources = {"rgba": "Image", "albedo": "DiffCol", "normal": "Normal", "roughness": ROUGHNESS_AOV}
-    for name in PASSES:
-        fo.file_slots.new(name + "_")
-        slot = fo.file_slots[-1]
-        slot.use_node_format = False
-        slot.format.file_format = "OPEN_EXR"
-        slot.format.color_depth = "32"
-        slot.format.exr_codec = "NONE"
-        slot.format.color_mode = "RGBA" if name == "rgba" else "RGB"
-        nt.links.new(rl.outputs[sources[name]], fo.inputs[-1])
-    return fo
+    for name, kind in ((ROUGHNESS_AOV, "VALUE"), (ALBEDO_AOV, "COLOR")):
+        if name not in [a.name for a in vl.aovs]:
+            aov = vl.aovs.add()
+            aov.name = name
+            aov.type = kind
+    scene.render.use_compositing = False
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):  # 5.0+: multilayer is a media type
+        settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.color_depth = "32"
+    settings.exr_codec = "NONE"
+    scene.render.filepath = os.path.join(out_dir, "passes.exr")
+    scene.render.use_file_extension = False
 
 
-def pass_file(out_dir, name, frame=1):
-    return os.path.join(out_dir, "%s_%04d.exr" % (name, frame))
+def pass_file(scene):
+    """The multilayer EXR a still render writes."""
+    return bpy.path.abspath(scene.render.filepath)
+
+
+def read_passes(path, layer):
+    """{pass: (H, W, C) float32, row 0 = top} of PASSES from a render's multilayer EXR (view layer `layer`)."""
+    from . import exr
+    ch = exr.read_exr(path)
+    out = {}
+    for name, (render_passes, order) in _PASS_CHANNELS.items():
+        for render_pass in render_passes:
+            prefix = "%s.%s." % (layer, render_pass)
+            names = [k for k in ch if k.startswith(prefix)]
+            if order is not None:
+                names = [prefix + c for c in order]
+            if names and all(n in ch for n in names):
+                break
+        else:
+            raise RuntimeError("%s: no %s pass of view layer '%s' (channels %s)" % (
+                path, " / ".join(render_passes), layer, sorted(ch)[:16]))
+        out[name] = np.stack([ch[n] for n in names], -1)
+    return out

@@ -92,7 +92,7 @@ def texture_objects(objs, material_values, seed=1, metal_fraction=0.0):
 
 
 def _wire(mat):
-    """Principled Base Color / Roughness / Metallic (and the roughness AOV) from the face attributes."""
+    """Principled Base Color / Roughness / Metallic (and the ground-truth AOVs) from the face attributes."""
     nt = mat.node_tree
     p = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
 
@@ -103,12 +103,10 @@ def _wire(mat):
         return node
 
     nt.links.new(attribute(ALBEDO).outputs["Color"], p.inputs["Base Color"])
-    r = attribute(ROUGHNESS).outputs["Fac"]
-    nt.links.new(r, p.inputs["Roughness"])
+    nt.links.new(attribute(ROUGHNESS).outputs["Fac"], p.inputs["Roughness"])
     nt.links.new(attribute(METALLIC).outputs["Fac"], p.inputs["Metallic"])
-    for node in nt.nodes:
-        if node.bl_idname == "ShaderNodeOutputAOV":
-            nt.links.new(r, node.inputs["Value"])
+    from . import scene
+    scene.ensure_aovs(mat)  # the ground-truth AOVs follow the new links
     for key in ("ptir_base_color", "ptir_roughness", "ptir_metallic"):
         if key in mat:
             del mat[key]

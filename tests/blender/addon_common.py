@@ -1,8 +1,8 @@
 """Shared helpers of the add-on tests (pytest side and Blender side; numpy only, no bpy).
 
 - paths: the repository, the build folder ($PTIR_BUILD_DIR or <repo>/build), the CLI and module
-- run_blender(script, *args): blender -b with the add-on taken from the repository and the CLI from
-  the build folder ($PTIR_CLI), returning the CompletedProcess
+- run_blender(script, *args, blender="3.4"): the script in one of the three Blenders (blenders.py) with the
+  add-on taken from the repository and the CLI from the build folder ($PTIR_CLI): the CompletedProcess
 - blender_result(script, marker, *args): run_blender, then the JSON of the script's `marker: {...}` line
 - small PLY writers: a standard 3DGS PLY with chosen activated values, in any encoding
 """
@@ -33,29 +33,28 @@ def have_blender():
     return shutil.which(BLENDER) is not None
 
 
-def run_blender(script, *args, blend=None, timeout=600, env_extra=None):
-    """Runs HERE/script in blender -b (factory settings) with `-- args`; the add-on comes from the
-    repository (addon_blender_harness.py enables it) and the CLI from the build folder."""
+def run_blender(script, *args, blend=None, timeout=600, env_extra=None, blender="3.4"):
+    """Runs HERE/script in one of the three Blenders (blenders.py: "3.4" blender -b with factory
+    settings, "4.5" / "5.0" the bpy modules) with `-- args`; the add-on comes from the repository
+    (addon_blender_harness.py enables it) and the CLI from the build folder."""
+    import blenders  # (pytest side only: the Blender-side scripts import this file too)
     env = dict(os.environ)
     env["PTIR_CLI"] = str(CLI)
     env["PTIR_TEST_REPO"] = str(REPO)
     env["PTIR_TEST_MODULE_DIR"] = str(MODULE_DIR)
     env.update(env_extra or {})
-    cmd = [BLENDER, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
-    if blend:
-        cmd.append(str(blend))
-    cmd += ["-P", str(HERE / script), "--", *[str(a) for a in args]]
+    cmd = blenders.command(blender, HERE / script, args, blend=blend)
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
 
 
-def blender_result(script, marker, *args, timeout=600):
+def blender_result(script, marker, *args, timeout=600, blender="3.4"):
     """Runs HERE/script with run_blender and returns the JSON of the last stdout line `marker: {...}`;
     fails the calling test, with the end of Blender's output, when Blender fails or prints no such line."""
-    proc = run_blender(script, *args, timeout=timeout)
+    proc = run_blender(script, *args, timeout=timeout, blender=blender)
     out = proc.stdout + proc.stderr
-    assert proc.returncode == 0, "Blender failed:\n" + out[-4000:]
+    assert proc.returncode == 0, "Blender %s failed:\n%s" % (blender, out[-4000:])
     lines = [l for l in proc.stdout.splitlines() if l.startswith(marker + ": ")]
-    assert lines, "no result line from Blender:\n" + out[-4000:]
+    assert lines, "no result line from Blender %s:\n%s" % (blender, out[-4000:])
     return json.loads(lines[-1].split(": ", 1)[1])
 
 

@@ -29,7 +29,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import addon_blender_harness as h  # noqa: E402
 
 h.enable_addon()
-from ptir_blender.blender import splat_object  # noqa: E402
+from ptir_blender.blender import compat, material_export, splat_object  # noqa: E402
+
+FLOOR_SHADER = []  # the floor's engine shader before optimising
 from ptir_blender.io import splat_ply  # noqa: E402
 from ptir_blender.operators import optimize_ops  # noqa: E402
 
@@ -47,14 +49,15 @@ def build_scene(dataset):
     floor = bpy.data.objects.new("floor", me)
     bpy.context.scene.collection.objects.link(floor)
     mat = bpy.data.materials.new("Floor Material")
-    mat.use_nodes = True
+    compat.ensure_nodes(mat)
     bsdf = mat.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (0.5, 0.5, 0.5, 1.0)
     bsdf.inputs["Roughness"].default_value = 0.9
     me.materials.append(mat)
     mat.ptir.optimize = True
+    FLOOR_SHADER[:] = [material_export.material_params(mat)["shader"]]
     world = bpy.data.worlds.new("Plain")
-    world.use_nodes = True
+    compat.ensure_nodes(world)
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.05, 0.05, 0.05, 1.0)
     bpy.context.scene.world = world
     return splats, floor, mat
@@ -120,6 +123,12 @@ def check_written_back(splats, mat, out_dir, stats):
     h.check(np.allclose(base, mm[0]["base_colour"], atol=1e-6), "floor base colour %s vs %s" % (base, mm[0]))
     h.check(abs(bsdf.inputs["Roughness"].default_value - mm[0]["roughness"]) < 1e-6, "floor roughness")
     stats["floor_base"] = list(base)
+    # The rest of the Principled BSDF stays what the engine rendered it with, in this Blender's model
+    # (v2: IOR, Specular IOR Level, Specular Tint colour, Diffuse Roughness; v1: Specular, Specular Tint).
+    after = material_export.material_params(mat)
+    for k, v in material_export.model_fields(compat.principled_model()).items():
+        h.check(np.allclose(after[k], v), "floor %s %s after the write-back, expected %s" % (k, after[k], v))
+    h.check(after["shader"] == FLOOR_SHADER[0], "floor shader %s, was %s" % (after["shader"], FLOOR_SHADER[0]))
     h.check(base[1] > base[0], "the green floor recovered greener than red: %s" % (base,))
     world = bpy.context.scene.world
     env = world.node_tree.nodes.get("PTIR Environment")

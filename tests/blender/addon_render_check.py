@@ -31,7 +31,7 @@ import addon_blender_harness as h  # noqa: E402
 import blender_kit as kit  # noqa: E402  (scripts/, put on sys.path by the harness)
 
 h.enable_addon()
-from ptir_blender.blender import scene_bridge  # noqa: E402
+from ptir_blender.blender import compat, scene_bridge  # noqa: E402
 from ptir_blender.operators import render_engine  # noqa: E402
 
 
@@ -125,8 +125,7 @@ def sample_mode(tmp):
 def diffuse(name, colour):
     """A Diffuse BSDF (Lambert) material; the exporter maps it to base colour, roughness 1, metallic 0."""
     m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nodes = m.node_tree.nodes
+    nodes = compat.ensure_nodes(m).nodes
     nodes.remove(nodes["Principled BSDF"])
     d = nodes.new("ShaderNodeBsdfDiffuse")
     d.inputs["Color"].default_value = (*colour, 1.0)
@@ -172,7 +171,7 @@ def build_mesh_cornell(size):
     lo.visible_camera = True  # the engine shows area lights to camera rays; make Cycles do the same
     scene.collection.objects.link(lo)
     world = bpy.data.worlds.new("black")
-    world.use_nodes = True
+    compat.ensure_nodes(world)
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
     scene.world = world
@@ -190,8 +189,36 @@ def build_mesh_cornell(size):
     scene.view_settings.look = "None"
 
 
-def cycles_mode(tmp, size, spp, bounces, seeds):
+def build_principled_meshes(size):
+    """Flat-shaded spheres and a ground with new (default) Principled BSDF materials of this Blender,
+    only their Base Color set, under a sky colour and a sun; the camera and film of build_mesh_cornell."""
     build_mesh_cornell(size)
+    scene = bpy.context.scene
+    for o in list(bpy.data.objects):
+        if o.type != "CAMERA":
+            bpy.data.objects.remove(o)
+
+    def principled(name, colour):
+        m = bpy.data.materials.new(name)
+        compat.ensure_nodes(m).nodes["Principled BSDF"].inputs["Base Color"].default_value = (*colour, 1.0)
+        return m
+
+    quad("ground", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], principled("ground", (0.8, 0.8, 0.8)))
+    for x, colour in ((-0.9, (0.8, 0.2, 0.1)), (0.0, (0.2, 0.6, 0.2)), (0.9, (0.1, 0.2, 0.8))):
+        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=0.4, location=(x, 0.3, 0.4))
+        bpy.context.active_object.data.materials.append(principled("sphere %.1f" % x, colour))
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 3.0
+    so = bpy.data.objects.new("sun", sun)
+    so.rotation_euler = (math.radians(40.0), 0.0, math.radians(30.0))
+    scene.collection.objects.link(so)
+    kit.set_world_colour(scene, (0.4, 0.5, 0.7))
+    scene.camera.location = (0.0, -3.3, 1.2)
+    scene.camera.rotation_euler = (math.radians(75.0), 0, 0)
+
+
+def cycles_mode(tmp, size, spp, bounces, seeds, build=build_mesh_cornell):
+    build(size)
     scene = bpy.context.scene
     stats = {"size": size, "spp": spp, "bounces": bounces}
     scene.render.engine = "CYCLES"
@@ -281,9 +308,10 @@ def main():
         sample_mode(tmp)
     elif mode == "cancel":
         cancel_mode(tmp)
-    elif mode == "cycles":
+    elif mode in ("cycles", "principled"):
         size, spp, bounces = int(args[2]), int(args[3]), int(args[4])
-        cycles_mode(tmp, size, spp, bounces, [1, 2])
+        cycles_mode(tmp, size, spp, bounces, [1, 2],
+                    build=build_principled_meshes if mode == "principled" else build_mesh_cornell)
     else:
         raise SystemExit("unknown mode %s" % mode)
 

@@ -58,8 +58,7 @@ def small_scene():
     scene.camera = cam
     world = scene.world or bpy.data.worlds.new("World")
     scene.world = world
-    world.use_nodes = False
-    world.color = (0.5, 0.5, 0.5)
+    kit.set_world_colour(scene, (0.5, 0.5, 0.5))  # (5.0 has no node-less worlds)
     scene.render.engine = "PTIR"
     scene.render.resolution_x = scene.render.resolution_y = 32
     scene.render.resolution_percentage = 100

@@ -1,6 +1,7 @@
 """The Blender dataset maker (scripts/make_dataset.py): layout, encodings and
-ground truth of a tiny dataset, and its numpy helpers (EXR/PNG writers, envmaps)
-against OpenImageIO (through the ptir module)."""
+ground truth of a tiny dataset made in each Blender (3.4, bpy 4.5, bpy 5.0: blenders.py), the
+model its transforms record ("ptir_brdf": principled-v1 on 3.x, principled-v2 on 4.0+), and its
+numpy helpers (EXR/PNG writers, envmaps) against OpenImageIO (through the ptir module)."""
 
 import json
 import os
@@ -13,6 +14,8 @@ import numpy as np
 import pytest
 import skimage.io
 
+import blenders
+
 REPO = Path(__file__).resolve().parents[2]
 BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
 sys.path.insert(0, str(REPO / "scripts"))
@@ -22,17 +25,18 @@ from dataset import envmaps, exr, png  # noqa: E402
 needs_blender = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
 
 
-def make_dataset(out, *args, timeout=300):
-    r = subprocess.run([*BLENDER, "-P", str(REPO / "scripts" / "make_dataset.py"), "--", "--out", str(out), *args],
-                       capture_output=True, text=True, timeout=timeout)
+def make_dataset(out, *args, timeout=300, blender="3.4"):
+    cmd = blenders.command(blender, REPO / "scripts" / "make_dataset.py", ["--out", out, *args])
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     return r
 
 
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    out = tmp_path_factory.mktemp("dataset")
-    make_dataset(out, "--res", "40", "--train", "3", "--test", "2", "--spp", "16", "--subdiv", "1", "--threads", "2")
+@pytest.fixture(scope="module", params=blenders.params())
+def tiny(request, tmp_path_factory):
+    out = tmp_path_factory.mktemp("dataset_" + request.param.replace(".", ""))
+    make_dataset(out, "--res", "40", "--train", "3", "--test", "2", "--spp", "16", "--subdiv", "1", "--threads", "2",
+                 blender=request.param)
     return out
 
 
@@ -69,12 +73,15 @@ def test_envmap_orientation_is_blenders(tmp_path):
 
 # ---------------------------------------------------------------- the Blender maker
 
-@needs_blender
 def test_layout(tiny):
     meta = json.loads((tiny / "dataset.json").read_text())
     assert meta["train_env"] == "studio" and meta["relight_envs"] == ["sunset", "sky"]
+    major = int(meta["generator"].split("Blender ", 1)[1].split(".")[0])  # the Blender that made it
+    model = "principled-v1" if major < 4 else "principled-v2"
+    assert meta["ptir_brdf"] == model
     for split, n in (("train", 3), ("test", 2)):
         t = json.loads((tiny / f"transforms_{split}.json").read_text())
+        assert t["ptir_brdf"] == model  # the engine's default --brdf for this dataset
         assert (t["w"], t["h"]) == (40, 40) and len(t["frames"]) == n
         assert t["frames"][0]["file_path"] == f"./{split}_000/rgba"
         for i in range(n):
@@ -88,13 +95,11 @@ def test_layout(tiny):
     assert not (tiny / ".passes").exists()
 
 
-@needs_blender
 def test_envmaps_are_exact_linear_exr(ptir, tiny):
     for env in ("studio", "sunset", "sky"):
         assert np.array_equal(ptir.read_image(str(tiny / "envmaps" / f"{env}.exr")), envmaps.make_envmap(env, 128, 64))
 
 
-@needs_blender
 def test_ground_truth_values(tiny):
     meta = json.loads((tiny / "dataset.json").read_text())
     colours = np.array([m["base_color"] for m in meta["materials"].values()])
@@ -121,7 +126,6 @@ def test_ground_truth_values(tiny):
         assert np.mean(n @ cam[:3, 2] > 0) > 0.97              # +z of the camera points back toward it
 
 
-@needs_blender
 def test_splats_load_in_ptir(ptir, tiny):
     meta = json.loads((tiny / "dataset.json").read_text())
     g = ptir.load_gaussians(str(tiny / "gaussians.ply"))
@@ -145,14 +149,14 @@ def test_bad_arguments_fail_loudly(tmp_path):
     assert "unknown environment" in r.stderr
 
 
-@needs_blender
-def test_textured_dataset_has_exact_per_polygon_truth(ptir, tmp_path):
+@pytest.mark.parametrize("blender", blenders.params("3.4", "4.5"))
+def test_textured_dataset_has_exact_per_polygon_truth(ptir, tmp_path, blender):
     """--textured: per-polygon noise in base colour and roughness, metallic patches,
     three relight environments; the oracle Gaussians carry their polygon's values, so
     the true materials reproduce Cycles' ground-truth passes (an exact oracle)."""
     out = tmp_path / "tex"
     make_dataset(out, "--res", "40", "--train", "2", "--test", "2", "--spp", "8", "--subdiv", "1", "--textured",
-                 "--metal-fraction", "0.2", "--relight-envs", "sunset,sky,overcast", "--threads", "2")
+                 "--metal-fraction", "0.2", "--relight-envs", "sunset,sky,overcast", "--threads", "2", blender=blender)
     meta = json.loads((out / "dataset.json").read_text())
     assert meta["textured"] == {"seed": 1, "metal_fraction": 0.2}
     assert sorted(meta["relight_envs"]) == ["overcast", "sky", "sunset"]

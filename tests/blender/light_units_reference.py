@@ -1,6 +1,6 @@
 """Cycles reference measurements for PTIR's light units and environment orientation.
 
-Run inside Blender (3.4+), headless:
+Run inside Blender (3.4+; bpy 4.5 / 5.0 through tests/blender/bpy_run.py), headless:
 
     blender -b --factory-startup -noaudio --python-exit-code 1 \
         -P tests/blender/light_units_reference.py -- --out-dir /tmp/x [--samples 64]
@@ -184,7 +184,7 @@ def main():
     args = parse_args()
     os.makedirs(args.out_dir, exist_ok=True)
     t0 = time.time()
-    result = {"blender": bpy.app.version_string, "albedo": ALBEDO, "samples": args.samples,
+    result = {"blender": bpy.app.version_string, "blender_version": list(bpy.app.version), "albedo": ALBEDO, "samples": args.samples,
               "lambert": {}, "env": [], "env_size": [ENV_W, ENV_H]}
 
     for name, build in lambert_cases(args):

@@ -1,7 +1,12 @@
-"""Runs inside Blender: builds a scene with one of everything and exports it.
+"""Runs inside Blender (3.4, or bpy 4.5 / 5.0): builds a scene with one of everything and exports it.
 
     blender -b --factory-startup -noaudio --python-exit-code 1 \
         -P tests/blender/scene_export_check.py -- <out_dir> <gaussians.ply>
+    (or tests/blender/bpy_run.py with the bpy venv's python: tests/blender/blenders.py)
+
+The Principled materials are set through this Blender's socket names (3.x: Specular, Emission, ...;
+4.0+: Specular IOR Level, Emission Color, ...); "layered" sets every input the exporter reads or
+warns about to a value away from its default.
 
 Prints one line "PTIR_EXPORT_JSON: {...}" with the exported scene path, the
 exporter's warnings and what Blender itself says about the scene (world-space
@@ -22,7 +27,16 @@ from mathutils import Vector
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(HERE)), "addon"))
 
-from ptir_blender.blender import scene_export  # noqa: E402
+from ptir_blender.blender import compat, scene_export  # noqa: E402
+
+V2 = bpy.app.version >= (4, 0, 0)
+# Every Principled input "layered" sets: socket -> value, per model (the v2 names from 4.0 on).
+LAYERED = ({"IOR": 1.33, "Specular IOR Level": 0.7, "Specular Tint": (0.9, 0.5, 0.2, 1.0), "Coat Weight": 0.3,
+            "Sheen Weight": 0.2, "Transmission Weight": 0.1, "Subsurface Weight": 0.05}
+           if V2 else {"Specular": 0.7, "Specular Tint": 0.3, "Clearcoat": 0.3, "Sheen": 0.2, "Transmission": 0.1,
+                       "Subsurface": 0.05})
+if bpy.app.version >= (4, 3, 0):
+    LAYERED["Diffuse Roughness"] = 0.4
 
 
 def clear():
@@ -30,22 +44,28 @@ def clear():
         bpy.data.objects.remove(ob, do_unlink=True)
 
 
-def principled(name, base, rough, metal, emission=None, strength=1.0):
+def new_material(name):
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    compat.ensure_nodes(mat)
+    return mat
+
+
+def principled(name, base, rough, metal, emission=None, strength=1.0, inputs=None):
+    mat = new_material(name)
     bsdf = mat.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (*base, 1.0)
     bsdf.inputs["Roughness"].default_value = rough
     bsdf.inputs["Metallic"].default_value = metal
     if emission is not None:
-        bsdf.inputs["Emission"].default_value = (*emission, 1.0)
+        bsdf.inputs["Emission Color" if V2 else "Emission"].default_value = (*emission, 1.0)
         bsdf.inputs["Emission Strength"].default_value = strength
+    for k, v in (inputs or {}).items():
+        bsdf.inputs[k].default_value = v
     return mat
 
 
 def diffuse(name, colour):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    mat = new_material(name)
     nt = mat.node_tree
     nt.nodes.remove(nt.nodes["Principled BSDF"])
     d = nt.nodes.new("ShaderNodeBsdfDiffuse")
@@ -55,8 +75,7 @@ def diffuse(name, colour):
 
 
 def emission_only(name, colour, strength):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    mat = new_material(name)
     nt = mat.node_tree
     nt.nodes.remove(nt.nodes["Principled BSDF"])
     e = nt.nodes.new("ShaderNodeEmission")
@@ -101,6 +120,11 @@ def main(out_dir, gaussians_ply):
     plane = bpy.context.active_object
     plane.name = "Lamp plane"
     plane.data.materials.append(emission_only("glow", (0.5, 1.0, 0.25), 4.0))
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(3.0, 0.0, -1.0))
+    layered = bpy.context.active_object
+    layered.name = "Layered"
+    layered.data.materials.append(principled("layered", (0.3, 0.6, 0.2), 0.45, 0.25, inputs=LAYERED))
+    layered.data.materials[0].node_tree.nodes["Principled BSDF"].distribution = "GGX"
     bpy.ops.mesh.primitive_plane_add(size=1.0, location=(0.0, 0.0, 5.0))
     hidden = bpy.context.active_object
     hidden.name = "Hidden"
@@ -121,9 +145,7 @@ def main(out_dir, gaussians_ply):
     # World: Environment Texture of a tiny file + Mapping Z rotation + strength.
     env_path = os.path.join(out_dir, "tiny_env.hdr")
     scene_export.write_rgbe(env_path, [[[0.5, 0.25, 0.125]] * 4] * 2)
-    world = scene.world
-    world.use_nodes = True
-    nt = world.node_tree
+    nt = compat.ensure_nodes(scene.world)
     nt.nodes.clear()
     texco = nt.nodes.new("ShaderNodeTexCoord")
     mapping = nt.nodes.new("ShaderNodeMapping")
@@ -176,6 +198,10 @@ def main(out_dir, gaussians_ply):
         "panel_matrix": [list(r) for r in bpy.data.objects["Panel"].matrix_world],
         "probes": probes, "projected": proj,
         "main_location": list(cams["Main"].location),
+        "blender": list(bpy.app.version), "layered": {k: (list(v) if hasattr(v, "__len__") else v)
+                                                       for k, v in LAYERED.items()},
+        "distributions": {m.name: m.node_tree.nodes["Principled BSDF"].distribution
+                          for m in bpy.data.materials if m.node_tree and "Principled BSDF" in m.node_tree.nodes},
     }
     print("PTIR_EXPORT_JSON: " + json.dumps(info))
 

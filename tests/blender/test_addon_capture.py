@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import addon_common as ac
+import blenders
 
 pytestmark = pytest.mark.skipif(not ac.have_blender(), reason="blender not installed")
 
@@ -37,16 +38,17 @@ def capture_dir(ptir, tmp_path_factory):
             "distortion": list(capture.DEFAULT_DISTORTION), "cameras": [m.tolist() for m in d["cameras"]]}
 
 
-def _check_stats(script, marker, capture_dir, tmp_path):
+def _check_stats(script, marker, capture_dir, tmp_path, blender="3.4"):
     """Runs the Blender check `script` on the capture (its spec as JSON) and returns its `marker` stats."""
     spec = tmp_path / "spec.json"
     spec.write_text(json.dumps({k: str(v) if not isinstance(v, (int, float, list)) else v
                                 for k, v in capture_dir.items()}))
-    return ac.blender_result(script, marker, spec, tmp_path, timeout=600)
+    return ac.blender_result(script, marker, spec, tmp_path, timeout=600, blender=blender)
 
 
-def test_import_capture_cameras_and_optimise_from_colmap(capture_dir, tmp_path):
-    stats = _check_stats("addon_capture_check.py", "CAPTURE_STATS", capture_dir, tmp_path)
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_import_capture_cameras_and_optimise_from_colmap(blender, capture_dir, tmp_path):
+    stats = _check_stats("addon_capture_check.py", "CAPTURE_STATS", capture_dir, tmp_path, blender)
     print("capture: %s" % stats)
     assert stats["cameras"] == 6
     assert stats["max_projection_error_px"] < 0.02

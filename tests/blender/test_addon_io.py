@@ -6,14 +6,16 @@ import numpy as np
 import pytest
 
 import addon_common as ac
+import blenders
 
 pytestmark = pytest.mark.skipif(not ac.have_blender(), reason="blender not installed")
 
 IMPORT_BUDGET_S = 3.0  # 1M splats, SH degree 3 (the requirement)
 
 
-def test_import_export_round_trip_and_errors(tmp_path):
-    r = ac.run_blender("addon_io_check.py", tmp_path)
+@pytest.mark.parametrize("blender", blenders.params())
+def test_import_export_round_trip_and_errors(blender, tmp_path):
+    r = ac.run_blender("addon_io_check.py", tmp_path, blender=blender)
     assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
 
 

@@ -13,6 +13,7 @@ import json
 import pytest
 
 import addon_common as ac
+import blenders
 
 pytestmark = pytest.mark.skipif(not ac.have_blender(), reason="blender not installed")
 
@@ -25,15 +26,17 @@ def dataset(tmp_path_factory):
     return addon_optimize_data.make_dataset(str(tmp_path_factory.mktemp("dataset")), ac.CLI)
 
 
-def _run(mode, dataset, tmp_path, iterations=120):
-    r = ac.run_blender("addon_optimize_check.py", mode, dataset["dir"], tmp_path, iterations, timeout=600)
+def _run(mode, dataset, tmp_path, iterations=120, blender="3.4"):
+    r = ac.run_blender("addon_optimize_check.py", mode, dataset["dir"], tmp_path, iterations, timeout=600,
+                       blender=blender)
     assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
     line = next(l for l in r.stdout.splitlines() if l.startswith("OPTIMIZE_STATS: "))
     return json.loads(line[len("OPTIMIZE_STATS: "):]), r
 
 
-def test_optimize_writes_materials_back(dataset, tmp_path):
-    stats, r = _run("finish", dataset, tmp_path)
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_optimize_writes_materials_back(blender, dataset, tmp_path):
+    stats, r = _run("finish", dataset, tmp_path, blender=blender)
     print("optimise: %s" % stats)
     assert "ptir: iter 120/120" in r.stdout  # blender -b prints the optimiser's progress
 
@@ -48,6 +51,7 @@ def test_failed_optimize_leaves_scene_unchanged(dataset, tmp_path):
     assert "image not found" in stats["message"]
 
 
-def test_cancelled_optimize_leaves_scene_unchanged(dataset, tmp_path):
-    stats, _ = _run("cancel", dataset, tmp_path)
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_cancelled_optimize_leaves_scene_unchanged(blender, dataset, tmp_path):
+    stats, _ = _run("cancel", dataset, tmp_path, blender=blender)
     assert stats["seconds"] < 60

@@ -16,6 +16,7 @@ import json
 import pytest
 
 import addon_common as ac
+import blenders
 
 pytestmark = pytest.mark.skipif(not ac.have_blender(), reason="blender not installed")
 
@@ -25,8 +26,9 @@ def _stats(result):
     return json.loads(line[len("RULES_STATS: "):])
 
 
-def test_every_error_is_reported_never_a_traceback(tmp_path):
-    r = ac.run_blender("addon_rules_check.py", "errors", tmp_path)
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_every_error_is_reported_never_a_traceback(blender, tmp_path):
+    r = ac.run_blender("addon_rules_check.py", "errors", tmp_path, blender=blender)
     # (blender -b exits 1 after any failed render, here the intended one: the check's own verdict counts)
     assert "ADDON_CHECK: OK" in r.stdout and "ADDON_CHECK: FAILED" not in r.stderr, ac.output_of(r)
     render_out = r.stdout.split("RENDER_BEGIN", 1)[1].split("RENDER_END", 1)[0]
@@ -38,8 +40,9 @@ def test_every_error_is_reported_never_a_traceback(tmp_path):
     assert stats["error_classes"] == 10
 
 
-def test_non_uniform_scale_is_one_rule_everywhere(tmp_path):
-    r = ac.run_blender("addon_rules_check.py", "transform", tmp_path)
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_non_uniform_scale_is_one_rule_everywhere(blender, tmp_path):
+    r = ac.run_blender("addon_rules_check.py", "transform", tmp_path, blender=blender)
     assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
     assert "Traceback" not in r.stdout + r.stderr, ac.output_of(r)
     stats = _stats(r)

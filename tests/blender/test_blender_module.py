@@ -1,4 +1,5 @@
-"""The native module and the add-on inside Blender's own Python (blender -b)."""
+"""The native module and the add-on inside Blender's own Python (blender -b; the native module also in
+bpy 4.5 and 5.0, whose CPython 3.11 is the one it is built for)."""
 
 import os
 import shutil
@@ -6,6 +7,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
+
+import blenders
 
 REPO = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
@@ -18,17 +21,21 @@ def blender(*args):
     return subprocess.run([*BLENDER, *args], capture_output=True, text=True, timeout=120)
 
 
-def test_module_renders_inside_blender(tmp_path):
+@pytest.mark.parametrize("version", blenders.params())
+def test_module_renders_inside_blender(version, tmp_path):
     module_dir = BUILD / "python"
     assert any(module_dir.glob("ptir*.so")), f"no native module in {module_dir} (run 'make build')"
-    r = blender("-P", str(Path(__file__).with_name("blender_render_check.py")), "--", str(module_dir), str(tmp_path))
+    r = subprocess.run(blenders.command(version, Path(__file__).with_name("blender_render_check.py"),
+                                        [module_dir, tmp_path]), capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert "blender_render_check: OK" in r.stdout
 
 
-def test_render_check_fails_loudly(tmp_path):
+@pytest.mark.parametrize("version", blenders.params())
+def test_render_check_fails_loudly(version, tmp_path):
     """A broken check must fail the test: a module folder without ptir makes Blender exit 1."""
-    r = blender("-P", str(Path(__file__).with_name("blender_render_check.py")), "--", str(tmp_path), str(tmp_path))
+    r = subprocess.run(blenders.command(version, Path(__file__).with_name("blender_render_check.py"),
+                                        [tmp_path, tmp_path]), capture_output=True, text=True, timeout=120)
     assert r.returncode == 1
     assert "FAILED" in r.stderr
 

@@ -1,15 +1,16 @@
 """The add-on's scene export (Blender -> scene file) and its pure-Python io helpers.
 
-The io tests need no Blender. The export test runs tests/blender/scene_export_check.py
-in Blender 3.4 and checks the file against what Blender itself reports (evaluated
-mesh bounds, matrices, where the camera projects points), then loads and renders
-the exported scene with the native module.
+The io tests need no Blender. The export tests run tests/blender/scene_export_check.py
+in each of the three Blenders (3.4, bpy 4.5, bpy 5.0: blenders.py) and check the file against
+what Blender itself reports (evaluated mesh bounds, matrices, where the camera projects points)
+and the material model of that Blender (principled v1 fields and socket names on 3.x, v2 on 4.0+,
+a warning naming the material and the socket for every layer the engine does not render), then
+load and render the exported scene with the native module (4.5 / 5.0: once the engine has
+principled-v2, blenders.engine_has_v2()).
 """
 
 import json
 import math
-import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,8 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import blenders
+
 REPO = Path(__file__).resolve().parents[2]
-BLENDER = shutil.which(os.environ.get("BLENDER", "blender"))
 sys.path.insert(0, str(REPO / "addon"))
 
 from ptir_blender.io import mesh_ply, scene_file, surface_splats  # noqa: E402
@@ -111,35 +113,38 @@ def test_triangles_to_gaussians_quaternions_are_proper_rotations():
 
 # ---------------------------------------------------------------- export in Blender
 
-@pytest.fixture(scope="module")
-def exported(tmp_path_factory, ptir):
-    if BLENDER is None:
-        pytest.skip("blender not installed")
-    out = tmp_path_factory.mktemp("export")
+@pytest.fixture(scope="module", params=blenders.params())
+def exported(request, tmp_path_factory, ptir):
+    version = request.param
+    out = tmp_path_factory.mktemp("export_" + version.replace(".", ""))
     # A small Gaussian file for the custom-property holder.
     g = surface_splats.triangles_to_gaussians(np.array([[0, 0, 0], [0.2, 0, 0], [0, 0.2, 0]], float),
                                               np.array([[0, 1, 2]]))
     ply = surface_splats.write_gaussians_ply(str(out / "holder.ply"), g, albedo=(0.5, 0.5, 0.5), roughness=0.5,
                                              metallic=0.0)
-    cmd = [BLENDER, "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1",
-           "-P", str(REPO / "tests" / "blender" / "scene_export_check.py"), "--", str(out), ply]
+    cmd = blenders.command(version, REPO / "tests" / "blender" / "scene_export_check.py", [out, ply])
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     line = next(l for l in r.stdout.splitlines() if l.startswith("PTIR_EXPORT_JSON: "))
     info = json.loads(line.split(": ", 1)[1])
     info["doc"] = json.loads(Path(info["scene"]).read_text())
     info["dir"] = out
+    info["version"] = version
     return info
 
 
 def test_export_meshes_and_materials(exported):
     doc, out = exported["doc"], exported["dir"]
     meshes = {m["name"]: m for m in doc["meshes"]}
-    assert sorted(meshes) == ["Cube_0", "Cube_1", "Lamp plane"]  # "Hidden" (hide_render) is skipped
+    # "Hidden" (hide_render) is skipped
+    assert sorted(meshes) == ["Cube_0", "Cube_1", "Lamp plane", "Layered"]
     matte, shiny, glow = meshes["Cube_0"]["material"], meshes["Cube_1"]["material"], meshes["Lamp plane"]["material"]
     # Diffuse BSDF -> the engine's Oren-Nayar with the node's roughness (default 0: Lambert).
     assert matte["base_color"] == pytest.approx([0.2, 0.4, 0.6]) and matte["roughness"] == 0.0
-    assert matte["shader"] == "diffuse" and shiny["shader"] == "principled"
+    # A new Principled BSDF is GGX in 3.x, Multiscatter GGX from 4.0 on: the shader follows the node.
+    assert exported["distributions"]["shiny"] == ("GGX" if exported["version"] == "3.4" else "MULTI_GGX")
+    assert matte["shader"] == "diffuse"
+    assert shiny["shader"] == ("principled" if exported["version"] == "3.4" else "principled-multiscatter")
     assert matte["metallic"] == 0.0 and matte["emission"] == [0, 0, 0]
     assert shiny["base_color"] == pytest.approx([0.9, 0.8, 0.1]) and shiny["roughness"] == pytest.approx(0.35)
     assert shiny["metallic"] == 1.0 and shiny["emission"] == pytest.approx([2.0, 1.0, 0.5])
@@ -153,6 +158,38 @@ def test_export_meshes_and_materials(exported):
     assert np.allclose(allv.min(0), lo, atol=1e-5) and np.allclose(allv.max(0), hi, atol=1e-5)
 
 
+def test_export_records_the_principled_model_of_its_blender(exported):
+    """3.x: principled v1 (specular, specular_tint); 4.0+: v2 (ior, specular_ior_level, specular_tint_color,
+    diffuse_roughness), read by this Blender's socket names; every layer the engine does not render is
+    named in a warning with its material."""
+    doc, version, layered = exported["doc"], exported["version"], exported["layered"]
+    m = {e["name"]: e["material"] for e in doc["meshes"]}["Layered"]
+    assert m["shader"] == "principled" and m["base_color"] == pytest.approx([0.3, 0.6, 0.2])
+    assert m["roughness"] == pytest.approx(0.45) and m["metallic"] == pytest.approx(0.25)
+    if version == "3.4":
+        # (3.x scenes say "principled": the name of v1 that engines with and without v2 read)
+        assert doc["brdf"] == "principled"
+        assert m["specular"] == pytest.approx(0.7) and m["specular_tint"] == pytest.approx(0.3)
+        assert not {"ior", "specular_ior_level", "specular_tint_color", "diffuse_roughness"} & set(m)
+        unrendered = ["Clearcoat", "Sheen", "Transmission", "Subsurface"]
+    else:
+        assert doc["brdf"] == "principled-v2"
+        assert m["ior"] == pytest.approx(1.33) and m["specular_ior_level"] == pytest.approx(0.7)
+        assert m["specular_tint_color"] == pytest.approx([0.9, 0.5, 0.2])
+        assert m["diffuse_roughness"] == pytest.approx(layered.get("Diffuse Roughness", 0.0))
+        assert not {"specular", "specular_tint"} & set(m)
+        unrendered = ["Coat Weight", "Sheen Weight", "Transmission Weight", "Subsurface Weight"]
+        # Materials left at a new node's defaults: v2's IOR 1.5, level 0.5, white tint.
+        shiny = {e["name"]: e["material"] for e in doc["meshes"]}["Cube_1"]
+        assert (shiny["ior"], shiny["specular_ior_level"], shiny["specular_tint_color"]) == (
+            pytest.approx(1.5), pytest.approx(0.5), pytest.approx([1, 1, 1]))
+    for socket in unrendered:
+        assert any("material 'layered'" in w and "'%s'" % socket in w and "not rendered" in w
+                   for w in exported["warnings"]), (socket, exported["warnings"])
+    # ... and nothing else about "layered" (no silent drop, no spurious warning)
+    assert len([w for w in exported["warnings"] if "'layered'" in w]) == len(unrendered)
+
+
 def test_export_lights_world_gaussians_integrator(exported):
     doc, out = exported["doc"], exported["dir"]
     lights = {l["name"]: l for l in doc["lights"]}
@@ -164,11 +201,19 @@ def test_export_lights_world_gaussians_integrator(exported):
     assert b["type"] == "point" and b["position"] == pytest.approx([1, -2, 3]) and b["power"] == 120
     assert b["color"] == pytest.approx([1.0, 0.8, 0.6]) and b["radius"] == pytest.approx(0.2)
     s = lights["Sun"]
-    assert s["type"] == "sun" and s["strength"] == 2.5 and s["angle"] == pytest.approx(0.1)
+    # From 4.0 on an angled sun's Strength is its irradiance (3.x: 2 (1/cos(a/2) - 1) / tan^2(a/2) of it)
+    # and area lights emit 4/pi more for their Power: the scene file keeps 3.x's units
+    # (io/light_units.py; measured against each Cycles in tests/python/test_light_units.py).
+    v4 = exported["version"] != "3.4"
+    half = 0.05
+    sun_factor = math.tan(half) ** 2 / (2 * (1 / math.cos(half) - 1)) if v4 else 1.0
+    assert s["type"] == "sun" and s["strength"] == pytest.approx(2.5 * sun_factor, rel=1e-9)
+    assert s["angle"] == pytest.approx(0.1)
     assert [row[2] for row in s["transform"][:3]] == pytest.approx(exported["sun_z"])
     p = lights["Panel"]
     assert p["type"] == "area" and p["shape"] == "ellipse" and p["size"] == 0.5 and p["size_y"] == 0.25
-    assert p["power"] == 55 and np.allclose(p["transform"], exported["panel_matrix"], atol=1e-6)
+    assert p["power"] == pytest.approx(55 * (4 / math.pi if v4 else 1.0), rel=1e-9)
+    assert np.allclose(p["transform"], exported["panel_matrix"], atol=1e-6)
     env = doc["environment"]
     assert env["type"] == "latlong" and env["strength"] == pytest.approx(1.75)
     assert env["rotation_z"] == pytest.approx(1.25) and (out / env["file"]).exists()
@@ -198,6 +243,8 @@ def test_export_camera_projects_like_blender(exported):
 
 
 def test_exported_scene_loads_and_renders(exported, ptir):
+    if exported["version"] in blenders.MODULE_VERSIONS and not blenders.engine_has_v2():
+        pytest.skip(blenders.V2_ENGINE)
     scene = ptir.load_scene(exported["scene"])
     assert scene.camera_names == ["Main", "Other"]
     assert len(scene.gaussians) == 1 and scene.light_count == 3 and scene.environment == "latlong"

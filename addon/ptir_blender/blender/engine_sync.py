@@ -75,12 +75,13 @@ def mesh_geometry_hash(obj, depsgraph):
     return _hash_arrays(co.astype(np.float32), tris, mat)
 
 
-def mesh_materials(obj):
-    """{scene mesh name: material params} as export_mesh_object names them (one per slot)."""
+def mesh_materials(obj, warnings=None):
+    """{scene mesh name: material params} as export_mesh_object names them (one per slot); what the
+    conversion approximates or leaves out goes to `warnings`."""
     slots = obj.material_slots
     if len(slots) <= 1:
-        return {obj.name: scene_export.material_params(slots[0].material if len(slots) else None)}
-    return {obj.name + "_%d" % i: scene_export.material_params(s.material) for i, s in enumerate(slots)}
+        return {obj.name: scene_export.material_params(slots[0].material if len(slots) else None, warnings)}
+    return {obj.name + "_%d" % i: scene_export.material_params(s.material, warnings) for i, s in enumerate(slots)}
 
 
 class EngineSession:
@@ -93,6 +94,7 @@ class EngineSession:
         self.state = None         # fingerprints of what the engine holds (None: nothing loaded)
         self.loads = 0            # "load" requests sent (full exports)
         self.warnings = []
+        self._material_warnings = []
         self._seq = 0
         self._material_only = {}  # object name -> its PTIR material edits since the last sync (note_material_edit)
         self._bulk = []  # (request id, files written for it): removed once the engine has answered
@@ -215,9 +217,10 @@ class EngineSession:
                                else _hash_arrays(_matrix(o)) + str(o["ptir_gaussians"]))
             else:
                 geo[o.name] = old["geo"][o.name]
+        self._material_warnings = []
         for o in meshes:
             if "ptir_gaussians" not in o:
-                mats.update(mesh_materials(o))
+                mats.update(mesh_materials(o, self._material_warnings))
         return geo, mats
 
     def _parts(self, depsgraph, integrator, lights):
@@ -273,6 +276,8 @@ class EngineSession:
                     self.engine.send({"cmd": "mesh_material", "mesh": name, "material": m})
                     st["mats"][name] = m
                     sent.append("mesh_material")
+                    # (what the edited material's conversion leaves out is reported with the next render)
+                    self.warnings += [w for w in self._material_warnings if w not in self.warnings]
             data = changed if data_changed is None else data_changed
             for o in splats:
                 edits = self._material_only.get(o.name)

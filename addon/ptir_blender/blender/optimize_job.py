@@ -16,7 +16,8 @@ load_results(job) reads and checks everything the optimiser wrote (nothing in Bl
 apply_results(results) then writes it into the scene in one go: the splat attributes
 (ptir_albedo, ptir_roughness, ptir_metallic, ptir_normal) -- after a fit, the object's whole splat
 mesh (the fitted count, positions, scales, rotations, opacities, radiance, in its local frame) -- the Principled BSDF values of the ticked
-mesh materials, and the world's Environment Texture. A failed or cancelled run never reaches
+mesh materials (material_writeback.py: the recovered base colour, roughness and metallic with the
+other inputs the engine rendered them with, in this Blender's Principled model), and the world's Environment Texture. A failed or cancelled run never reaches
 apply_results, so it leaves the scene unchanged.
 """
 
@@ -27,7 +28,7 @@ import bpy
 import numpy as np
 
 from ..io import capture_cameras, dataset_file, scene_file, splat_ply, splat_transform
-from . import scene_bridge, scene_export, splat_object
+from . import compat, material_writeback, scene_bridge, scene_export, splat_object
 from ..errors import OptimizeError
 
 ENV_NODE = "PTIR Environment"
@@ -242,7 +243,7 @@ class Results:
         self.albedo = self.roughness = self.metallic = self.normal = None
         self.splats = None    # after a fit: the fitted splats (SplatData, object space) that replace the object's
         self.count = 0        # the object's splat count when the job was prepared
-        self.materials = {}   # material name -> {base_color, roughness, metallic}
+        self.materials = {}   # material name -> engine material (exported fields + recovered base_color, roughness, metallic)
         self.environment = None  # path of env.exr
         self.pack_environment = False
 
@@ -287,10 +288,14 @@ def load_results(job, pack_environment):
             mat = entry["material"].get("name")
             if mat in job.materials and entry["name"] in recovered:
                 per_material.setdefault(mat, []).append(recovered[entry["name"]])
+        exported = {e["material"].get("name"): e["material"] for e in job.mesh_entries}
         for mat, values in per_material.items():
-            r.materials[mat] = {k: (np.mean([v[k] for v in values], axis=0).tolist() if k == "base_color"
-                                    else float(np.mean([v[k] for v in values])))
-                                for k in ("base_color", "roughness", "metallic")}
+            # What the engine rendered the material with (its model's fields as exported), with the
+            # recovered values: written back whole, so that Cycles renders what the engine did.
+            r.materials[mat] = {k: v for k, v in exported.get(mat, {}).items() if k not in ("name", "emission")}
+            r.materials[mat].update({k: (np.mean([v[k] for v in values], axis=0).tolist() if k == "base_color"
+                                         else float(np.mean([v[k] for v in values])))
+                                     for k in ("base_color", "roughness", "metallic")})
     if job.write_environment:
         env = os.path.join(job.out_dir, "env.exr")
         if not os.path.isfile(env):
@@ -300,27 +305,14 @@ def load_results(job, pack_environment):
     return r
 
 
-def _principled(material):
-    if not material.use_nodes or material.node_tree is None:
-        material.use_nodes = True
-    nodes = material.node_tree.nodes
-    node = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
-    if node is None:
-        out = next((n for n in nodes if n.type == "OUTPUT_MATERIAL"), None) or nodes.new("ShaderNodeOutputMaterial")
-        node = nodes.new("ShaderNodeBsdfPrincipled")
-        node.location = (out.location.x - 300, out.location.y)
-        material.node_tree.links.new(node.outputs[0], out.inputs["Surface"])
-    return node
-
-
 def set_world_environment(scene, image_path, pack):
     """The world's Background colour from an Environment Texture of image_path (strength 1, no rotation)."""
     world = scene.world
     if world is None:
         world = bpy.data.worlds.new("World")
         scene.world = world
-    world.use_nodes = True
-    nodes, links = world.node_tree.nodes, world.node_tree.links
+    tree = compat.ensure_nodes(world)
+    nodes, links = tree.nodes, tree.links
     out = next((n for n in nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None) \
         or next((n for n in nodes if n.type == "OUTPUT_WORLD"), None) or nodes.new("ShaderNodeOutputWorld")
     bg = None
@@ -388,10 +380,7 @@ def apply_results(context, r):
         mat = bpy.data.materials.get(name)
         if mat is None:
             continue
-        node = _principled(mat)
-        node.inputs["Base Color"].default_value = (*p["base_color"][:3], 1.0)
-        node.inputs["Roughness"].default_value = p["roughness"]
-        node.inputs["Metallic"].default_value = p["metallic"]
+        material_writeback.write_principled(mat, p)
         for key in ("ptir_base_color", "ptir_roughness", "ptir_metallic"):
             if key in mat:  # explicit overrides would hide the recovered values from the exporter
                 del mat[key]

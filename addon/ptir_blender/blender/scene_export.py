@@ -8,27 +8,19 @@ the engine exactly as Cycles does):
   - Mesh objects (and curves/text/surfaces that evaluate to meshes): the evaluated
     mesh (modifiers applied), triangulated (loop triangles), in world space
     (matrix_world applied), one binary PLY per object and material slot used,
-    with that slot's material:
-        Principled BSDF -> shader "principled" (distribution GGX) or
-                           "principled-multiscatter" (Multiscatter GGX), base_color
-                           (linear), roughness, metallic, specular, specular_tint;
-                           Emission x Emission Strength -> emission. The engine's
-                           default model is Cycles' Principled v1 (Blender 3.x)
-        Diffuse BSDF    -> shader "diffuse" (Oren-Nayar), base_color, roughness
-        Glossy BSDF     -> base_color, roughness, metallic 1
-        Emission        -> emission = Color x Strength, base_color black
-        Mix / Add Shader-> the inputs' parameters mixed by Fac (Add: summed emission)
-        anything else   -> the material's viewport colour / roughness / metallic
-    Custom properties on the material override the conversion: ptir_base_color
-    (3 floats), ptir_roughness, ptir_metallic, ptir_emission (3 floats).
-    A socket driven by a texture or other node uses its unlinked default value (warned).
+    with that slot's material (material_export.py: the Principled BSDF read by this Blender's
+    socket names, as the engine model of this Blender -- principled-v1 on 3.x, principled-v2 on
+    4.0+ -- Diffuse, Glossy, Emission, Mix / Add Shader; what the engine does not render is
+    reported as a warning naming the material and the socket).
+  - The scene's "brdf": the engine model of this Blender's Principled BSDF (compat.scene_brdf()).
   - Objects carrying a custom property "ptir_gaussians" (a 3DGS .ply path) are
     exported as Gaussians with their world matrix as the transform (no mesh); a
     non-uniform scale or shear is folded into a world-space copy of the PLY instead
     (gaussians_entry; the rule is io/splat_transform.py's).
   - Lights: POINT (position, Power, Color, Radius), SUN (matrix, Strength, Color,
-    Angle), AREA (matrix, Shape, Size, Size Y, Power, Color). SPOT lights are not
-    supported (skipped with a warning).
+    Angle), AREA (matrix, Shape, Size, Size Y, Power, Color), in the scene file's units
+    (Cycles 3.x's; io/light_units.py converts 4.0+'s area power and angled suns). SPOT
+    lights are not supported (skipped with a warning).
   - World: Background node -> Strength; its Color from an Environment Texture
     (the image file; a packed or generated image is written to an .exr next to the
     scene) with an optional Mapping node's Z rotation, or a constant colour.
@@ -48,7 +40,8 @@ import os
 import bpy
 import numpy as np
 
-from ..io import mesh_ply, scene_file, splat_ply, splat_transform
+from ..io import light_units, mesh_ply, scene_file, splat_ply, splat_transform
+from . import compat, material_export
 from ..errors import ExportError
 
 
@@ -61,163 +54,10 @@ def _rgb(v):
     return [float(v[0]), float(v[1]), float(v[2])]
 
 
-def _clamp01(x):
-    return min(1.0, max(0.0, float(x)))
+# ---------------------------------------------------------------- materials (material_export.py)
 
-
-# ---------------------------------------------------------------- materials
-
-DEFAULT_MATERIAL = {"shader": "principled", "base_color": [0.8, 0.8, 0.8], "roughness": 0.5, "metallic": 0.0,
-                    "specular": 0.5, "specular_tint": 0.0}
-
-
-def _principled_shader(node):
-    """The engine shader name of a Principled BSDF node's distribution."""
-    return "principled-multiscatter" if getattr(node, "distribution", "GGX") == "MULTI_GGX" else "principled"
-
-
-def _optional_float(node, name, default, warnings, what):
-    """A socket's value when the node has that socket (Blender 3.x names), else default."""
-    if node.inputs.get(name) is None:
-        return default
-    v = _socket_value(node, name, warnings, what)
-    return default if v is None else float(v)
-
-
-def _socket_value(node, name, warnings, what):
-    sock = node.inputs.get(name)
-    if sock is None:
-        return None
-    if sock.is_linked:
-        warnings.append("%s: '%s' input of %s is driven by a node; its default value is used" % (what, name, node.name))
-    return sock.default_value
-
-
-def _output_surface_node(tree):
-    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
-    if not outputs:
-        return None
-    active = [n for n in outputs if n.is_active_output and n.target in ("ALL", "CYCLES")]
-    out = (active or [n for n in outputs if n.target in ("ALL", "CYCLES")] or outputs)[0]
-    sock = out.inputs.get("Surface")
-    if sock is None or not sock.is_linked:
-        return None
-    return sock.links[0].from_node
-
-
-def _shader_params(node, warnings, what, depth=0):
-    """Parameters of the shader graph rooted at node, or None when it is not understood."""
-    if node is None or depth > 16:
-        return None
-    t = node.type
-    if t == "REROUTE":
-        sock = node.inputs[0]
-        return _shader_params(sock.links[0].from_node if sock.is_linked else None, warnings, what, depth + 1)
-    if t == "BSDF_PRINCIPLED":
-        p = {"shader": _principled_shader(node),
-             "base_color": _rgb(_socket_value(node, "Base Color", warnings, what)),
-             "roughness": float(_socket_value(node, "Roughness", warnings, what)),
-             "metallic": float(_socket_value(node, "Metallic", warnings, what)),
-             "specular": _optional_float(node, "Specular", 0.5, warnings, what),
-             "specular_tint": _optional_float(node, "Specular Tint", 0.0, warnings, what),
-             "emission": [0.0, 0.0, 0.0]}
-        em = _socket_value(node, "Emission", warnings, what)
-        strength = _socket_value(node, "Emission Strength", warnings, what)
-        if em is not None:
-            s = 1.0 if strength is None else float(strength)
-            p["emission"] = [float(em[i]) * s for i in range(3)]
-        for name, default in (("Transmission", 0.0), ("Subsurface", 0.0), ("Clearcoat", 0.0), ("Sheen", 0.0)):
-            v = _socket_value(node, name, warnings, what)
-            if v is not None and float(v) != default:
-                warnings.append("%s: Principled %s = %g is not modelled (ignored)" % (what, name, float(v)))
-        return p
-    if t == "BSDF_DIFFUSE":
-        return {"shader": "diffuse", "base_color": _rgb(_socket_value(node, "Color", warnings, what)),
-                "roughness": float(_socket_value(node, "Roughness", warnings, what)), "metallic": 0.0,
-                "emission": [0.0, 0.0, 0.0]}
-    if t in ("BSDF_GLOSSY", "BSDF_ANISOTROPIC"):
-        return {"base_color": _rgb(_socket_value(node, "Color", warnings, what)),
-                "roughness": float(_socket_value(node, "Roughness", warnings, what)), "metallic": 1.0,
-                "emission": [0.0, 0.0, 0.0]}
-    if t == "EMISSION":
-        c = _socket_value(node, "Color", warnings, what)
-        s = float(_socket_value(node, "Strength", warnings, what))
-        return {"base_color": [0.0, 0.0, 0.0], "roughness": 1.0, "metallic": 0.0,
-                "emission": [float(c[i]) * s for i in range(3)]}
-    if t in ("MIX_SHADER", "ADD_SHADER"):
-        shader_inputs = [s for s in node.inputs if s.type == "SHADER"]
-        parts = [_shader_params(s.links[0].from_node, warnings, what, depth + 1) if s.is_linked else None
-                 for s in shader_inputs[:2]]
-        if t == "MIX_SHADER":
-            fac = _clamp01(_socket_value(node, "Fac", warnings, what))
-            weights = [1.0 - fac, fac]
-        else:
-            weights = [1.0, 1.0]
-        present = [(w, p) for w, p in zip(weights, parts) if p is not None]
-        if not present:
-            return None
-        total = sum(w for w, _ in present)
-        norm = [(w / total if total > 0 else 1.0 / len(present), p) for w, p in present]
-        out = {"base_color": [sum(w * p["base_color"][i] for w, p in norm) for i in range(3)],
-               "roughness": sum(w * p["roughness"] for w, p in norm),
-               "metallic": sum(w * p["metallic"] for w, p in norm),
-               "specular": sum(w * p.get("specular", 0.5) for w, p in norm),
-               "specular_tint": sum(w * p.get("specular_tint", 0.0) for w, p in norm)}
-        shaders = {p.get("shader", "principled") for _, p in norm}
-        out["shader"] = shaders.pop() if len(shaders) == 1 else "principled"
-        if t == "ADD_SHADER":
-            out["emission"] = [sum(p["emission"][i] for _, p in present) for i in range(3)]
-        else:
-            out["emission"] = [sum(w * p["emission"][i] for w, p in zip(weights, parts) if p is not None)
-                               for i in range(3)]
-        warnings.append("%s: %s approximated by mixing its shaders' parameters" % (what, node.name))
-        return out
-    return None
-
-
-def material_params(material, warnings=None):
-    """The engine material (base_color, roughness, metallic, emission) of a Blender material."""
-    warnings = [] if warnings is None else warnings
-    if material is None:
-        p = dict(DEFAULT_MATERIAL)
-        p["emission"] = [0.0, 0.0, 0.0]
-        return p
-    what = "material '%s'" % material.name
-    p = None
-    overridden = all(k in material for k in ("ptir_base_color", "ptir_roughness", "ptir_metallic"))
-    if overridden:
-        p = {"base_color": _rgb(material["ptir_base_color"]), "roughness": 0.5, "metallic": 0.0,
-             "emission": [0.0, 0.0, 0.0]}
-    elif material.use_nodes and material.node_tree is not None:
-        p = _shader_params(_output_surface_node(material.node_tree), warnings, what)
-        if p is None:
-            warnings.append("%s: surface shader not understood; using its viewport display values" % what)
-    if p is None:
-        p = {"base_color": _rgb(material.diffuse_color), "roughness": float(material.roughness),
-             "metallic": float(material.metallic), "emission": [0.0, 0.0, 0.0]}
-    # Explicit overrides.
-    if "ptir_base_color" in material:
-        p["base_color"] = _rgb(material["ptir_base_color"])
-    if "ptir_roughness" in material:
-        p["roughness"] = float(material["ptir_roughness"])
-    if "ptir_metallic" in material:
-        p["metallic"] = float(material["ptir_metallic"])
-    if "ptir_emission" in material:
-        p["emission"] = _rgb(material["ptir_emission"])
-    for i in range(3):
-        c = p["base_color"][i]
-        if not 0.0 <= c <= 1.0:
-            warnings.append("%s: base colour %r clamped to [0, 1]" % (what, p["base_color"]))
-            p["base_color"] = [_clamp01(x) for x in p["base_color"]]
-            break
-    p["roughness"] = _clamp01(p["roughness"])
-    p["metallic"] = _clamp01(p["metallic"])
-    p["specular"] = min(max(float(p.get("specular", 0.5)), 0.0), 12.0)
-    p["specular_tint"] = _clamp01(p.get("specular_tint", 0.0))
-    p.setdefault("shader", "principled")
-    p["emission"] = [max(0.0, float(x)) for x in p["emission"]]
-    p["name"] = material.name
-    return p
+DEFAULT_MATERIAL = material_export.default_material()
+material_params = material_export.material_params
 
 
 # ---------------------------------------------------------------- meshes
@@ -272,11 +112,13 @@ def light_entry(obj, warnings):
         entry.update({"type": "point", "position": [float(x) for x in m.translation], "power": float(light.energy),
                       "radius": float(light.shadow_soft_size)})
     elif light.type == "SUN":
-        entry.update({"type": "sun", "transform": scene_file.matrix_rows(m), "strength": float(light.energy),
+        entry.update({"type": "sun", "transform": scene_file.matrix_rows(m),
+                      "strength": light_units.sun_strength(light.energy, light.angle, bpy.app.version),
                       "angle": float(light.angle)})
     elif light.type == "AREA":
         entry.update({"type": "area", "shape": light.shape.lower(), "transform": scene_file.matrix_rows(m),
-                      "size": float(light.size), "size_y": float(light.size_y), "power": float(light.energy)})
+                      "size": float(light.size), "size_y": float(light.size_y),
+                      "power": light_units.area_power(light.energy, bpy.app.version)})
         spread = getattr(light, "spread", math.pi)
         if abs(spread - math.pi) > 1e-4:
             warnings.append("light '%s': Spread %.1f deg is not modelled (180 deg used)" % (obj.name, math.degrees(spread)))
@@ -329,7 +171,7 @@ def write_rgbe(path, rgb):
 def world_entry(world, out_dir, warnings):
     if world is None:
         return None
-    if not world.use_nodes or world.node_tree is None:
+    if not compat.uses_nodes(world):
         c = _rgb(world.color)
         return {"type": "color", "color": c, "strength": 1.0} if any(c) else None
     tree = world.node_tree
@@ -492,7 +334,8 @@ def export_scene(context_or_scene, out_dir, scene_name="scene.json", integrator=
     candidates = list(objects) if objects is not None else list(_visible_objects(scene, view_layer))
 
     doc = {"version": scene_file.FORMAT_VERSION,
-           "comment": "exported from Blender %s scene '%s'" % (bpy.app.version_string, scene.name)}
+           "comment": "exported from Blender %s scene '%s'" % (bpy.app.version_string, scene.name),
+           "brdf": compat.scene_brdf()}
     gaussians, meshes, lights = [], [], []
     for obj in candidates:
         if "ptir_gaussians" in obj:

@@ -26,6 +26,7 @@ object's ptir_splat.display setting) through the material "PTIR Splat Display".
 import bpy
 import numpy as np
 
+from . import compat
 from ..io import splat_ply, splat_transform
 from ..io.splat_ply import SplatData
 from ..errors import SplatObjectError
@@ -464,7 +465,7 @@ def display_material():
     if mat is None:
         mat = bpy.data.materials.new(DISPLAY_MATERIAL)
     mat["ptir_version"] = 1
-    mat.use_nodes = True
+    compat.ensure_nodes(mat)
     mat.diffuse_color = (0.7, 0.7, 0.7, 1.0)
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     nodes.clear()

@@ -12,7 +12,10 @@ from ..errors import SceneFileError
 from .atomic_file import write_atomic
 
 FORMAT_VERSION = 1
-TOP_LEVEL_KEYS = ("version", "comment", "gaussians", "meshes", "lights", "environment", "cameras", "integrator")
+TOP_LEVEL_KEYS = ("version", "comment", "brdf", "gaussians", "meshes", "lights", "environment", "cameras",
+                  "integrator")
+# The surface models a scene's "brdf" names ("principled": v1, its name before v2 existed).
+BRDF_MODELS = ("principled", "principled-v1", "principled-v2", "disney-simplified")
 INTEGRATOR_KEYS = ("spp", "bounces", "seed", "interaction", "tau_g", "geometric_criterion", "self_intersection",
                    "self_range_scale", "fixed_offset", "fixed_range", "min_throughput", "pixel_filter", "filter_width",
                    "light_selection", "russian_roulette", "min_light_bounces")
@@ -66,6 +69,8 @@ def validate_top_level(scene):
     unknown = sorted(set(scene) - set(TOP_LEVEL_KEYS))
     if unknown:
         raise SceneFileError("unknown scene keys %s (expected %s)" % (unknown, ", ".join(TOP_LEVEL_KEYS)))
+    if "brdf" in scene and scene["brdf"] not in BRDF_MODELS:
+        raise SceneFileError("unknown brdf %r (expected %s)" % (scene["brdf"], ", ".join(BRDF_MODELS)))
     integ = scene.get("integrator") or {}
     unknown = sorted(set(integ) - set(INTEGRATOR_KEYS))
     if unknown:

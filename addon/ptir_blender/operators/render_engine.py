@@ -106,7 +106,7 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
     bl_use_postprocess = True
 
     def __init__(self, *args, **kwargs):
-        # Blender 4.4+ passes arguments that bpy.types.RenderEngine's __init__ must receive.
+        # (Blender 4.x and later pass the engine's data to __init__; 3.x passes nothing)
         super().__init__(*args, **kwargs)
         self._viewport = None
 
@@ -268,46 +268,6 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
             viewport_render.schedule_redraw(vr, 0.05)
             return
         self.update_stats("", text)
-
-
-# Built-in panels that also show for PTIR: the generic ones (COMPAT_ENGINES with
-# BLENDER_RENDER: dimensions, output, colour management, ...) and the Eevee ones
-# that edit what the engine reads (materials, world, lights).
-_EXTRA_PANELS = ("EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface", "EEVEE_MATERIAL_PT_settings",
-                 "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light", "DATA_PT_EEVEE_light_distance",
-                 "RENDER_PT_film")  # (RENDER_PT_film is Blender 4.x's; 3.x gets ui/panels.RENDER_PT_ptir_film)
-# DATA_PT_light duplicates DATA_PT_EEVEE_light; Freestyle lines are not rendered by the engine.
-_EXCLUDED_PANELS = ("VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes", "DATA_PT_light")
-_compat_added = []
-
-
-def _wanted(name, cls, engines):
-    if name in _EXCLUDED_PANELS or "freestyle" in name.lower():
-        return False
-    if "BLENDER_RENDER" in engines or name in _EXTRA_PANELS:
-        return True
-    # Newer Blenders rename the Eevee panels: take the Eevee panels that edit materials, the world
-    # and lights (what the engine reads).
-    eevee = bool(engines & {"BLENDER_EEVEE", "BLENDER_EEVEE_NEXT"})
-    return eevee and getattr(cls, "bl_context", "") in ("material", "world", "data") \
-        and ("surface" in name.lower() or "light" in name.lower() or "context_material" in name.lower())
-
-
-def register_compat_panels():
-    for name in dir(bpy.types):
-        cls = getattr(bpy.types, name, None)
-        engines = getattr(cls, "COMPAT_ENGINES", None)
-        if not isinstance(engines, set):
-            continue
-        if _wanted(name, cls, engines) and "PTIR" not in engines:
-            engines.add("PTIR")
-            _compat_added.append(cls)
-
-
-def unregister_compat_panels():
-    while _compat_added:
-        cls = _compat_added.pop()
-        cls.COMPAT_ENGINES.discard("PTIR")
 
 
 classes = (PTIRRenderEngine,)
