@@ -68,10 +68,6 @@ test-native: build
 	# Serial: some test fixtures share folders under build/test_tmp.
 	cd $(BUILD) && ctest --output-on-failure
 
-# PyPI's bpy 4.5 / 5.0 (cached venvs): tests/blender/test_package.py installs the zip into them.
-setup-bpy:
-	./scripts/setup_bpy.sh
-
 test-python: build install-addon package setup-bpy
 	$(PYTHON) -m pytest -q tests/python tests/blender
 
