@@ -19,4 +19,4 @@ def test_addon_fits_each_blender(blender, tmp_path):
     print("Blender %s: %s" % (blender, stats))
     assert stats["blender"].startswith(blender)
     assert stats["model"] == ("principled-v1" if blender == "3.4" else "principled-v2")
-    assert stats["scene_brdf"] == ("principled" if blender == "3.4" else "principled-v2")
+    assert stats["scene_brdf"] == ("principled-v1" if blender == "3.4" else "principled-v2")

@@ -167,8 +167,8 @@ def test_export_records_the_principled_model_of_its_blender(exported):
     assert m["shader"] == "principled" and m["base_color"] == pytest.approx([0.3, 0.6, 0.2])
     assert m["roughness"] == pytest.approx(0.45) and m["metallic"] == pytest.approx(0.25)
     if version == "3.4":
-        # (3.x scenes say "principled": the name of v1 that engines with and without v2 read)
-        assert doc["brdf"] == "principled"
+        # (3.x scenes name their model: a scene without "brdf" renders principled-v2)
+        assert doc["brdf"] == "principled-v1"
         assert m["specular"] == pytest.approx(0.7) and m["specular_tint"] == pytest.approx(0.3)
         assert not {"ior", "specular_ior_level", "specular_tint_color", "diffuse_roughness"} & set(m)
         unrendered = ["Clearcoat", "Sheen", "Transmission", "Subsurface"]

@@ -21,9 +21,9 @@ def principled_model(version=None):
 
 
 def scene_brdf(version=None):
-    """The scene file's "brdf" for this Blender: "principled-v2" on 4.0+; on 3.x "principled", the name
-    every engine reads as principled-v1 (engines before the v2 model refuse "principled-v1")."""
-    return "principled-v2" if principled_model(version) == "principled-v2" else "principled"
+    """The scene file's "brdf" for this Blender: "principled-v2" on 4.0+, "principled-v1" on 3.x
+    (a scene file without "brdf" renders principled-v2)."""
+    return principled_model(version)
 
 
 # Principled BSDF sockets by role (PRINCIPLED_V2.md section 11: the v1 -> v2 renames).
