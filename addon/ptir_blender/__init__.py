@@ -22,7 +22,7 @@ import sys
 bl_info = {
     "name": "PTIR",
     "author": "PTIR contributors",
-    "version": (0, 2, 0),
+    "version": (0, 3, 0),
     "blender": (3, 4, 0),
     "location": "File > Import/Export > Gaussian Splats (.ply); Render Engine 'PTIR'; View3D > Sidebar > PTIR",
     "description": "Path-traced inverse rendering of 3D Gaussian splats: import/export splats, render them "
