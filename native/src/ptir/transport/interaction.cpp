@@ -10,7 +10,10 @@ bool InteractionBuilder::add(const GaussianHit& hit) {
   if (settings_.mode == InteractionMode::Aggregate) {
     // Running weighted sums; normalised by O in finish().
     sum_t_ += w * hit.t;
-    sum_n_ += w * field_.normal[hit.id];
+    // Two-sided: each normal on the side facing the ray, so that neighbours whose
+    // stored signs disagree (no normals in the file) reinforce instead of cancelling.
+    const Vec3 n = field_.normal[hit.id];
+    sum_n_ += dot(n, incoming_) > 0.0f ? -w * n : w * n;
     sum_a_ += w * field_.albedo[hit.id];
     sum_r_ += w * field_.roughness[hit.id];
     sum_m_ += w * field_.metallic[hit.id];
@@ -61,9 +64,9 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
     if (radiance_) si.radiance = radiance_[picked_];
   }
   si.p = ray.at(si.depth);
-  // Normal rule: normalise the aggregate, then flip it to face the incoming ray, so
-  // a surface is shaded from the side it is seen from. A vanishing aggregate
-  // (opposed normals cancelling) falls back to -d.
+  // Normal rule: normalise the aggregate (of normals already facing the ray) or
+  // take the picked hit's, and flip it to face the incoming ray, so a surface is
+  // shaded from the side it is seen from. A vanishing aggregate falls back to -d.
   n = normalize(n);
   if (length_sq(n) == 0.0f) n = -ray.d;
   if (dot(n, ray.d) > 0.0f) n = -n;

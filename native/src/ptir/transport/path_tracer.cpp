@@ -308,6 +308,9 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     } else {
       PathRng rng(path_key, uint64_t(bounce), kStreamBrdf);
       bs = bsdf.sample(rng.at(0), rng.at(1), rng.at(2));
+      // Below the face (a smooth mesh's shading normal leaning past it): the path
+      // ends there, as no light comes through the surface (the light samples' rule).
+      if (bs.valid && ev.kind == NextEvent::Mesh && !(dot(frame.to_world(bs.wi), ev.ng) > 0.0f)) bs.valid = false;
     }
     if (walks_out) walks_out->add_bsdf(bs);
     if (adj && bs.valid) {
