@@ -94,8 +94,7 @@ def test_splat_twin_without_normals_matches_cycles(ptir, fleck_scene):
     d = fleck_scene["dir"]
     export = Path(fleck_scene["scene"]).parent
     doc = json.loads((export / "scene.json").read_text())
-    sdoc = dict(doc, meshes=[], gaussians=[{"file": str(d / "gaussians.ply")}], integrator=dict(
-        doc.get("integrator", {}), samples=SPP))
+    sdoc = dict(doc, meshes=[], gaussians=[{"file": str(d / "gaussians.ply")}])
     (export / "splats.json").write_text(json.dumps(sdoc))
     cycles = np.load(d / "cycles_seed1.npy")
     mesh = ptir.scene_from_dict(doc, str(export))
