@@ -38,8 +38,9 @@ TEST(Interaction, AggregateMatchesHandComputation) {
   EXPECT_NEAR(si.albedo.z, w[2] / O, 1e-6);
   EXPECT_NEAR(si.roughness, (w[0] * 0.2 + w[1] * 0.6 + w[2] * 1.0) / O, 1e-6);
   EXPECT_NEAR(si.metallic, (w[1] * 0.5 + w[2] * 1.0) / O, 1e-6);
-  // Normal: each hit's taken facing the ray (two-sided splats: the third, (0, 0, -1),
-  // faces away and counts as (0, 0, 1)), then normalise (0, 0.2, 0.5 + 0.24).
+  // Normal: each hit's taken on the side of the sum so far seen from the ray (two-sided
+  // splats: the third, (0, 0, -1), opposes it and counts as (0, 0, 1)), then normalise
+  // (0, 0.2, 0.5 + 0.24).
   Vec3 n = normalize(Vec3(0, 0.2f, 0.74f));
   EXPECT_NEAR(si.n.y, n.y, 1e-5);
   EXPECT_NEAR(si.n.z, n.z, 1e-5);

@@ -26,7 +26,7 @@ struct SurfaceInteraction {
   float depth = 0.0f;          // D = sum w_i t_peak_i (ray parameter)
   Vec3 p;                      // o + D d
   Vec3 n;                      // unit shading normal, facing the incoming ray (n . d <= 0): the
-                               // w-weighted mean of the hits' normals, each taken facing the ray
+                               // w-weighted mean of the hits' normals, each on a common side
   Vec3 albedo;
   float roughness = 0.0f;
   float metallic = 0.0f;
@@ -48,7 +48,8 @@ struct WeightedHit {
 class InteractionBuilder {
  public:
   // incoming: the ray's direction d; every Gaussian's normal is taken on the side
-  // facing it (two-sided splats: the stored sign of a normal never matters).
+  // of the interaction so far, seen from the ray (two-sided splats: the stored sign
+  // of a normal never matters; interaction.cpp).
   // pick_key seeds the per-hit uniforms of the discrete pick (replayable). When
   // `record` is given, every composited hit is appended to it with its weight.
   // With `radiance` (field_radiance.h, one per Gaussian) the interaction also
