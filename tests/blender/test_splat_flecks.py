@@ -16,23 +16,23 @@ same image bit for bit: the normal rule does not depend on which cameras a comma
 
 Measured (Blender 3.4.1, 128 x 128, 256 spp, 3862 interior pixels; 2 shared cores):
                                                    interior   flecks (< 0.8x Cycles)
-  before: stored signs voted by the scene's one camera, away from the centroid where unseen
-    module / serve / F12, and `ptir render scene.json`  30.45 dB   5.41 %
-    the same PLY oriented by a 16-view ring (a dataset's cameras, as `ptir render --cameras`)
-                                                        36.32 dB   0.83 %
-  after: two-sided splats (each normal taken facing the ray; the surface left is skipped
-    relative to the vertex's side), any orientation, both paths
-                                                        35.12 dB   0.44 % (0.49 % with another seed)
-  the engine's own render of the mesh (smooth normals)  42.83 dB   0.00 %
-The remaining flecks are systematic (14 of 17 pixels are the same across seeds) but not the
-surface left: skipping every hit within the skip range leaves 0.44 %. They lie where two objects
-meet (the upper rim of the right eye in its socket, the torus' inner edge): the head's rim splats,
-whose tails reach past their polygons, join the eyeball's aggregate interactions and shadow it;
-discrete interactions give 0.18 % (and 33.5 dB). Issue #36 asks for < 0.3 %: not reached here.
-Bounds: interior >= 33 dB (issue #36; before: 30.45), flecks < 0.6 % (the measured 0.44-0.49 %
-plus the spread between seeds; before: 5.41 %), and the image bit-identical under re-orientation
-(before: it changed).
-Runtime: about 2 minutes (Cycles 15 s, three 256-spp renders of the twin).
+  before: stored signs voted by the cameras the path has, away from the centroid where none votes
+    add-on F12 (its serve session's scene has no camera)  19.76 dB  21.08 %
+    module, `ptir render scene.json` (the scene's camera) 30.45 dB   5.41 %
+    the PLY oriented by a 16-view ring (a dataset's)      36.32 dB   0.83 %
+  after: two-sided splats (normals summed on one side seen from the ray; the surface left skipped
+    relative to the vertex's side), every path and orientation alike:
+                                                          35.53 dB   0.39 %
+  the engine's own render of the mesh (smooth normals)    42.83 dB   0.00 %
+The remaining flecks are systematic (the same pixels across seeds) but not the surface left:
+skipping every hit within the skip range leaves them. They lie where two objects meet (the upper
+rim of the right eye in its socket, the torus' inner edge): the head's rim splats, whose tails reach
+past their polygons, join the eyeball's aggregate interactions and shadow it; discrete interactions
+give 0.18 % (and 33.5 dB). Issue #36 asks for < 0.3 %: not reached on this scene.
+Bounds: interior >= 33 dB (issue #36; before: 19.76-30.45), flecks < 0.6 % (measured 0.39-0.49 %
+over seeds and versions of the rule; before: 5.41-21.08 %), and the image bit-identical under
+re-orientation (before: it changed).
+Runtime: about 1-2 minutes (Cycles 15 s, four 256-spp renders of the twin at 128 px).
 """
 
 import json
