@@ -33,7 +33,8 @@ void load_ply_mesh(const std::string& path, TriangleMesh& mesh) {
   mesh.vertices.resize(vertex->count);
   for (size_t i = 0; i < vertex->count; ++i) mesh.vertices[i] = Vec3(c[0][i], c[1][i], c[2][i]);
   // Shading normals: nx, ny, nz together (one of them alone is a broken file).
-  const int normal_columns = int(vertex->get("nx") != nullptr) + int(vertex->get("ny") != nullptr) + int(vertex->get("nz") != nullptr);
+  int normal_columns = 0;
+  for (const char* name : {"nx", "ny", "nz"}) normal_columns += vertex->get(name) != nullptr ? 1 : 0;
   if (normal_columns != 0 && normal_columns != 3)
     throw Error(path, "mesh PLY: vertex normals need all of nx, ny, nz");
   if (normal_columns == 3) {
