@@ -12,11 +12,11 @@ normals dropped (face normals: what the engine did before) must do visibly worse
 
 Measured (Blender 3.4.1, 128 x 128, 256 spp, 4058 interior and 2127 band pixels; 2 shared cores):
                           whole    interior    band
-  face normals (before)   37.00     32.49     35.95 dB
-  vertex normals (after)  41.69     40.23     38.73 dB   (the band: 26 % of the remaining error)
+  face normals (before)   37.08     32.54     36.17 dB
+  vertex normals (after)  41.84     40.52     38.81 dB   (the band: 26 % of the remaining error)
 Bounds: whole >= 40 dB and interior >= 38.5 dB (the measured values less the spread of one 256-spp
-estimate, about 1 dB here); face normals must lose >= 4 dB of interior (they lose 7.7).
-Runtime: about 1.5 minutes (Cycles 25 s, two 256-spp renders).
+estimate, about 1 dB here); face normals must lose >= 4 dB of interior (they lose 8.0).
+Runtime: about 1-1.5 minutes (Cycles 25 s, two 256-spp renders at 128 px).
 """
 
 import json
