@@ -164,7 +164,7 @@ Image render_opacity_blocks(const SceneAccel& accel, const Camera& cam, int bw, 
           for (int x = bx; x < std::min(bx + bw, r.cols().end()); ++x) {
             Rng rng(settings.seed, uint64_t(y) * uint64_t(cam.width) + uint64_t(x), 0);
             rays[n] = cam.generate_ray(float(x) + 0.5f, float(y) + 0.5f);
-            if (material) builders[n] = new (storage[n]) InteractionBuilder(field, settings.interaction, min_T, rng.key());
+            if (material) builders[n] = new (storage[n]) InteractionBuilder(field, settings.interaction, min_T, rays[n].d, rng.key());
             xs[n] = x, ys[n] = y;
             n++;
           }

@@ -23,7 +23,7 @@ GaussianField three_gaussians() {
 TEST(Interaction, AggregateMatchesHandComputation) {
   GaussianField f = three_gaussians();
   Ray ray{Vec3(0, 0, 1), Vec3(0, 0, -1)};
-  InteractionBuilder b(f, InteractionSettings{}, 0.001f);
+  InteractionBuilder b(f, InteractionSettings{}, 0.001f, ray.d);
   GaussianHit hits[3] = {{1.0f, 0.5f, 0}, {1.1f, 0.4f, 1}, {1.2f, 0.8f, 2}};
   for (auto& h : hits) b.add(h);
   SurfaceInteraction si = b.finish(ray);
@@ -38,8 +38,10 @@ TEST(Interaction, AggregateMatchesHandComputation) {
   EXPECT_NEAR(si.albedo.z, w[2] / O, 1e-6);
   EXPECT_NEAR(si.roughness, (w[0] * 0.2 + w[1] * 0.6 + w[2] * 1.0) / O, 1e-6);
   EXPECT_NEAR(si.metallic, (w[1] * 0.5 + w[2] * 1.0) / O, 1e-6);
-  // Normal: normalise (0, 0.2, 0.5 - 0.24), then face the ray (it already does).
-  Vec3 n = normalize(Vec3(0, 0.2f, 0.26f));
+  // Normal: each hit's taken on the side of the sum so far seen from the ray (two-sided
+  // splats: the third, (0, 0, -1), opposes it and counts as (0, 0, 1)), then normalise
+  // (0, 0.2, 0.5 + 0.24).
+  Vec3 n = normalize(Vec3(0, 0.2f, 0.74f));
   EXPECT_NEAR(si.n.y, n.y, 1e-5);
   EXPECT_NEAR(si.n.z, n.z, 1e-5);
   EXPECT_NEAR(si.p.z, 1.0 - si.depth, 1e-6);
@@ -48,7 +50,7 @@ TEST(Interaction, AggregateMatchesHandComputation) {
 TEST(Interaction, ValidityThresholdAndNormalFlip) {
   GaussianField f = three_gaussians();
   Ray ray{Vec3(0, 0, -1), Vec3(0, 0, 1)};  // from below: the first normal faces away
-  InteractionBuilder b(f, InteractionSettings{}, 0.001f);
+  InteractionBuilder b(f, InteractionSettings{}, 0.001f, ray.d);
   b.add({1.0f, 0.45f, 0});
   SurfaceInteraction si = b.finish(ray);
   EXPECT_FALSE(si.valid);  // O = 0.45 <= 0.5
@@ -67,7 +69,7 @@ TEST(Interaction, DiscretePickFollowsWeights) {
   const int n = 200000;
   int count[3] = {0, 0, 0};
   for (int k = 0; k < n; ++k) {
-    InteractionBuilder b(f, s, 0.001f, uint64_t(k));
+    InteractionBuilder b(f, s, 0.001f, ray.d, uint64_t(k));
     for (auto& h : hits) b.add(h);
     SurfaceInteraction si = b.finish(ray);
     count[si.picked]++;

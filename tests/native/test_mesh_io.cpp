@@ -1,6 +1,7 @@
 // Mesh loading: PLY and OBJ quads, OBJ index forms, range and format errors.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
@@ -87,4 +88,33 @@ TEST(MeshIo, ObjErrors) {
   expect_mesh_error(mesh_tmp("mesh.stl", "solid x\n"), {"unsupported mesh format '.stl'"});
   const std::filesystem::path missing = std::filesystem::path(PTIR_TEST_TMP) / "mesh_io" / "missing.obj";
   expect_mesh_error(missing.string(), {"cannot open file"});
+}
+
+// Vertex normals (nx, ny, nz): read, normalised, interpolated with Embree's barycentrics (u, v: the
+// weights of corners 1 and 2); without them, and where they cancel, the face normal.
+TEST(MeshIo, PlyVertexNormalsInterpolate) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "property float nx\nproperty float ny\nproperty float nz\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n";
+  const TriangleMesh m = load_mesh(mesh_tmp("smooth.ply", header + "0 0 0 0 0 2\n1 0 0 1 0 1\n0 1 0 0 1 1\n3 0 1 2\n"));
+  ASSERT_TRUE(m.smooth());
+  EXPECT_NEAR(m.normals[0].z, 1.0f, 1e-6);  // normalised on load
+  const float s = 1.0f / std::sqrt(2.0f);
+  // At corner 1: its normal; halfway along edge 1-2: the normalised mean of (1, 0, 1) and (0, 1, 1).
+  EXPECT_NEAR(m.shading_normal(0, 1.0f, 0.0f).x, s, 1e-6);
+  const Vec3 mid = m.shading_normal(0, 0.5f, 0.5f);
+  const float len = std::sqrt(0.25f + 0.25f + 1.0f);
+  EXPECT_NEAR(mid.x, 0.5f / len, 1e-6);
+  EXPECT_NEAR(mid.z, 1.0f / len, 1e-6);
+  expect_mesh_error(mesh_tmp("zero_normal.ply", header + "0 0 0 0 0 0\n1 0 0 1 0 1\n0 1 0 0 1 1\n3 0 1 2\n"),
+                    {"vertex 0 has a zero or non-finite normal"});
+  std::string partial = header;
+  partial.replace(partial.find("property float nz\n"), 18, "");
+  expect_mesh_error(mesh_tmp("partial_normal.ply", partial + "0 0 0 0 0\n1 0 0 1 0\n0 1 0 0 1\n3 0 1 2\n"),
+                    {"need all of nx, ny, nz"});
+  // No normals: the face normal.
+  const TriangleMesh flat = load_mesh(mesh_tmp("flat.ply", kQuadPlyHeader + "4 0 1 2 3\n"));
+  EXPECT_FALSE(flat.smooth());
+  EXPECT_NEAR(flat.shading_normal(0, 0.3f, 0.3f).z, 1.0f, 1e-6);
 }

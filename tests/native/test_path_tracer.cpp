@@ -215,6 +215,33 @@ TEST(PathTracer, SplatLayerSeenFromBehindCastsShadowLikeAMesh) {
   EXPECT_GT(paper_rule, 2.0 * mesh) << "the paper's rule should let the sky through (else this test cannot fail)";
 }
 
+TEST(PathTracer, SplatNormalSignsDoNotMatter) {
+  // Two-sided splats (issue #36): a trainer's PLY has no normals, and the sign the engine
+  // gives each shortest axis (camera votes, or away from the centroid) is a guess. The
+  // image must not depend on it: flipping every other Gaussian's normal (neighbours then
+  // disagree everywhere) gives the same floats, direct light, shadows and bounces alike.
+  // Before, the flipped splats shadowed themselves and cancelled their neighbours' normals.
+  Scene scene;
+  *scene.gaussians = test::gaussian_sphere(3000, 0.5f, Vec3(0.6f, 0.5f, 0.4f), 0.4f, 0.0f);
+  scene.meshes.push_back(floor_quad(5.0f, Vec3(0.5f), 0.7f, 0.0f));
+  for (int k : {0, 1, 2, 3}) scene.meshes.back().vertices[k].z = -0.6f;
+  Affine light_xf;
+  light_xf.translation = Vec3(0.5f, 0.0f, 2.0f);
+  scene.emitters.push_back(AreaLight::from_blender(light_xf, AreaShape::Ellipse, 1.0f, 1.0f, 200.0f, Vec3(1.0f)));
+  scene.environment = Environment::constant(Vec3(0.2f, 0.3f, 0.4f), 16, 8);
+  IntegratorSettings settings;
+  settings.spp = 4;
+  settings.max_bounces = 2;
+  const Camera cam = looking_down(Vec3(0.3f, 0.2f, 3.0f), 0.6f, 32);
+  const Image a = render_path(PathTracer(scene), cam, settings);
+  for (size_t i = 0; i < scene.gaussians->size(); i += 2) scene.gaussians->normal[i] = -scene.gaussians->normal[i];
+  const Image b = render_path(PathTracer(scene), cam, settings);
+  EXPECT_EQ(a.pixels, b.pixels);
+  double sum = 0.0;
+  for (float v : a.pixels) sum += v;
+  EXPECT_GT(sum / double(a.pixels.size()), 0.05) << "test design: a lit image";
+}
+
 TEST(PathTracer, SameSeedSameImageAnyThreadCount) {
   Scene scene;
   *scene.gaussians = test::gaussian_sphere(5000, 0.5f, Vec3(0.6f, 0.4f, 0.3f), 0.4f, 0.2f);

@@ -454,5 +454,29 @@ TEST(SceneJson, ShortestAxisNormalsFaceTheCameras) {
   }
 }
 
+// Inline shading normals, one per vertex, carried by the mesh's transform as normals are: by the
+// inverse transpose (here diag(2, 1, -1), a mirror: diag(1/2, 1, -1)), and refused where misplaced.
+TEST(SceneJson, MeshNormalsFollowTheInverseTranspose) {
+  const fs::path dir = test_dir();
+  Scene s = scene_from_json_string(
+      R"({"meshes": [{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]],
+                      "normals": [[1,0,1],[0,0,3],[0,0,1]],
+                      "transform": [[2,0,0,0],[0,1,0,0],[0,0,-1,0],[0,0,0,1]]}]})",
+      dir.string(), "inline");
+  ASSERT_EQ(s.meshes[0].normals.size(), 3u);
+  const Vec3 n0 = s.meshes[0].normals[0], expected = normalize(Vec3(0.5f, 0.0f, -1.0f));
+  EXPECT_NEAR(n0.x, expected.x, 1e-6);
+  EXPECT_NEAR(n0.z, expected.z, 1e-6);
+  EXPECT_NEAR(s.meshes[0].normals[1].z, -1.0f, 1e-6);
+  // The (mirrored, rewound) face and the interpolated normal still agree on the side.
+  EXPECT_GT(dot(s.meshes[0].face_normal(0), s.meshes[0].shading_normal(0, 0.3f, 0.3f)), 0.9f);
+  for (const char* bad : {R"({"meshes": [{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]],
+                                           "normals": [[0,0,1]]}]})",
+                          R"({"meshes": [{"vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]],
+                                           "normals": [[0,0,1],[0,0,0],[0,0,1]]}]})"}) {
+    EXPECT_THROW(scene_from_json_string(bad, dir.string(), "inline"), Error) << bad;
+  }
+}
+
 }  // namespace
 }  // namespace ptir

@@ -71,8 +71,9 @@ def splat_materials(obj):
 
 
 def mesh_geometry_hash(obj, depsgraph):
-    co, tris, mat = scene_export._evaluated_triangles(obj, depsgraph)
-    return _hash_arrays(co.astype(np.float32), tris, mat)
+    co, tris, mat, normals = scene_export._evaluated_triangles(obj, depsgraph)
+    extra = () if normals is None else (normals.astype(np.float32),)  # smooth shading re-exports too
+    return _hash_arrays(co.astype(np.float32), tris, mat, *extra)
 
 
 def mesh_materials(obj, warnings=None):

@@ -62,8 +62,25 @@ material_params = material_export.material_params
 
 # ---------------------------------------------------------------- meshes
 
+def _corner_normals(mesh):
+    """Per-corner (loop) normals (n_loops, 3) as Cycles shades them (smooth, flat, auto smooth,
+    custom split normals), or None when every face is flat and none is custom."""
+    smooth = np.zeros(len(mesh.polygons), bool)
+    mesh.polygons.foreach_get("use_smooth", smooth)
+    if not smooth.any() and not mesh.has_custom_normals:
+        return None
+    ln = np.empty(len(mesh.loops) * 3, np.float64)
+    if hasattr(mesh, "corner_normals"):  # Blender 4.1+
+        mesh.corner_normals.foreach_get("vector", ln)
+    else:
+        mesh.calc_normals_split()
+        mesh.loops.foreach_get("normal", ln)
+    return ln.reshape(-1, 3)
+
+
 def _evaluated_triangles(obj, depsgraph):
-    """World-space vertices (n, 3) float64, triangles (m, 3) int64 and per-triangle material index."""
+    """World-space vertices (n, 3) float64, triangles (m, 3) int64, per-triangle material index
+    and world-space corner normals (m, 3, 3) (None: flat faces)."""
     ev = obj.evaluated_get(depsgraph)
     mesh = ev.to_mesh()
     try:
@@ -75,29 +92,41 @@ def _evaluated_triangles(obj, depsgraph):
         mesh.loop_triangles.foreach_get("vertices", tris)
         mat = np.empty(nt, np.int64)
         mesh.loop_triangles.foreach_get("material_index", mat)
+        normals = _corner_normals(mesh)
+        if normals is not None:
+            loops = np.empty(nt * 3, np.int64)
+            mesh.loop_triangles.foreach_get("loops", loops)
+            normals = normals[loops]
     finally:
         ev.to_mesh_clear()
     m = np.array(obj.matrix_world, np.float64)
     co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-    return co, tris.reshape(-1, 3), mat
+    if normals is not None:  # normals go by the inverse transpose
+        normals = (normals @ np.linalg.inv(m[:3, :3])).reshape(-1, 3, 3)
+    return co, tris.reshape(-1, 3), mat, normals
 
 
 def export_mesh_object(obj, depsgraph, out_dir, warnings):
     """Writes one PLY per material slot used; returns the scene "meshes" entries."""
-    co, tris, mat_index = _evaluated_triangles(obj, depsgraph)
+    co, tris, mat_index, corner_normals = _evaluated_triangles(obj, depsgraph)
     if len(tris) == 0:
         return []
     slots = obj.material_slots
     entries = []
     for idx in np.unique(mat_index):
         sel = tris[mat_index == idx]
-        used, inverse = np.unique(sel.reshape(-1), return_inverse=True)
-        verts = co[used]
-        faces = inverse.reshape(-1, 3)
+        normals = None
+        if corner_normals is not None:  # smooth shading: a vertex per distinct corner normal
+            verts, normals, faces = mesh_ply.split_corners(co, sel, corner_normals[mat_index == idx])
+        else:
+            used, inverse = np.unique(sel.reshape(-1), return_inverse=True)
+            verts = co[used]
+            faces = inverse.reshape(-1, 3)
         material = slots[int(idx)].material if 0 <= int(idx) < len(slots) else None
         suffix = "" if len(slots) <= 1 else "_%d" % int(idx)
         fname = "mesh_%s%s.ply" % (_safe_name(obj.name), suffix)
-        mesh_ply.write_mesh_ply(os.path.join(out_dir, fname), verts, faces, comment="PTIR export of %s" % obj.name)
+        mesh_ply.write_mesh_ply(os.path.join(out_dir, fname), verts, faces, comment="PTIR export of %s" % obj.name,
+                                normals=normals)
         entries.append({"name": obj.name + suffix, "file": fname, "material": material_params(material, warnings)})
     return entries
 

@@ -82,7 +82,7 @@ AovSample aov_sample(const SceneAccel& accel, const Ray& ray, const SurfaceInter
 AovSample trace_aov(const SceneAccel& accel, const Ray& ray, const AovSettings& settings, uint64_t pick_key,
                     bool with_preview, TraceStats* stats, AovWalk* walk) {
   const GaussianField& field = accel.field();
-  InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, pick_key);
+  InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, ray.d, pick_key);
   Vec3 preview;
   if (walk) walk->hits.clear();
   // Walk the Gaussians front to back: interaction sums and SH colour together.
@@ -105,7 +105,7 @@ void trace_aov_packet(const SceneAccel& accel, const Ray* rays, int n, const Aov
   const float min_T = accel.settings().cull.min_transmittance;
   std::optional<InteractionBuilder> builders[SceneAccel::kMaxPacket];
   Vec3 preview[SceneAccel::kMaxPacket];
-  for (int l = 0; l < n; ++l) builders[l].emplace(field, settings.interaction, min_T, pick_keys[l]);
+  for (int l = 0; l < n; ++l) builders[l].emplace(field, settings.interaction, min_T, rays[l].d, pick_keys[l]);
   if (walks)
     for (int l = 0; l < n; ++l) walks[l].hits.clear();
   // The same walk per lane as trace_aov, the rays traced together.

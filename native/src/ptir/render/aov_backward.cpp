@@ -35,7 +35,8 @@ void render_aov_backward(const SceneAccel& accel, const Camera& camera, const Ao
         Ray ray = camera.generate_ray(float(x) + 0.5f, float(y) + 0.5f);
         Rng rng(settings.seed, camera.full_pixel_index(x, y), 0);
         hits.clear();
-        InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, rng.key(), &hits);
+        InteractionBuilder builder(field, settings.interaction, accel.settings().cull.min_transmittance, ray.d, rng.key(),
+                                   &hits);
         // The forward's walk handed over again (kept), or walked again; the mesh
         // only where it ended the walk.
         int32_t mesh = -1;

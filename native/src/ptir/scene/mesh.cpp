@@ -32,6 +32,21 @@ void load_ply_mesh(const std::string& path, TriangleMesh& mesh) {
   for (int k = 0; k < 3; ++k) c[k] = vertex->column_as_float(std::string(1, "xyz"[k]), path);
   mesh.vertices.resize(vertex->count);
   for (size_t i = 0; i < vertex->count; ++i) mesh.vertices[i] = Vec3(c[0][i], c[1][i], c[2][i]);
+  // Shading normals: nx, ny, nz together (one of them alone is a broken file).
+  int normal_columns = 0;
+  for (const char* name : {"nx", "ny", "nz"}) normal_columns += vertex->get(name) != nullptr ? 1 : 0;
+  if (normal_columns != 0 && normal_columns != 3)
+    throw Error(path, "mesh PLY: vertex normals need all of nx, ny, nz");
+  if (normal_columns == 3) {
+    for (int k = 0; k < 3; ++k) c[k] = vertex->column_as_float(std::string("n") + "xyz"[k], path);
+    mesh.normals.resize(vertex->count);
+    for (size_t i = 0; i < vertex->count; ++i) {
+      const Vec3 n(c[0][i], c[1][i], c[2][i]);
+      if (!is_finite(n) || !(length_sq(n) > 0.0f))
+        throw Error(path, "vertex " + std::to_string(i) + " has a zero or non-finite normal");
+      mesh.normals[i] = normalize(n);
+    }
+  }
 
   const io::PlyElement* face = ply.get("face");
   if (!face) throw Error(path, "mesh PLY has no 'face' element (is it a point cloud or a Gaussian splat file?)");

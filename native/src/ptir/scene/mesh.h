@@ -31,6 +31,10 @@ struct TriangleMesh {
   std::string name;
   std::vector<Vec3> vertices;
   std::vector<std::array<uint32_t, 3>> triangles;
+  // Per-vertex shading normals (unit; the file's nx, ny, nz), or empty: flat shading.
+  // A corner that needs its own normal (a sharp edge, a flat face, Blender's custom
+  // split normals) comes as its own vertex.
+  std::vector<Vec3> normals;
   MeshMaterial material;
 
   // Unit geometric normal of triangle `prim` (right-handed winding).
@@ -38,14 +42,25 @@ struct TriangleMesh {
     const auto& tri = triangles[prim];
     return normalize(cross(vertices[tri[1]] - vertices[tri[0]], vertices[tri[2]] - vertices[tri[0]]));
   }
+  bool smooth() const { return !normals.empty(); }
+  // Unit shading normal at barycentrics (u, v) of triangle `prim` (the weights of
+  // its second and third corners, as Embree reports them): the corners' normals
+  // interpolated, or the face normal without normals (or where they cancel).
+  Vec3 shading_normal(uint32_t prim, float u, float v) const {
+    if (normals.empty()) return face_normal(prim);
+    const auto& tri = triangles[prim];
+    const Vec3 n = normalize((1.0f - u - v) * normals[tri[0]] + u * normals[tri[1]] + v * normals[tri[2]]);
+    return length_sq(n) > 0.0f ? n : face_normal(prim);
+  }
 };
 
-// Loads a triangle mesh from .ply (element "vertex" with x,y,z and element "face"
-// with a vertex_indices/vertex_index list; polygons are fan-triangulated) or .obj
+// Loads a triangle mesh from .ply (element "vertex" with x,y,z, optionally nx,ny,nz
+// (shading normals, normalised; all three or none), and element "face" with a
+// vertex_indices/vertex_index list; polygons are fan-triangulated) or .obj
 // (v and f lines; polygons fan-triangulated; negative indices allowed; texture and
 // normal indices ignored). Throws ptir::Error("<path>: <problem>") on bad input:
 // unknown extension, missing properties, index out of range, NaN/Inf vertices,
-// no triangles.
+// zero or non-finite normals, no triangles.
 TriangleMesh load_mesh(const std::string& path);
 
 }  // namespace ptir

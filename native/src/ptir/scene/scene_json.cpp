@@ -211,10 +211,11 @@ MeshMaterial parse_material(const Node& n, const std::string& default_name) {
 }
 
 TriangleMesh parse_mesh(const Node& n, size_t index) {
-  n.check_keys({"name", "file", "vertices", "triangles", "transform", "material"});
+  n.check_keys({"name", "file", "vertices", "triangles", "normals", "transform", "material"});
   TriangleMesh mesh;
   const bool has_file = n.has("file"), has_inline = n.has("vertices") || n.has("triangles");
   if (has_file == has_inline) n.fail("needs either \"file\" or inline \"vertices\" and \"triangles\" (not both)");
+  if (has_file && n.has("normals")) n["normals"].fail("belongs to inline meshes (a file carries its own nx, ny, nz)");
   if (has_file) {
     std::string path = n.file("file");
     mesh = with_context(n["file"], [&] { return load_mesh(path); });
@@ -240,6 +241,16 @@ TriangleMesh parse_mesh(const Node& n, size_t index) {
       mesh.triangles.push_back(idx);
     }
     if (mesh.triangles.empty()) t.fail("must hold at least one triangle");
+    if (n.has("normals")) {  // shading normals, one per vertex
+      Node nn = n["normals"];
+      nn.expect_array();
+      if (nn.j.size() != mesh.vertices.size()) nn.fail("must hold one normal per vertex");
+      for (size_t i = 0; i < nn.j.size(); ++i) {
+        const Vec3 v = nn.at(i).vec3();
+        if (!is_finite(v) || !(length_sq(v) > 0.0f)) nn.at(i).fail("must be a non-zero finite vector");
+        mesh.normals.push_back(normalize(v));
+      }
+    }
   }
   mesh.name = n.string("name", mesh.name.empty() ? "mesh_" + std::to_string(index) : mesh.name);
   if (n.has("transform")) {
@@ -248,6 +259,8 @@ TriangleMesh parse_mesh(const Node& n, size_t index) {
     Affine a = affine_from_rowmajor(m.data());
     for (Vec3& p : mesh.vertices) p = a.point(p);
     const Mat3& l = a.linear;
+    // Normals go by the inverse transpose: the cofactor matrix, det times it.
+    const Mat3 cof = Mat3::from_cols(cross(l.col(1), l.col(2)), cross(l.col(2), l.col(0)), cross(l.col(0), l.col(1)));
     double det = double(l.m[0][0]) * (double(l.m[1][1]) * l.m[2][2] - double(l.m[1][2]) * l.m[2][1]) -
                  double(l.m[0][1]) * (double(l.m[1][0]) * l.m[2][2] - double(l.m[1][2]) * l.m[2][0]) +
                  double(l.m[0][2]) * (double(l.m[1][0]) * l.m[2][1] - double(l.m[1][1]) * l.m[2][0]);
@@ -255,6 +268,7 @@ TriangleMesh parse_mesh(const Node& n, size_t index) {
     // A mirror would turn the faces inside out: keep the winding's normals pointing the same way.
     if (det < 0.0)
       for (auto& tri : mesh.triangles) std::swap(tri[1], tri[2]);
+    for (Vec3& nv : mesh.normals) nv = normalize(cof * nv) * (det < 0.0 ? -1.0f : 1.0f);
   }
   for (const Vec3& p : mesh.vertices)
     if (!is_finite(p)) n.fail("has a non-finite vertex");

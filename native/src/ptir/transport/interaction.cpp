@@ -4,13 +4,21 @@ namespace ptir {
 
 bool InteractionBuilder::add(const GaussianHit& hit) {
   float w = T_ * hit.alpha;
+  const float O_before = O_;
   O_ += w;
   hits_++;
   if (record_) record_->push_back({hit.id, w});
   if (settings_.mode == InteractionMode::Aggregate) {
     // Running weighted sums; normalised by O in finish().
     sum_t_ += w * hit.t;
-    sum_n_ += w * field_.normal[hit.id];
+    // Two-sided: each normal on the side of the interaction so far, seen from the
+    // ray (ref = sum w_j n_j - O d / 2; the first hit: -d), so that neighbours whose
+    // stored signs disagree reinforce instead of cancelling, a surface's normals stay
+    // consistent where they graze the ray, and a hit across them (a crease) faces
+    // the ray. Stored signs never matter.
+    const Vec3 n = field_.normal[hit.id];
+    const Vec3 ref = hits_ == 1 ? -incoming_ : sum_n_ - (0.5f * O_before) * incoming_;
+    sum_n_ += dot(n, ref) < 0.0f ? -w * n : w * n;
     sum_a_ += w * field_.albedo[hit.id];
     sum_r_ += w * field_.roughness[hit.id];
     sum_m_ += w * field_.metallic[hit.id];
@@ -61,9 +69,9 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
     if (radiance_) si.radiance = radiance_[picked_];
   }
   si.p = ray.at(si.depth);
-  // Normal rule: normalise the aggregate, then flip it to face the incoming ray, so
-  // a surface is shaded from the side it is seen from. A vanishing aggregate
-  // (opposed normals cancelling) falls back to -d.
+  // Normal rule: normalise the aggregate (of normals already facing the ray) or
+  // take the picked hit's, and flip it to face the incoming ray, so a surface is
+  // shaded from the side it is seen from. A vanishing aggregate falls back to -d.
   n = normalize(n);
   if (length_sq(n) == 0.0f) n = -ray.d;
   if (dot(n, ray.d) > 0.0f) n = -n;

@@ -25,7 +25,8 @@ struct SurfaceInteraction {
   float transmittance = 1.0f;  // T after the last hit visited (= 1 - O)
   float depth = 0.0f;          // D = sum w_i t_peak_i (ray parameter)
   Vec3 p;                      // o + D d
-  Vec3 n;                      // unit shading normal, facing the incoming ray (n . d <= 0)
+  Vec3 n;                      // unit shading normal, facing the incoming ray (n . d <= 0): the
+                               // w-weighted mean of the hits' normals, each on a common side
   Vec3 albedo;
   float roughness = 0.0f;
   float metallic = 0.0f;
@@ -46,16 +47,20 @@ struct WeightedHit {
 // Accumulates hits front to back; use as the visitor of SceneAccel::walk.
 class InteractionBuilder {
  public:
+  // incoming: the ray's direction d; every Gaussian's normal is taken on the side
+  // of the interaction so far, seen from the ray (two-sided splats: the stored sign
+  // of a normal never matters; interaction.cpp).
   // pick_key seeds the per-hit uniforms of the discrete pick (replayable). When
   // `record` is given, every composited hit is appended to it with its weight.
   // With `radiance` (field_radiance.h, one per Gaussian) the interaction also
   // composites the splats' own radiance.
   InteractionBuilder(const GaussianField& field, const InteractionSettings& settings, float min_transmittance,
-                     uint64_t pick_key = 0, std::vector<WeightedHit>* record = nullptr,
+                     Vec3 incoming, uint64_t pick_key = 0, std::vector<WeightedHit>* record = nullptr,
                      const Vec3* radiance = nullptr)
       : field_(field),
         settings_(settings),
         min_transmittance_(min_transmittance),
+        incoming_(incoming),
         pick_rng_(pick_key),
         record_(record),
         radiance_(radiance) {}
@@ -72,6 +77,7 @@ class InteractionBuilder {
   const GaussianField& field_;
   InteractionSettings settings_;
   float min_transmittance_;
+  Vec3 incoming_;
   Rng pick_rng_;
   std::vector<WeightedHit>* record_;
   const Vec3* radiance_;

@@ -85,14 +85,18 @@ class PathRecord {
   ShadowLog* shadows() { return shadows_; }
   LightSampleLog light_samples() { return {walks_out_, walks_in_.recorded() ? &walks_in_ : nullptr}; }
 
-  // The vertex's BSDF sample: the primal's read back, else drawn.
-  BsdfSample bsdf_sample(const Bsdf& bsdf, uint64_t path_key, int bounce) {
+  // The vertex's BSDF sample: the primal's read back, else drawn. face_ng (world; a
+  // mesh's face normal, else null): a direction below the face ends the path, as no
+  // light comes through the surface (a smooth mesh's shading normal leaning past it;
+  // the light samples' rule).
+  BsdfSample bsdf_sample(const Bsdf& bsdf, uint64_t path_key, int bounce, const Frame& frame, const Vec3* face_ng) {
     BsdfSample bs;
     if (walks_in_.recorded()) {
       bs = walks_in_.next_bsdf();
     } else {
       PathRng rng(path_key, uint64_t(bounce), kStreamBrdf);
       bs = bsdf.sample(rng.at(0), rng.at(1), rng.at(2));
+      if (bs.valid && face_ng && !(dot(frame.to_world(bs.wi), *face_ng) > 0.0f)) bs.valid = false;
     }
     if (walks_out_) walks_out_->add_bsdf(bs);
     return bs;

@@ -260,7 +260,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
                                       record.shadows(), record.light_samples()));
 
     // Continue with a BSDF sample.
-    const BsdfSample bs = record.bsdf_sample(bsdf, path_key, bounce);
+    const BsdfSample bs = record.bsdf_sample(bsdf, path_key, bounce, frame, ev.kind == NextEvent::Mesh ? &ev.ng : nullptr);
     if (adj && bs.valid) {
       // Everything still remaining arrives through this BRDF value:
       // d L_rem / d f~ = L_rem / f~ (the L f / detach(f) trick), channel by channel.

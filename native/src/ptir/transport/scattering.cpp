@@ -8,6 +8,7 @@
 #include "ptir/math/sampling.h"
 #include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/path_tracer.h"
+#include "ptir/transport/shading_normal.h"
 #include "ptir/transport/walk_store.h"
 
 namespace ptir {
@@ -41,25 +42,34 @@ Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const Integrat
 
 bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const {
   if (from.kind != SpawnContext::Gaussian) return false;
+  // A hit is the surface left when the ray leaves it through the side the vertex
+  // was shaded from: its normal taken on the side of the vertex's normal from.n
+  // (two-sided splats: stored signs do not matter) points along d.
   // The range test first: most hits lie beyond it, and need no normal fetched.
+  const auto leaves = [&](float cos_min) {
+    const Vec3 n = field_.normal[h.id];
+    const float c = dot(d, n);
+    return (dot(n, from.n) < 0.0f ? -c : c) > cos_min;
+  };
   if (settings_.self_intersection == SelfIntersection::BackfaceAware)
-    return h.t > 0.0f && h.t <= from.self_range && dot(d, field_.normal[h.id]) > 0.0f;
-  return h.t <= settings_.fixed_range && dot(d, field_.normal[h.id]) > kFixedBackfaceCos;
+    return h.t > 0.0f && h.t <= from.self_range && leaves(0.0f);
+  return h.t <= settings_.fixed_range && leaves(kFixedBackfaceCos);
 }
 
-InteractionBuilder Scatterer::interaction_builder(uint64_t path_key, uint32_t bounce,
+InteractionBuilder Scatterer::interaction_builder(Vec3 incoming, uint64_t path_key, uint32_t bounce,
                                                  std::vector<WeightedHit>* record) const {
   InteractionSettings isettings = settings_.interaction;
   if (!settings_.geometric_criterion) isettings.tau_g = 0.0f;  // ablation: any response forms an interaction
   uint64_t pick_key = hash_combine(hash_combine(path_key, bounce), kStreamPick);
   // Only the rays leaving a vertex end on the splats' radiance (indirect_from_field).
   const Vec3* radiance = bounce > 0 ? field_radiance_ : nullptr;
-  return InteractionBuilder(field_, isettings, accel_.settings().cull.min_transmittance, pick_key, record, radiance);
+  return InteractionBuilder(field_, isettings, accel_.settings().cull.min_transmittance, incoming, pick_key, record,
+                            radiance);
 }
 
 NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64_t path_key, uint32_t bounce,
                                 std::vector<WeightedHit>* record, WalkCapture* capture) const {
-  InteractionBuilder builder = interaction_builder(path_key, bounce, record);
+  InteractionBuilder builder = interaction_builder(ray.d, path_key, bounce, record);
   // Composite the Gaussians front to back, skipping the surface the ray leaves
   // (dropped inside the traversal, so that the walk can stop where the ray turns
   // opaque and prune the BVH behind it: the same hits reach the builder).
@@ -78,7 +88,7 @@ NextEvent Scatterer::next_event(const Ray& ray, const SpawnContext& from, uint64
 
 NextEvent Scatterer::recorded_event(const Ray& ray, const std::vector<GaussianHit>& hits, const WalkEnd& end,
                                     uint64_t path_key, uint32_t bounce, std::vector<WeightedHit>* record) const {
-  InteractionBuilder builder = interaction_builder(path_key, bounce, record);
+  InteractionBuilder builder = interaction_builder(ray.d, path_key, bounce, record);
   for (const GaussianHit& h : hits) builder.add(h);  // the walk's own hits, in its order
   return classify(ray, builder.finish(ray), end, path_key, bounce);
 }
@@ -103,7 +113,7 @@ void Scatterer::camera_events(const Ray* rays, int n, const uint64_t* path_keys,
                               std::vector<WeightedHit>* records, WalkCapture* captures) const {
   std::optional<InteractionBuilder> builders[SceneAccel::kMaxPacket];
   for (int l = 0; l < n; ++l) {
-    builders[l].emplace(interaction_builder(path_keys[l], 0, records ? &records[l] : nullptr));
+    builders[l].emplace(interaction_builder(rays[l].d, path_keys[l], 0, records ? &records[l] : nullptr));
     if (captures) captures[l].hits.clear();
   }
   // The same walk per lane as next_event's (a camera ray skips nothing), the rays traced together.
@@ -128,7 +138,7 @@ NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, cons
     ev.kind = NextEvent::Gaussian;
     ev.t = si.depth;
     ev.p = si.p;
-    ev.n = si.n;
+    ev.n = ev.ng = si.n;
     ev.material = {si.albedo, si.roughness, si.metallic, si.specular, si.specular_tint};
     ev.shader = field_.shader;
     ev.size = si.size;
@@ -142,12 +152,20 @@ NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, cons
   }
   if (end.mesh.valid) {
     const TriangleMesh& mesh = accel_.meshes()[end.mesh.mesh];
+    // The face's normal toward the ray; the shading normal (interpolated on a smooth
+    // mesh) on the same side of the face.
     Vec3 ng = mesh.face_normal(end.mesh.prim);
+    if (dot(ng, ray.d) > 0.0f) ng = -ng;
     ev.kind = NextEvent::Mesh;
     ev.mesh = end.mesh;
     ev.t = end.mesh.t;
     ev.p = ray.at(end.mesh.t);
-    ev.n = dot(ng, ray.d) > 0.0f ? -ng : ng;
+    ev.ng = ng;
+    ev.n = ng;
+    if (mesh.smooth()) {
+      const Vec3 ns = mesh.shading_normal(end.mesh.prim, end.mesh.u, end.mesh.v);
+      ev.n = valid_reflection_normal(ng, -ray.d, dot(ns, ng) < 0.0f ? -ns : ns);
+    }
     const MeshMaterial& mm = mesh.material;
     ev.material = {mm.base_colour, mm.roughness, mm.metallic, mm.specular, mm.specular_tint,
                    mm.ior, mm.specular_ior_level, mm.specular_tint_color, mm.diffuse_roughness};
@@ -164,9 +182,10 @@ SpawnContext Scatterer::spawn_context(const NextEvent& ev, const Ray& incoming) 
   s.p = ev.p;
   if (ev.kind == NextEvent::Mesh) {
     s.kind = SpawnContext::Mesh;
-    s.ng = ev.n;
+    s.ng = ev.ng;
   } else {
     s.kind = SpawnContext::Gaussian;
+    s.n = ev.n;
     s.self_range = settings_.self_range_scale * ev.size;
     if (std::isnan(s.self_range)) s.self_range = INFINITY;  // inf * 0
   }
@@ -279,6 +298,9 @@ Vec3 Scatterer::direct_light(const SpawnContext& from, const Frame& frame, const
       if (!(es.pdf > 0.0f)) return false;
       *wi = es.wi, *Li = es.Li, light_pdf = es.pdf;
     }
+    // Below the face (a smooth mesh's shading normal can lean past it): no light
+    // passes through the surface (flat faces: the BSDF is zero there anyway).
+    if (from.kind == SpawnContext::Mesh && !(dot(*wi, from.ng) > 0.0f)) return false;
     *fp = bsdf.eval_pdf(frame.to_local(*wi));
     if (!(max_component(fp->f) > 0.0f)) return false;
     if (stats && !slot.known) stats->shadow_rays++;

@@ -84,6 +84,8 @@ struct NextEvent {
   float t = std::numeric_limits<float>::infinity();  // ray parameter of the event (inf: escape)
   Vec3 p;           // position
   Vec3 n;           // unit shading normal facing the incoming ray
+  Vec3 ng;          // unit geometric normal facing the incoming ray (Gaussians: n; a smooth
+                    // mesh: the face's, n put on its side; offsets and side tests use it)
   MaterialParams material;  // albedo, roughness, metallic, specular, specular tint
   SurfaceShader shader = SurfaceShader::PrincipledGGX;
   Vec3 emission;    // mesh emission toward the ray (zero for Gaussians)
@@ -96,7 +98,8 @@ struct NextEvent {
 struct SpawnContext {
   enum Kind { Camera, Gaussian, Mesh } kind = Camera;
   Vec3 p;
-  Vec3 ng;                 // mesh: geometric normal (either side)
+  Vec3 ng;                 // mesh: geometric normal facing the ray that arrived
+  Vec3 n;                  // Gaussian: the interaction's normal (facing the ray that arrived)
   float self_range = 0.0f; // Gaussian, backface-aware: skip range (inf: the paper's rule)
 };
 
@@ -170,11 +173,13 @@ class Scatterer {
   float light_pick_probability() const { return light_pick_; }
 
   // Whether hit h (t_peak, Gaussian) on a ray spawned from `from` along d is the
-  // surface just left, to be skipped.
+  // surface just left, to be skipped: within the skip range, and left through the
+  // side the vertex was shaded from (h's normal taken on the side of from.n).
   bool is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const;
 
  private:
-  InteractionBuilder interaction_builder(uint64_t path_key, uint32_t bounce, std::vector<WeightedHit>* record) const;
+  InteractionBuilder interaction_builder(Vec3 incoming, uint64_t path_key, uint32_t bounce,
+                                         std::vector<WeightedHit>* record) const;
   // The event a walk found: the interaction its hits formed and how the walk ended.
   NextEvent classify(const Ray& ray, const SurfaceInteraction& si, const WalkEnd& end, uint64_t path_key,
                      uint32_t bounce) const;
