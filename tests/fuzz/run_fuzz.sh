@@ -13,7 +13,11 @@ for t in "$@"; do
   log=$build/fuzz_$t.log
   # -timeout: one input may take 10 s (a render of the serve target is capped far below);
   # -rss_limit_mb: a reader that allocates past 2 GiB for a small file is a finding.
-  if ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  # Leaks in third-party code are suppressed by frame name (lsan.supp), which needs full
+  # stacks through the uninstrumented libraries: the slow unwinder for the OIIO target.
+  unwind=""; [ "$t" = image ] && unwind=":fast_unwind_on_malloc=0"
+  if ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1$unwind LSAN_OPTIONS=suppressions=$here/lsan.supp \
+     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
      nice -n 5 "$build/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
        -artifact_prefix="$found/" -print_final_stats=1 "$work" "$here/corpus/$t" >"$log" 2>&1; then
     result=ok
