@@ -15,7 +15,8 @@ for t in "$@"; do
   # -rss_limit_mb: a reader that allocates past 2 GiB for a small file is a finding.
   # Leaks in third-party code are suppressed by frame name (lsan.supp), which needs full
   # stacks through the uninstrumented libraries: the slow unwinder for the OIIO target.
-  unwind=""; [ "$t" = image ] && unwind=":fast_unwind_on_malloc=0"
+  # (Its memory: ASan's quarantine kept small, as OIIO interns every string it reads, for good.)
+  unwind=""; [ "$t" = image ] && unwind=":fast_unwind_on_malloc=0:quarantine_size_mb=16:malloc_context_size=12"
   if ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1$unwind LSAN_OPTIONS=suppressions=$here/lsan.supp \
      UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
      nice -n 5 "$build/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
