@@ -2,7 +2,7 @@
 #   make demo  -- install everything, build, run the main job on the bundled sample
 #   make test  -- install everything, build, run every test (gtest, pytest, blender -b; the headless add-on
 #                 tests in Debian's Blender 3.4 and in PyPI's bpy 4.5 LTS and 5.0: tests/blender/blenders.py)
-# Other targets: setup, setup-bpy, build, install-addon, package, bench, clean.
+# Other targets: setup, setup-bpy, build, install-addon, package, bench, clean, fuzz-smoke, fuzz.
 #   make package -- dist/ptir-<version>-linux-x64.zip: the add-on with the CLI and its libraries
 #                   (a Blender 4.2+ Extension; a legacy add-on zip on 3.x): docs/install.md
 
@@ -18,7 +18,7 @@ export CCACHE_BASEDIR := $(abspath .)
 export CCACHE_NOHASHDIR := 1
 endif
 
-.PHONY: all setup setup-bpy build install-addon package package-cli demo test test-native test-python bench clean
+.PHONY: all setup setup-bpy build install-addon package package-cli demo test test-native test-python bench clean fuzz-build fuzz-smoke fuzz
 
 all: build
 
@@ -72,6 +72,27 @@ test-python: build install-addon package setup-bpy
 	$(PYTHON) -m pytest -q tests/python tests/blender
 
 test: test-native test-python
+
+# Fuzz harnesses (tests/fuzz/README.md): libFuzzer + ASan/UBSan, clang, in their own build folder.
+# fuzz-smoke (part of `make test`): each target FUZZ_SMOKE_SECONDS from its committed seeds;
+# fuzz: each target FUZZ_SECONDS, its new inputs kept in $(FUZZ_BUILD)/corpus/<target>.
+FUZZ_BUILD ?= build-fuzz
+FUZZ_SECONDS ?= 600
+FUZZ_SMOKE_SECONDS ?= 15
+FUZZ_TARGETS := serve scene_json ply colmap nerfstudio image
+
+fuzz-build: setup
+	CC=clang CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPTIR_FUZZ=ON \
+	  -DPython_EXECUTABLE=/usr/bin/python3.11
+	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target $(addprefix fuzz_,$(FUZZ_TARGETS))
+
+fuzz-smoke: fuzz-build
+	./tests/fuzz/run_fuzz.sh $(FUZZ_BUILD) $(FUZZ_SMOKE_SECONDS) $(FUZZ_TARGETS)
+
+fuzz: fuzz-build
+	./tests/fuzz/run_fuzz.sh $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+test: fuzz-smoke
 
 bench: build
 	$(PYTHON) bench/bench_all.py --build $(BUILD)

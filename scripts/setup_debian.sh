@@ -12,6 +12,7 @@ PACKAGES=(
   pybind11-dev python3-dev python3-numpy python3-pytest python3-skimage
   nlohmann-json3-dev libcli11-dev libgtest-dev
   blender xvfb libgl1-mesa-dri
+  clang libclang-rt-14-dev  # tests only: the libFuzzer harnesses (make fuzz-smoke, make fuzz; tests/fuzz)
   colmap  # tests only: model_converter as an independent reference for the COLMAP reader
   libopenmpi-dev openmpi-bin  # optional: `mpirun -np N ptir ...` data-parallel runs (CMake PTIR_WITH_MPI=AUTO)
 )

@@ -56,7 +56,7 @@ int run_cameras(const CamerasOptions& o) {
   DatasetOptions d;
   apply_capture_flags(o.capture, d);
   d.split = o.split;
-  guard_outputs({{}, {o.dataset}, {}}, {{o.out}, {}}, o.force);
+  guard_outputs({{}, {o.dataset}, {}, {o.dataset}}, {{o.out}, {}}, o.force);
   std::unique_ptr<Dataset> data;
   if (o.split == "all" && detect_layout(o.dataset) == "nerf") {
     // NeRF layouts keep their splits in separate files: all = train then test.

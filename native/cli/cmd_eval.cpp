@@ -64,7 +64,7 @@ int run_eval(const EvalOptions& options, const CLI::App& cmd) {
   s.scene = o.scene;
   for (const std::string& r : o.relight) s.relight.push_back(eval::parse_relight(r));
   const std::string out = o.result + "/eval";
-  Inputs in{{}, {o.dataset, o.result}, {o.scene}};
+  Inputs in{{}, {o.dataset, o.result}, {o.scene}, {o.dataset}};
   for (const eval::RelightEnv& r : s.relight) in.files.push_back(r.path);
   guard_outputs(in, {{}, {out}}, o.force);
   if (comm.rank() == 0) remove_stale_outputs({out}, o.quiet, /*with_subfolders=*/true);

@@ -37,7 +37,7 @@ int run_fit(const FitCommand& o) {
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   check_fit_stage(o.stage);
-  guard_outputs({{o.stage.gaussians}, {o.stage.dataset}, {}}, {{}, {o.stage.out}}, o.force);
+  guard_outputs({{o.stage.gaussians}, {o.stage.dataset}, {}, {o.stage.dataset}}, {{}, {o.stage.out}}, o.force);
   remove_stale_outputs({o.stage.out}, o.stage.quiet);
   return run_fit_stage(o.stage);
 }

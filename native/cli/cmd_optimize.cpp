@@ -167,6 +167,7 @@ std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, const CLI::A
   dopt.prior_dir = o.prior;
   apply_capture_flags(o.capture, dopt);
   *data = load_dataset(o.dataset, dopt);
+  if (!o.estimate) (*data)->check_images();  // every photo decodes and fits its camera, before any iteration
   // The filter the views were rendered with (dataset.json), else Blender's default; the switches override it.
   s.integrator.filter = dataset_pixel_filter(**data);
   apply_filter_flags(o.filter, cmd, s.integrator.filter);
@@ -282,7 +283,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
-  guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}}, {{}, {o.out}}, o.force);
+  guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}, {o.dataset}}, {{}, {o.out}}, o.force);
   if (comm.rank() == 0 && !o.estimate) remove_stale_outputs({o.out}, o.quiet);
   if (const int rc = geometry_stage(o, comm)) return rc;
   // Bounce light from the splats' captured radiance where the geometry stage has

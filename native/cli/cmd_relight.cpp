@@ -226,7 +226,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
 
   const fs::path ply = fs::path(o.result) / "gaussians.ply";
   if (!fs::exists(ply)) throw Error(ply.string(), "no such file (the result folder of `ptir optimize`)");
-  Inputs in{{ply.string(), o.cameras, o.env}, {o.result}, {o.scene}};
+  Inputs in{{ply.string(), o.cameras, o.env}, {o.result}, {o.scene}, {}};
   in.files.insert(in.files.end(), o.meshes.begin(), o.meshes.end());
   guard_outputs(in, {{}, {o.output}}, o.force);
   remove_stale_outputs({o.output}, o.quiet);

@@ -4,15 +4,15 @@
 // render also sends interim {"id": ID, "progress": f} lines before its reply);
 // diagnostics go to stderr. A reader thread takes the lines as they come, so a
 // {"cmd": "cancel", "target": ID} stops request ID while it runs (or before it
-// starts); {"cmd": "quit"} or the end of stdin ends the process with status 0.
+// starts); {"cmd": "quit"} or the end of stdin stops the running request, answers
+// what is queued as cancelled and ends the process with status 0. Every line is
+// answered, whatever it holds (serve_requests.h; docs/robustness.md).
 //
-//   ptir serve [--threads N] [-q]
+//   ptir serve [--threads N] [-q] [--max-memory GIB]
 #include <tbb/global_control.h>
 
 #include <condition_variable>
 #include <cstdio>
-#include <deque>
-#include <iostream>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -22,7 +22,10 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "image_budget.h"
 #include "ptir/core/error.h"
+#include "ptir/scene/json_limits.h"
+#include "serve_requests.h"
 #include "serve_session.h"
 
 namespace ptir::cli {
@@ -34,67 +37,46 @@ using json = nlohmann::json;
 struct ServeOptions {
   int threads = 0;
   bool quiet = false;
+  double max_memory_gib = 0.0;
 };
 
-// Lines from stdin, with cancel requests applied at once.
-class RequestQueue {
- public:
-  void push(json request) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (request.is_object() && request.value("cmd", "") == "cancel") {
-      const int64_t target = request.value("target", int64_t(-1));
-      if (target > cancel_upto_) cancel_upto_ = target;
-      if (running_id_ >= 0 && running_id_ <= cancel_upto_) cancel_running_ = true;
-      return;
-    }
-    queue_.push_back(std::move(request));
-    ready_.notify_one();
-  }
-  void close() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    closed_ = true;
-    ready_.notify_one();
-  }
-  // The next request (nullopt at the end of input); marks it running.
-  std::optional<json> next() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    ready_.wait(lock, [&] { return closed_ || !queue_.empty(); });
-    if (queue_.empty()) return std::nullopt;
-    json r = std::move(queue_.front());
-    queue_.pop_front();
-    running_id_ = r.is_object() && r.contains("id") && r["id"].is_number_integer() ? r["id"].get<int64_t>() : -1;
-    cancel_running_ = running_id_ >= 0 && running_id_ <= cancel_upto_;
-    return r;
-  }
-  const std::atomic<bool>* cancel_flag() const { return &cancel_running_; }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable ready_;
-  std::deque<json> queue_;
-  bool closed_ = false;
-  int64_t cancel_upto_ = -1, running_id_ = -1;
-  std::atomic<bool> cancel_running_{false};
-};
-
-void read_requests(RequestQueue* queue) {
+// Reads stdin until the end, "quit" or `stop`, queueing each line's request
+// (serve_requests.h: malformed lines become error replies on their id).
+void read_requests(RequestQueue* queue, const std::atomic<bool>* stop) try {
+  LineReader reader(0);
   std::string line;
-  while (std::getline(std::cin, line)) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    json request;
-    try {
-      request = json::parse(line);
-    } catch (const json::parse_error& e) {
-      request = json{{"cmd", "invalid"}, {"error", std::string("invalid JSON request: ") + e.what()}};
+  bool too_long = false;
+  while (!queue->closed() && reader.next(&line, &too_long, *stop)) {
+    if (too_long) {
+      queue->push({json::object(), 0, "request: a line longer than " + std::to_string(kMaxRequestLine >> 20) +
+                                          " MiB (bulk data travels in files)"});
+      continue;
     }
-    if (request.is_object()) request["_bytes"] = line.size() + 1;
-    queue->push(std::move(request));
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    RequestLine r = parse_request_line(line);
+    queue->push({std::move(r.request), line.size() + 1, r.error});
   }
+  queue->close();
+} catch (const std::exception& e) {  // out of memory: end the session as at the end of input
+  std::fprintf(stderr, "serve: cannot read requests: %s\n", e.what());
   queue->close();
 }
 
+// The reader thread, stopped and joined however run_serve ends.
+struct ReaderThread {
+  std::atomic<bool> stop{false};
+  std::thread thread;
+  ~ReaderThread() {
+    stop = true;
+    if (thread.joinable()) thread.join();  // polls stdin every 50 ms: ends at once
+  }
+};
+
+std::mutex send_mutex;
+
 void send(const json& reply) {
-  std::string text = reply.dump() + "\n";
+  const std::string text = dump_json_safe(reply) + "\n";  // never throws (invalid UTF-8 echoed back is replaced)
+  std::lock_guard<std::mutex> lock(send_mutex);
   std::fwrite(text.data(), 1, text.size(), stdout);
   std::fflush(stdout);
 }
@@ -104,29 +86,29 @@ int run_serve(const ServeOptions& o) {
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   RequestQueue queue;
-  std::thread reader(read_requests, &queue);
-  reader.detach();  // blocked on stdin until the parent closes it; the process ends without waiting
-  ServeSession session;
+  ReaderThread reader;
+  reader.thread = std::thread(read_requests, &queue, &reader.stop);
+  ServeSession session(ServeLimits{o.max_memory_gib, 0});
   send(json{{"ready", true}, {"protocol", 1}});
-  while (std::optional<json> request = queue.next()) {
-    const std::string cmd = request->is_object() ? request->value("cmd", "") : "";
-    if (cmd == "quit") break;
+  while (std::optional<QueuedRequest> item = queue.next()) {
+    const json& request = item->request;
+    const std::string cmd = item->error.empty() ? request.at("cmd").get<std::string>() : "invalid";
     json reply;
-    if (cmd == "invalid") {
-      reply = json{{"ok", false}, {"error", request->value("error", "")}};
+    if (!item->error.empty()) {
+      reply = json{{"ok", false}, {"error", item->error}, {"seconds", 0.0}, {"bulk_bytes_in", 0}};
+      if (request.contains("id")) reply["id"] = request.at("id");
+    } else if (queue.cancelled_before_start()) {  // cancelled while queued, or queued before quit
+      reply = json{{"ok", false}, {"cancelled", true}, {"seconds", 0.0}, {"bulk_bytes_in", 0}};
+      if (request.contains("id")) reply["id"] = request.at("id");
     } else {
-      uint64_t line_bytes = 0;
-      if (request->is_object()) {
-        line_bytes = request->value("_bytes", uint64_t(0));
-        request->erase("_bytes");
-      }
-      reply = session.handle(*request, queue.cancel_flag(), send);
-      reply["request_bytes"] = line_bytes;
+      reply = session.handle(request, queue.cancel_flag(), send);
     }
+    const uint64_t line_bytes = item->bytes;
+    reply["request_bytes"] = line_bytes;
     if (!o.quiet)
-      std::fprintf(stderr, "serve: %s %s in %.3f s (%llu + %llu bytes in)\n", cmd.c_str(),
+      std::fprintf(stderr, "serve: %s %s in %.3f s (%llu + %llu bytes in)\n", cmd.substr(0, 40).c_str(),
                    reply.value("ok", false) ? "done" : (reply.contains("cancelled") ? "cancelled" : "failed"),
-                   reply.value("seconds", 0.0), (unsigned long long)reply.value("request_bytes", uint64_t(0)),
+                   reply.value("seconds", 0.0), (unsigned long long)line_bytes,
                    (unsigned long long)reply.value("bulk_bytes_in", uint64_t(0)));
     send(reply);
   }
@@ -142,6 +124,7 @@ Runner add_serve_command(CLI::App& app) {
       "serve", "Persistent engine: holds a loaded scene and answers JSON requests on stdin (docs/engine_protocol.md)");
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_flag("-q,--quiet", o->quiet, "no per-request log lines on stderr");
+  add_max_memory_flag(cmd, o->max_memory_gib);
   return [o] { return run_serve(*o); };
 }
 

@@ -26,6 +26,7 @@ int run_fit_stage(const FitStage& f, const std::string& continue_hint) {
   dopt.split = f.split;
   apply_capture_flags(f.capture, dopt);
   std::shared_ptr<const Dataset> data = load_dataset(f.dataset, dopt);
+  data->check_images();  // every photo decodes and fits its camera, before any iteration
   GeometryFitSettings s = f.s;
   s.max_gaussians = f.max_gaussians;
   if (f.no_densify) s.densify_every = 1 << 30;

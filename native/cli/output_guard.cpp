@@ -2,11 +2,11 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/error.h"
 #include "ptir/io/atomic_file.h"
+#include "ptir/scene/json_limits.h"
 
 namespace fs = std::filesystem;
 
@@ -48,10 +48,57 @@ void input_files(const Inputs& in, std::vector<std::string>& direct, std::vector
   for (const std::string& s : in.scenes) {
     if (s.empty() || !is_file(s)) continue;
     direct.push_back(s);
-    std::ifstream f(s);
-    nlohmann::json j = nlohmann::json::parse(f, nullptr, /*allow_exceptions=*/false);
-    if (!j.is_discarded()) collect_named_files(j, folder_of(s), named);
+    nlohmann::json j;
+    try {
+      j = load_json_file(s, "scene file");  // bounded (depth, size, regular file): the recursion below is too
+    } catch (const Error&) {
+      continue;  // the scene loader reports it, naming the file
+    }
+    collect_named_files(j, folder_of(s), named);
   }
+}
+
+fs::path canonical_of(const fs::path& p) {
+  std::error_code ec;
+  fs::path c = fs::weakly_canonical(fs::absolute(p), ec);
+  return ec ? fs::path() : c;
+}
+
+// Whether `p` is `dir` or lies inside it (both canonical).
+bool inside(const fs::path& p, const fs::path& dir) {
+  if (p.empty() || dir.empty()) return false;
+  auto pi = p.begin();
+  for (auto di = dir.begin(); di != dir.end(); ++di, ++pi) {
+    if (di->empty() && std::next(di) == dir.end()) break;  // a trailing separator
+    if (pi == p.end() || *pi != *di) return false;
+  }
+  return true;
+}
+
+fs::path nearest_existing(fs::path p) {
+  std::error_code ec;
+  while (!p.empty() && !fs::exists(p, ec) && p.has_parent_path() && p.parent_path() != p) p = p.parent_path();
+  return p;
+}
+
+// A result folder of ours (optimize, fit) inside a dataset: writing there is fine.
+bool is_result_folder(const fs::path& dir, const fs::path& root) {
+  std::error_code ec;
+  for (fs::path d = dir; inside(d, root) && d != root; d = d.parent_path())
+    if (fs::exists(d / "checkpoint.bin", ec) || fs::exists(d / "log.csv", ec)) return true;
+  return false;
+}
+
+// The dataset rule (output_guard.h): `out` (a file, or a folder when `folder`)
+// lands in one of the dataset's own folders. A new folder directly in the
+// dataset (DATASET/result) and result folders of ours are fine.
+bool lands_in_dataset(const std::string& out, bool folder, const fs::path& root) {
+  const fs::path o = canonical_of(out);
+  if (o.empty() || !inside(o, root)) return false;
+  const fs::path where = folder ? o : o.parent_path();
+  const fs::path existing = nearest_existing(where);
+  if (folder && existing == root && where != root && where.parent_path() == root) return false;  // DATASET/new
+  return !is_result_folder(existing, root);
 }
 
 [[noreturn]] void refuse(const std::string& output, const std::string& why) {
@@ -68,6 +115,16 @@ void guard_outputs(const Inputs& inputs, const Outputs& outputs, bool force) {
   if (force) return;
   std::vector<std::string> direct, named;
   input_files(inputs, direct, named);
+  for (const std::string& data : inputs.datasets) {
+    const fs::path root = data.empty() ? fs::path() : canonical_of(data);
+    if (root.empty()) continue;
+    for (const std::string& out : outputs.files)
+      if (!out.empty() && lands_in_dataset(out, false, root))
+        refuse(out, "is inside the dataset " + data + " (nothing is written among a dataset's files)");
+    for (const std::string& out : outputs.folders)
+      if (!out.empty() && lands_in_dataset(out, true, root))
+        refuse(out, "is inside the dataset " + data + " (nothing is written among a dataset's files)");
+  }
   for (const std::string& out : outputs.files) {
     if (out.empty()) continue;
     for (const std::vector<std::string>* list : {&direct, &named})

@@ -7,7 +7,13 @@
 //    folder) nor directly hold an input file: the commands write fixed names
 //    (gaussians.ply, env.exr, <camera>.exr ...) at its top, which would replace
 //    the input in place. Folders further up (e.g. --out . above the dataset) are
-//    fine: nothing is written into the inputs' own folders.
+//    fine: nothing is written into the inputs' own folders;
+//  - nothing is written among a dataset's files: no output file in the dataset's
+//    folder or any existing folder under it (`cameras -o DATASET/transforms.json`,
+//    `-o DATASET/sparse/0/cameras.txt`), no output folder that is one of them
+//    (`optimize --out DATASET/images`). A new folder directly in the dataset
+//    (`--out DATASET/result`) is fine, and so is a result folder of ours there
+//    (it holds a checkpoint.bin or log.csv).
 // Inputs given as a scene file also bring the files the scene names (any string
 // in the JSON that names an existing file beside the scene or at an absolute
 // path), so `render scene.json -o env.exr` cannot replace the scene's map; for
@@ -23,9 +29,10 @@
 namespace ptir::cli {
 
 struct Inputs {
-  std::vector<std::string> files;    // files read (missing ones are skipped)
-  std::vector<std::string> folders;  // folders read (datasets, results, priors)
-  std::vector<std::string> scenes;   // scene files: they and the files they name
+  std::vector<std::string> files;     // files read (missing ones are skipped)
+  std::vector<std::string> folders;   // folders read (datasets, results, priors)
+  std::vector<std::string> scenes;    // scene files: they and the files they name
+  std::vector<std::string> datasets;  // folders nothing is written into, at any depth (photos, cameras)
 };
 
 struct Outputs {

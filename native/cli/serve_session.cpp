@@ -1,6 +1,8 @@
 #include "serve_session.h"
 
 #include <algorithm>
+#include <cmath>
+#include <initializer_list>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -8,7 +10,10 @@
 #include <optional>
 #include <vector>
 
+#include "image_budget.h"
+#include "output_guard.h"
 #include "ptir/core/error.h"
+#include "ptir/io/input_file.h"
 #include "ptir/io/atomic_file.h"
 #include "ptir/io/image.h"
 #include "ptir/render/aov.h"
@@ -45,10 +50,46 @@ int64_t integer_of(const json& request, const char* key, int64_t fallback, int64
   return v.get<int64_t>();
 }
 
+// A finite number that fits a float (1e39 would become +inf).
 float number_of(const json& request, const char* key) {
   const json& v = require(request, key);
-  if (!v.is_number()) throw Error(std::string("request: \"") + key + "\" must be a number");
-  return v.get<float>();
+  const double d = v.is_number() ? v.get<double>() : 0.0;
+  if (!v.is_number() || !std::isfinite(d) || std::fabs(d) > 3.0e38)
+    throw Error(std::string("request: \"") + key + "\" must be a finite number");
+  return float(d);
+}
+
+bool boolean_of(const json& request, const char* key, bool fallback) {
+  if (!request.contains(key)) return fallback;
+  if (!request.at(key).is_boolean()) throw Error(std::string("request: \"") + key + "\" must be true or false");
+  return request.at(key).get<bool>();
+}
+
+// 16 finite numbers (a row-major 4x4 matrix).
+void matrix_of(const json& m, const char* what, float out[16]) {
+  const std::string message = std::string("request: ") + what + " must hold 16 finite numbers (row-major)";
+  if (!m.is_array() || m.size() != 16) throw Error(message);
+  for (size_t i = 0; i < 16; ++i) {
+    const json& x = m.at(i);
+    const double d = x.is_number() ? x.get<double>() : 0.0;
+    if (!x.is_number() || !std::isfinite(d) || std::fabs(d) > 3.0e38) throw Error(message);
+    out[i] = float(d);
+  }
+}
+
+// Every key of a request is one its command reads (a typo is an error, as in scene files).
+void check_keys(const json& request, const std::string& cmd, std::initializer_list<const char*> keys) {
+  for (auto it = request.begin(); it != request.end(); ++it) {
+    if (it.key() == "cmd" || it.key() == "id") continue;
+    bool known = false;
+    for (const char* k : keys) known = known || it.key() == k;
+    if (!known) {
+      std::string list;
+      for (const char* k : keys) list += std::string(list.empty() ? "" : ", ") + k;
+      throw Error("request: " + cmd + " has no field \"" + it.key() + "\"" +
+                  (list.empty() ? std::string(" (it takes none)") : " (it takes " + list + ")"));
+    }
+  }
 }
 
 // A scene document of the given parts, read by the scene-file reader (one
@@ -66,13 +107,10 @@ size_t triangle_count(const Scene& s) {
 // "view": a pinhole from the viewport's matrices (any principal point: the 3D
 // view's camera frame can be off-centre), sized as the request asks.
 Camera view_camera(const json& v) {
-  const json& m = require(v, "c2w");
-  if (!m.is_array() || m.size() != 16) throw Error("request: view.c2w must hold 16 numbers (row-major)");
+  if (!v.is_object()) throw Error("request: \"view\" must be an object (c2w, fx, fy, cx, cy, width, height)");
+  check_keys(v, "view", {"c2w", "fx", "fy", "cx", "cy", "width", "height"});
   float c2w[16];
-  for (int i = 0; i < 16; ++i) {
-    if (!m.at(size_t(i)).is_number()) throw Error("request: view.c2w must hold 16 numbers (row-major)");
-    c2w[i] = m.at(size_t(i)).get<float>();
-  }
+  matrix_of(require(v, "c2w"), "view.c2w", c2w);
   const int w = int(integer_of(v, "width", 0, 1, 16384)), h = int(integer_of(v, "height", 0, 1, 16384));
   if (w == 0 || h == 0) throw Error("request: view needs width and height");
   return make_pinhole_camera(c2w, number_of(v, "fx"), number_of(v, "fy"), number_of(v, "cx"), number_of(v, "cy"), w, h,
@@ -103,6 +141,9 @@ bool ends_with_exr(const std::string& path) {
 }
 
 std::vector<float> read_floats(const std::string& path, size_t count) {
+  const uint64_t size = io::check_regular_file(path, "bulk file");  // a FIFO or /dev/zero would block or grow
+  if (size != count * sizeof(float))
+    throw Error(path, "holds " + std::to_string(size) + " bytes, expected " + std::to_string(count * sizeof(float)));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open");
   std::vector<float> v(count);
@@ -113,7 +154,11 @@ std::vector<float> read_floats(const std::string& path, size_t count) {
 }
 
 // A whole file of uint32 little-endian values (splat indices).
-std::vector<uint32_t> read_indices(const std::string& path) {
+std::vector<uint32_t> read_indices(const std::string& path, uint64_t max_count) {
+  const uint64_t bytes = io::check_regular_file(path, "index file");
+  if (bytes > max_count * 4)
+    throw Error(path, "holds " + std::to_string(bytes / 4) + " indices, more than the " + std::to_string(max_count) +
+                          " Gaussians of the range");
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw Error(path, "cannot open");
   const std::streamoff size = in.tellg();
@@ -148,6 +193,15 @@ json ServeSession::handle(const json& request, const std::atomic<bool>* cancel,
     if (!request.is_object() || !request.contains("cmd") || !request.at("cmd").is_string())
       throw Error("a request is a JSON object with a \"cmd\" string");
     const std::string cmd = request.at("cmd").get<std::string>();
+    if (cmd == "load") check_keys(request, cmd, {"scene"});
+    else if (cmd == "update") check_keys(request, cmd, {"scene", "base_dir"});
+    else if (cmd == "mesh_material") check_keys(request, cmd, {"mesh", "material"});
+    else if (cmd == "splat_materials") check_keys(request, cmd, {"offset", "count", "file", "channels", "indices"});
+    else if (cmd == "transform_splats") check_keys(request, cmd, {"offset", "count", "matrix"});
+    else if (cmd == "render")
+      check_keys(request, cmd, {"camera", "camera_name", "view", "output", "spp", "first_sample", "width", "height",
+                                "transparent", "aovs"});
+    else if (cmd == "status") check_keys(request, cmd, {});
     json out;
     if (cmd == "load") out = load(request);
     else if (cmd == "update") out = update(request);
@@ -263,7 +317,7 @@ json ServeSession::splat_materials(const json& request, uint64_t* bytes_in) {
   std::vector<uint32_t> indices;
   if (request.contains("indices")) {
     const std::string path = string_of(request, "indices");
-    indices = read_indices(path);
+    indices = read_indices(path, uint64_t(count));
     for (uint32_t i : indices)
       if (int64_t(i) >= count)
         throw Error(path, "index " + std::to_string(i) + " outside the range of " + std::to_string(count) + " Gaussians");
@@ -274,6 +328,10 @@ json ServeSession::splat_materials(const json& request, uint64_t* bytes_in) {
   for (const std::string& c : channels) width += c == "albedo" ? 3 : 1;
   std::vector<float> v = read_floats(string_of(request, "file"), n * width);
   *bytes_in += v.size() * sizeof(float);
+  for (size_t i = 0; i < v.size(); ++i)  // +inf or NaN would render NaN pixels
+    if (!std::isfinite(v[i]) || v[i] < 0.0f)
+      throw Error(string_of(request, "file"), "value " + std::to_string(i) + " is " + std::to_string(v[i]) +
+                                                  " (material values are finite and not negative)");
   auto target = [&](size_t i) { return size_t(offset) + (indices.empty() ? i : size_t(indices[i])); };
   const float* p = v.data();
   for (const std::string& c : channels) {  // (all values are read and checked before any is written)
@@ -296,13 +354,8 @@ json ServeSession::transform_splats(const json& request) {
   GaussianField& f = *scene_->gaussians;
   const size_t offset = size_t(integer_of(request, "offset", 0, 0, int64_t(f.size())));
   const size_t count = size_t(integer_of(request, "count", 0, 0, int64_t(f.size() - offset)));
-  const json& m = require(request, "matrix");
-  if (!m.is_array() || m.size() != 16) throw Error("request: \"matrix\" must hold 16 numbers (row-major)");
   float mat[16];
-  for (size_t i = 0; i < 16; ++i) {
-    if (!m.at(i).is_number()) throw Error("request: \"matrix\" must hold 16 numbers (row-major)");
-    mat[i] = m.at(i).get<float>();
-  }
+  matrix_of(require(request, "matrix"), "\"matrix\"", mat);
   GaussianField part;  // the range's geometry (what transform_gaussians changes)
   const auto first = std::ptrdiff_t(offset), last = std::ptrdiff_t(offset + count);
   part.position.assign(f.position.begin() + first, f.position.begin() + last);
@@ -337,8 +390,20 @@ json ServeSession::render(const json& request, const std::atomic<bool>* cancel,
   IntegratorSettings settings = scene_->integrator;
   settings.spp = int(integer_of(request, "spp", settings.spp, 1, 1 << 20));
   const uint32_t first = uint32_t(integer_of(request, "first_sample", 0, 0, (1 << 24) - (1 << 20)));
-  const bool transparent = request.value("transparent", false);
+  const bool transparent = boolean_of(request, "transparent", false);
   const std::string output = string_of(request, "output");
+  check_size(camera, settings.spp);
+  std::vector<std::string> outputs = {output};
+  if (request.contains("aovs")) {
+    const json& aovs = request.at("aovs");
+    if (!aovs.is_object()) throw Error("request: \"aovs\" must map AOV names to output files");
+    for (auto it = aovs.begin(); it != aovs.end(); ++it) {
+      parse_aov(it.key());
+      if (!it.value().is_string()) throw Error("request: aovs." + it.key() + " must be a file name");
+      outputs.push_back(it.value().get<std::string>());
+    }
+  }
+  guard_request_outputs(outputs);  // before the render: a refused output costs nothing
   RenderControl control;
   control.cancel = cancel;
   // Progress lines at most 4 times a second (render_path calls this under its lock).
@@ -373,6 +438,32 @@ json ServeSession::render(const json& request, const std::atomic<bool>* cancel,
     }
   }
   return reply;
+}
+
+// The render's image under `ptir render`'s memory budget, and its samples under
+// the session's limit.
+void ServeSession::check_size(const Camera& camera, int spp) const {
+  check_image_budget(camera.width, camera.height, limits_.max_memory_gib, "request: render");
+  const uint64_t samples = uint64_t(camera.width) * uint64_t(camera.height) * uint64_t(spp);
+  if (limits_.max_samples > 0 && samples > limits_.max_samples)
+    throw Error("request: render: " + std::to_string(samples) + " samples, more than this session's limit of " +
+                std::to_string(limits_.max_samples));
+}
+
+// The rule of every command (output_guard.h): no output over the loaded scene's
+// files (the scene file and every file it names), nor over anything but a
+// regular file.
+void ServeSession::guard_request_outputs(const std::vector<std::string>& outputs) const {
+  for (const std::string& out : outputs) {
+    if (out.empty()) throw Error("request: an output file name is empty");
+    if (std::filesystem::exists(out) && !std::filesystem::is_regular_file(out))
+      throw Error(out, "exists and is not a regular file; refusing to write over it");
+  }
+  Inputs in;
+  if (!scene_path_.empty()) in.scenes.push_back(scene_path_);
+  Outputs out;
+  out.files = outputs;
+  guard_outputs(in, out, /*force=*/false);
 }
 
 json ServeSession::status() const {

@@ -15,6 +15,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -23,8 +24,18 @@
 
 namespace ptir::cli {
 
+// What one request may cost. max_memory_gib: the image budget of `ptir render`
+// (image_budget.h; 0: half the machine's memory); max_samples: pixels x spp of
+// one render (0: no limit; the fuzz harness keeps its renders small).
+struct ServeLimits {
+  double max_memory_gib = 0.0;
+  uint64_t max_samples = 0;
+};
+
 class ServeSession {
  public:
+  explicit ServeSession(ServeLimits limits = {}) : limits_(limits) {}
+
   // Answers one request (never throws: errors become {"ok": false, "error": ...}).
   // cancel: raised by the request reader while this request runs (a "cancel" line).
   // notify: sends an interim line (render progress: {"id": ..., "progress": f}).
@@ -42,6 +53,10 @@ class ServeSession {
   nlohmann::json status() const;
   const PathTracer& tracer() const;
 
+  void check_size(const Camera& camera, int spp) const;
+  void guard_request_outputs(const std::vector<std::string>& outputs) const;
+
+  ServeLimits limits_;
   std::unique_ptr<Scene> scene_;
   std::unique_ptr<PathTracer> tracer_;
   std::string scene_path_;

@@ -1,6 +1,8 @@
 #include "ptir/io/atomic_file.h"
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -37,11 +39,43 @@ fs::path atomic_temp_path(const fs::path& target) {
   return target.parent_path() / name;
 }
 
+namespace {
+
+// The finished temp file on disk to its last byte: fsync (a full disk or a
+// failing device reports here what buffered writes did not).
+void sync_file(const fs::path& tmp, const std::string& path) {
+  const int fd = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(path, std::string("writing failed: the finished file cannot be reopened: ") + std::strerror(errno));
+  const int synced = ::fsync(fd), err = errno;
+  ::close(fd);
+  if (synced != 0 && err != EINVAL) throw Error(path, std::string("writing failed: ") + std::strerror(err));
+}
+
+// The rename on disk too (best effort: some file systems cannot sync a folder).
+void sync_folder(const fs::path& dir) {
+  const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+}  // namespace
+
+void check_output_target(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+    throw Error(path, S_ISDIR(st.st_mode) ? "is a folder; an output must be a file"
+                                          : "exists and is not a regular file (a device, FIFO or socket); refusing to "
+                                            "replace it");
+}
+
 void write_atomic(const std::string& path, const std::function<void(const std::string&)>& write) {
   const fs::path target(path);
+  check_output_target(path);
   const fs::path tmp = atomic_temp_path(target);
   try {
     write(tmp.string());
+    sync_file(tmp, path);
   } catch (...) {
     remove_quietly(tmp);
     throw;
@@ -52,6 +86,7 @@ void write_atomic(const std::string& path, const std::function<void(const std::s
     remove_quietly(tmp);
     throw Error(path, "cannot move the finished file into place: " + ec.message());
   }
+  sync_folder(target.parent_path());
 }
 
 void write_bytes_atomic(const std::string& path, const void* data, size_t size) {
@@ -61,6 +96,7 @@ void write_bytes_atomic(const std::string& path, const void* data, size_t size) 
     bool ok = size == 0 || std::fwrite(data, 1, size, f) == size;
     int err = ok ? 0 : errno;
     if (std::fflush(f) != 0 && ok) ok = false, err = errno;
+    if (ok && ::fsync(::fileno(f)) != 0 && errno != EINVAL) ok = false, err = errno;
     if (std::fclose(f) != 0 && ok) ok = false, err = errno;
     if (!ok) throw Error(path, std::string("writing failed: ") + std::strerror(err));
   });

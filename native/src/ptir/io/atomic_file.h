@@ -17,10 +17,17 @@ namespace ptir::io {
 // The temp path write_atomic() uses for `target` in this process.
 std::filesystem::path atomic_temp_path(const std::filesystem::path& target);
 
-// Calls write(temp_path) to produce the file, then renames it over `path`.
-// On any failure (write throws, or the rename fails) the temp file is removed
-// and the error propagates; failures of our own become ptir::Error naming `path`.
+// Calls write(temp_path) to produce the file, checks it on disk to its last byte
+// (fsync: a full disk or a failing device is reported here), then renames it over `path` and syncs the folder. On any failure
+// (write throws, the sync or the rename fails) the temp file is removed, the
+// old `path` is left as it was, and the error propagates; failures of our own
+// become ptir::Error naming `path`. A `path` that exists and is not a regular
+// file (a folder, /dev/null, a FIFO) is refused before anything is written.
+// Callers must check their own writes (fwrite, fclose, the writer's status).
 void write_atomic(const std::string& path, const std::function<void(const std::string& temp_path)>& write);
+
+// Throws Error(path, ...) when `path` exists and is not a regular file.
+void check_output_target(const std::string& path);
 
 // Text or bytes, written atomically.
 void write_text_atomic(const std::string& path, const std::string& text);

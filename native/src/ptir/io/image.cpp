@@ -10,9 +10,11 @@
 
 #include "ptir/core/error.h"
 #include "ptir/io/atomic_file.h"
+#include "ptir/io/input_file.h"
 
 namespace ptir {
 
+using io::check_regular_file;
 using io::write_atomic;
 namespace fs = std::filesystem;
 
@@ -71,15 +73,32 @@ void write_image(const std::string& path, const Image& image, Encoding encoding)
     bool ok = writer->write_image(OIIO::TypeDesc::FLOAT, out.data());
     std::string err = ok ? "" : writer->geterror();
     if (!writer->close() || !ok) throw Error(path, "writing failed: " + (err.empty() ? writer->geterror() : err));
+    // Checked to its last byte: the writers do not all report a full disk (an
+    // EXR came out as 0 bytes with success), so the file is decoded back whole.
+    // Read in bands of 64 rows: a bounded copy, whatever the size.
+    auto check = OIIO::ImageInput::open(tmp);
+    bool whole = check && check->spec().width == image.width && check->spec().height == image.height &&
+                 check->spec().nchannels == image.channels;
+    std::vector<float> band(size_t(image.width) * size_t(image.channels) * 64);
+    for (int y = 0; whole && y < image.height; y += 64)
+      whole = check->read_scanlines(0, 0, y, std::min(y + 64, image.height), 0, 0, image.channels,
+                                    OIIO::TypeDesc::FLOAT, band.data()) &&
+              !check->has_error();
+    if (!whole) throw Error(path, "writing failed: the written file does not read back whole (is the disk full?)");
   });
 }
 
 Image read_image(const std::string& path, Encoding encoding) {
-  if (!fs::exists(path)) throw Error(path, "file not found");
+  check_regular_file(path, "image");  // "file not found"; a FIFO or a device is refused before OIIO blocks on it
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw Error(path, "cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) throw Error(path, "image has no pixels");
+  // The header's size is checked before anything is allocated (a 60-byte file may declare 10^10 pixels).
+  if (spec.width > 65536 || spec.height > 65536 || spec.nchannels > 64 ||
+      uint64_t(spec.width) * uint64_t(spec.height) * uint64_t(spec.nchannels) > (uint64_t(1) << 31))
+    throw Error(path, "image declares " + std::to_string(spec.width) + "x" + std::to_string(spec.height) + "x" +
+                          std::to_string(spec.nchannels) + ", past the limit of 65536 pixels a side and 2^31 values");
   Image image(spec.width, spec.height, spec.channelnames);
   if (int(image.channel_names.size()) != spec.nchannels) image = Image(spec.width, spec.height, std::vector<std::string>(spec.nchannels, "?"));
   // A short or corrupt file is an error, never an image with its tail missing:

@@ -19,6 +19,7 @@
 #include <string_view>
 
 #include "ptir/core/error.h"
+#include "ptir/io/input_file.h"
 #include "ptir/io/ply_detail.h"
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PTIR stores PLY columns in little-endian host order");
@@ -307,9 +308,8 @@ size_t parse_header(const std::string& path, std::string_view file, PlyFile& ply
 // Whole-file read; the body parsers live in ply_body.cpp.
 
 FileBytes::FileBytes(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw Error(path, "cannot open file: it is a directory");
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  check_regular_file(path, "file");  // a FIFO or /dev/zero would block or grow without bound
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) throw Error(path, std::string("cannot open file: ") + std::strerror(errno));
   struct stat st {};
   if (::fstat(fd, &st) == 0 && st.st_size > 0 && S_ISREG(st.st_mode)) {
@@ -321,7 +321,7 @@ FileBytes::FileBytes(const std::string& path) {
       return;
     }
   }
-  // Fallback (pipes, special files, failed mapping): read until end of file.
+  // Fallback (an empty file, a failed mapping): read until end of file.
   size_ = 0;
   char buf[1 << 16];
   while (true) {

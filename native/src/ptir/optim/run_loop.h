@@ -5,16 +5,19 @@
 // on_iteration callback returning false. Every checkpoint_every iterations
 // (not at the last) it saves the checkpoint and OUT/log.csv; at the end,
 // finished or cancelled, the checkpoint and job.write_outputs(OUT). With an
-// empty out_dir nothing is written.
+// empty out_dir nothing is written. A run that throws leaves the folder's files
+// as they were before it (io/output_rollback.h).
 #pragma once
 
 #include <atomic>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "ptir/core/error.h"
 #include "ptir/io/atomic_file.h"
+#include "ptir/io/output_rollback.h"
 
 namespace ptir {
 
@@ -32,6 +35,9 @@ RunResult run_iterations(Job& job, const std::string& out_dir, int checkpoint_ev
     fs::create_directories(out_dir, ec);
     if (!fs::is_directory(out_dir)) throw Error(out_dir, "cannot create the output folder");
   }
+  // A run that fails (a full disk, any error) leaves the folder's previous result and checkpoint as they were.
+  std::optional<io::OutputRollback> rollback;
+  if (write) rollback.emplace(out_dir);
   bool cancelled = false;
   while (job.iteration() < job.settings().iterations) {
     if (cancel && cancel->load()) {
@@ -59,6 +65,7 @@ RunResult run_iterations(Job& job, const std::string& out_dir, int checkpoint_ev
   if (write) {
     save_checkpoint(ckpt);
     job.write_outputs(out_dir);
+    rollback->commit();
   }
   return cancelled ? RunResult::Cancelled : RunResult::Finished;
 }

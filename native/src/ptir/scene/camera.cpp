@@ -8,6 +8,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include "ptir/core/error.h"
+#include "ptir/scene/json_limits.h"
 
 namespace ptir {
 
@@ -142,14 +143,7 @@ std::string frame_name(const std::string& file_path, size_t index) {
 }  // namespace
 
 std::vector<Camera> load_transforms_json(const std::string& path, int width, int height) {
-  std::ifstream in(path);
-  if (!in) throw Error(path, "cannot open file");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const std::exception& e) {
-    throw Error(path, std::string("invalid JSON: ") + e.what());
-  }
+  const nlohmann::json j = load_json_file(path, "transforms file");  // regular file, size cap, bounded nesting
   if (!j.is_object()) throw Error(path, "top level must be an object");
   if ((!j.contains("camera_angle_x") || !j["camera_angle_x"].is_number()) && !j.contains("fl_x"))
     throw Error(path, "missing number 'camera_angle_x' (or 'fl_x')");

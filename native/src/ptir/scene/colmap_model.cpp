@@ -1,12 +1,14 @@
 #include "ptir/scene/colmap_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
+#include <set>
 #include <sstream>
 
 #include "ptir/core/error.h"
+#include "ptir/io/input_file.h"
 
 namespace ptir {
 
@@ -14,13 +16,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
+constexpr uint64_t kMaxModelBytes = uint64_t(4) << 30;  // a model of millions of points with tracks
+
 // Little-endian binary reader over a whole file (COLMAP writes little-endian).
 class BinReader {
  public:
   explicit BinReader(const std::string& path) : path_(path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(path, "cannot open file");
-    data_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    const std::string bytes = io::read_input_file(path, "COLMAP model file", kMaxModelBytes);
+    data_.assign(bytes.begin(), bytes.end());
   }
   template <typename T>
   T get(const char* what) {
@@ -50,6 +53,11 @@ class BinReader {
     return n;
   }
   bool at_end() const { return pos_ == data_.size(); }
+  // Trailing bytes after the last record are a corrupt (or concatenated) file.
+  void expect_end(const char* what) const {
+    if (!at_end())
+      throw Error(path_, std::to_string(data_.size() - pos_) + " bytes of trailing junk after the last " + what);
+  }
 
  private:
   void need(size_t n, const char* what) {
@@ -63,8 +71,7 @@ class BinReader {
 // Non-comment, non-empty lines of a COLMAP text file with their line numbers.
 // images.txt has a second line per image that may be empty: keep_empty keeps those.
 std::vector<std::pair<int, std::string>> text_lines(const std::string& path, bool keep_empty) {
-  std::ifstream in(path);
-  if (!in) throw Error(path, "cannot open file");
+  std::istringstream in(io::read_input_file(path, "COLMAP model file", kMaxModelBytes));
   std::vector<std::pair<int, std::string>> lines;
   std::string line;
   int no = 0;
@@ -81,6 +88,30 @@ std::vector<std::pair<int, std::string>> text_lines(const std::string& path, boo
 
 [[noreturn]] void bad_line(const std::string& path, int no, const std::string& what) {
   throw Error(path, "line " + std::to_string(no) + ": " + what);
+}
+
+// Nothing but blanks left on a text line (a stream that stopped early on junk is an error).
+void expect_line_end(std::istringstream& s, const std::string& path, int no, const std::string& what) {
+  if (s.fail() && !s.eof()) s.clear();
+  std::string rest;
+  if (s >> rest) bad_line(path, no, "unexpected '" + rest.substr(0, 40) + "' after " + what);
+}
+
+void check_camera(const ColmapCamera& c, const std::string& path, const std::string& where) {
+  if (c.width < 1 || c.height < 1 || c.width > 65536 || c.height > 65536)
+    throw Error(path, where + "camera " + std::to_string(c.id) + ": size " + std::to_string(c.width) + "x" +
+                          std::to_string(c.height) + " outside 1..65536");
+  for (double v : c.params)
+    if (!std::isfinite(v)) throw Error(path, where + "camera " + std::to_string(c.id) + ": a parameter is not finite");
+}
+
+void check_pose(const ColmapImage& im, const std::string& path, const std::string& where) {
+  double qn = 0.0;
+  for (double v : im.q) qn += v * v;
+  for (double v : im.t) qn += std::isfinite(v) ? 0.0 : NAN;
+  if (!std::isfinite(qn) || qn < 1e-12)
+    throw Error(path, where + "image " + std::to_string(im.id) + " (" + im.name +
+                          "): its quaternion is zero or a pose value is not finite");
 }
 
 std::string pick(const std::string& dir, const std::string& stem, bool& binary) {
@@ -107,12 +138,15 @@ void read_cameras(ColmapModel& m, bool binary) {
       const int model_id = r.get<int32_t>("camera model");
       c.model = colmap_model_name(model_id);
       if (c.model.empty()) throw Error(p, "camera " + std::to_string(c.id) + ": unknown model id " + std::to_string(model_id));
-      c.width = int(r.get<uint64_t>("camera width"));
-      c.height = int(r.get<uint64_t>("camera height"));
+      const uint64_t w = r.get<uint64_t>("camera width"), h = r.get<uint64_t>("camera height");
+      c.width = int(std::min<uint64_t>(w, 1u << 30));
+      c.height = int(std::min<uint64_t>(h, 1u << 30));
       c.params.resize(size_t(colmap_model_param_count(c.model)));
       for (double& v : c.params) v = r.get<double>("camera parameters");
-      m.cameras[c.id] = c;
+      check_camera(c, p, "");
+      if (!m.cameras.emplace(c.id, c).second) throw Error(p, "camera id " + std::to_string(c.id) + " appears twice");
     }
+    r.expect_end("camera");
     return;
   }
   for (const auto& [no, line] : text_lines(p, false)) {
@@ -121,11 +155,23 @@ void read_cameras(ColmapModel& m, bool binary) {
     if (!(s >> c.id >> c.model >> c.width >> c.height)) bad_line(p, no, "expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]");
     double v;
     while (s >> v) c.params.push_back(v);
+    expect_line_end(s, p, no, "the camera parameters");
     const int expect = colmap_model_param_count(c.model);
     if (expect < 0) bad_line(p, no, "unknown camera model '" + c.model + "'");
     if (int(c.params.size()) != expect)
       bad_line(p, no, c.model + " needs " + std::to_string(expect) + " parameters, got " + std::to_string(c.params.size()));
-    m.cameras[c.id] = c;
+    check_camera(c, p, "line " + std::to_string(no) + ": ");
+    if (!m.cameras.emplace(c.id, c).second) bad_line(p, no, "camera id " + std::to_string(c.id) + " appears twice");
+  }
+}
+
+// Image ids and names are unique (a duplicate is a merged or corrupt model).
+void check_unique_images(const ColmapModel& m) {
+  std::set<uint32_t> ids;
+  std::set<std::string> names;
+  for (const ColmapImage& im : m.images) {
+    if (!ids.insert(im.id).second) throw Error(m.images_path, "image id " + std::to_string(im.id) + " appears twice");
+    if (!names.insert(im.name).second) throw Error(m.images_path, "image name '" + im.name + "' appears twice");
   }
 }
 
@@ -153,8 +199,11 @@ void read_images(ColmapModel& m, bool binary, bool with_obs) {
           im.point3d_id[k] = r.get<int64_t>("2D point's 3D id");
         }
       }
+      check_pose(im, p, "");
       m.images.push_back(std::move(im));
     }
+    r.expect_end("image");
+    check_unique_images(m);
     return;
   }
   const auto lines = text_lines(p, true);
@@ -172,6 +221,7 @@ void read_images(ColmapModel& m, bool binary, bool with_obs) {
     std::getline(s >> std::ws, im.name);
     while (!im.name.empty() && (im.name.back() == ' ' || im.name.back() == '\t')) im.name.pop_back();
     if (im.name.empty()) bad_line(p, no, "image " + std::to_string(im.id) + " has no name");
+    check_pose(im, p, "line " + std::to_string(no) + ": ");
     ++i;
     if (i < lines.size()) {  // the 2D points line (possibly empty)
       const auto& [no2, pts] = lines[i];
@@ -189,6 +239,7 @@ void read_images(ColmapModel& m, bool binary, bool with_obs) {
     }
     m.images.push_back(std::move(im));
   }
+  check_unique_images(m);
 }
 
 void read_points(ColmapModel& m, bool binary) {
@@ -210,8 +261,13 @@ void read_points(ColmapModel& m, bool binary) {
         e.second = r.get<uint32_t>("track 2D point index");
       }
     }
+    r.expect_end("point");
+    std::set<uint64_t> ids;
+    for (const ColmapPoint& pt : m.points)
+      if (!ids.insert(pt.id).second) throw Error(p, "point id " + std::to_string(pt.id) + " appears twice");
     return;
   }
+  std::set<uint64_t> ids;
   for (const auto& [no, line] : text_lines(p, false)) {
     std::istringstream s(line);
     ColmapPoint pt;
@@ -221,6 +277,8 @@ void read_points(ColmapModel& m, bool binary) {
     for (int c = 0; c < 3; ++c) pt.rgb[size_t(c)] = uint8_t(rgb[c]);
     uint32_t a, b;
     while (s >> a >> b) pt.track.emplace_back(a, b);
+    expect_line_end(s, p, no, "the track");
+    if (!ids.insert(pt.id).second) bad_line(p, no, "point id " + std::to_string(pt.id) + " appears twice");
     m.points.push_back(std::move(pt));
   }
 }

@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/error.h"
+#include "ptir/io/input_file.h"
+#include "ptir/scene/json_limits.h"
 #include "ptir/scene/dataset_layouts.h"
 
 namespace ptir {
@@ -38,6 +40,7 @@ std::string first_existing(const fs::path& base) {
 
 
 ImageHeader read_image_header(const std::string& path) {
+  io::check_regular_file(path, "image");
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw Error(path, "cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& s = in->spec();
@@ -56,13 +59,17 @@ struct RawImage {
 };
 
 RawImage read_raw(const std::string& path) {
-  if (!fs::exists(path)) throw Error(path, "file not found");
+  io::check_regular_file(path, "image");  // "file not found"; a FIFO or a device refused at once
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
   auto in = OIIO::ImageInput::open(path, &config);
   if (!in) throw Error(path, "cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& s = in->spec();
   if (s.width <= 0 || s.height <= 0 || s.nchannels <= 0) throw Error(path, "image has no pixels");
+  if (s.width > 65536 || s.height > 65536 || s.nchannels > 64 ||
+      uint64_t(s.width) * uint64_t(s.height) * uint64_t(s.nchannels) > (uint64_t(1) << 31))  // before allocating
+    throw Error(path, "image declares " + size_text(s.width, s.height) + "x" + std::to_string(s.nchannels) +
+                          ", past the limit of 65536 pixels a side and 2^31 values");
   RawImage r;
   r.width = s.width;
   r.height = s.height;
@@ -190,6 +197,10 @@ std::shared_ptr<const TrainingImage> Dataset::target(size_t i) const {
   return img;
 }
 
+void Dataset::check_images() const {
+  for (size_t i = 0; i < views.size(); ++i) target(i);
+}
+
 namespace {
 
 Image load_optional(const std::string& path, int channels, bool colour, bool normal, int w, int h) {
@@ -226,13 +237,7 @@ namespace {
 std::optional<PixelFilter> read_dataset_filter(const fs::path& root) {
   const fs::path meta = root / "dataset.json";
   if (!fs::exists(meta)) return std::nullopt;
-  nlohmann::json j;
-  try {
-    std::ifstream in(meta);
-    j = nlohmann::json::parse(in);
-  } catch (const std::exception& e) {
-    throw Error(meta.string(), std::string("not valid JSON: ") + e.what());
-  }
+  const nlohmann::json j = load_json_file(meta.string(), "dataset.json");
   if (!j.is_object() || !j.contains("cycles") || !j["cycles"].is_object() || !j["cycles"].contains("pixel_filter"))
     return std::nullopt;
   const nlohmann::json& f = j["cycles"]["pixel_filter"];

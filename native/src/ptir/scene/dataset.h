@@ -123,6 +123,11 @@ class Dataset {
 
   // The training image of view i (cached within the budget; thread-safe).
   std::shared_ptr<const TrainingImage> target(size_t i) const;
+  // Every view's photo (and mask) decoded whole and checked against the
+  // dataset's size, before a job starts: a corrupt or mismatched photo is an
+  // error naming it before the first iteration (and checkpoint), not when its
+  // view is first drawn. The decoded images stay in the cache while they fit.
+  void check_images() const;
   // Optional maps of view i, or an empty Image (width 0) when the view has none.
   // Albedo: 3 channels linear; roughness: 1 channel; normal: 3 channels in [-1, 1].
   Image gt_albedo(size_t i) const;

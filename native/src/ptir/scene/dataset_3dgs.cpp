@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "ptir/core/error.h"
+#include "ptir/scene/json_limits.h"
 #include "ptir/scene/dataset_layouts.h"
 
 namespace ptir {
@@ -107,14 +108,7 @@ Capture read_3dgs_capture(const std::string& root, const DatasetOptions& o) {
     if (e.is_regular_file()) by_stem.emplace(e.path().stem().string(), e.path().string());
   const fs::path masks = fs::is_directory(source / "masks") ? source / "masks" : fs::path();
 
-  std::ifstream in(cams_path);
-  if (!in) throw Error(cams_path, "cannot open file");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const std::exception& e) {
-    throw Error(cams_path, std::string("invalid JSON: ") + e.what());
-  }
+  const nlohmann::json j = load_json_file(cams_path, "3DGS cameras.json");
   if (!j.is_array() || j.empty()) throw Error(cams_path, "expected a non-empty array of cameras");
 
   Capture c;

@@ -138,7 +138,10 @@ std::vector<std::string> view_names(const Capture& c) {
 // view, so the common size does not depend on the split. One image size for the
 // whole capture (the optimiser's assumption): the smallest window, each view's
 // window shrunk to it about its own centre.
-std::vector<PinholeWindow> plan_windows(Capture& c) {
+// A photo smaller than its camera in the layout's own image folder is a wrong or
+// half-copied folder (a downscaled folder is chosen with --images images_N, and
+// its intrinsics are then scaled); 3DGS cameras.json records the sizes trained at.
+std::vector<PinholeWindow> plan_windows(Capture& c, bool folder_chosen) {
   const size_t n = c.views.size();
   std::vector<PinholeWindow> windows(n);
   std::map<std::string, PinholeWindow> planned;  // views sharing a lens share a plan
@@ -146,6 +149,10 @@ std::vector<PinholeWindow> plan_windows(Capture& c) {
     CaptureView& v = c.views[i];
     if (!fs::is_regular_file(v.image)) throw Error(v.image, "image not found (" + c.camera_file + " lists '" + v.name + "')");
     const ImageHeader h = read_image_header(v.image);
+    if (!folder_chosen && c.layout != "3dgs" && (h.width < v.lens.width || h.height < v.lens.height))
+      throw Error(v.image, "image is " + size_text(h.width, h.height) + ", smaller than its camera in " + c.camera_file +
+                               " ('" + v.name + "': " + size_text(v.lens.width, v.lens.height) +
+                               "); a downscaled image folder is read with --images images_N");
     if (h.width != v.lens.width || h.height != v.lens.height) {
       const double sx = double(h.width) / v.lens.width, sy = double(h.height) / v.lens.height;
       if (std::fabs(sx - sy) > 0.01 * std::max(sx, sy) + 1.0 / std::min(h.width, h.height))
@@ -231,7 +238,7 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
     for (const CaptureView& v : c.views)
       if (!seen.insert(v.name).second) throw Error(c.camera_file, "image '" + v.name + "' appears twice");
   }
-  const std::vector<PinholeWindow> windows = plan_windows(c);
+  const std::vector<PinholeWindow> windows = plan_windows(c, !o.images.empty());
   const int W = windows[0].width, H = windows[0].height;
   const std::vector<size_t> picked = split_views(c, o);
   const std::vector<std::string> names = view_names(c);

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/error.h"
+#include "ptir/scene/json_limits.h"
 #include "ptir/scene/dataset_layouts.h"
 
 namespace ptir {
@@ -56,11 +57,7 @@ std::unique_ptr<Dataset> load_nerf_dataset(const std::string& dir, const Dataset
 
   // Cameras (validates the JSON); the frames' file_path again, for the messages.
   std::vector<Camera> cams = load_transforms_json(data->transforms_path);
-  nlohmann::json j;
-  {
-    std::ifstream in(data->transforms_path);
-    in >> j;
-  }
+  const nlohmann::json j = load_json_file(data->transforms_path, "transforms file");
   const auto& frames = j["frames"];
   bool any_prior = false;
   for (size_t f = 0; f < cams.size(); ++f) {

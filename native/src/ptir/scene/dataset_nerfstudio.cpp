@@ -15,10 +15,12 @@
 //                and scale): the frame its Gaussians (ns-export) live in.
 #include <cmath>
 #include <filesystem>
+#include <set>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/error.h"
+#include "ptir/scene/json_limits.h"
 #include "ptir/scene/dataset_layouts.h"
 
 namespace ptir {
@@ -28,17 +30,8 @@ using nlohmann::json;
 
 namespace {
 
-json read_json(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path, "cannot open file");
-  json j;
-  try {
-    in >> j;
-  } catch (const std::exception& e) {
-    throw Error(path, std::string("invalid JSON: ") + e.what());
-  }
-  return j;
-}
+// Regular files only, a size cap, bounded nesting; trailing junk is an error.
+json read_json(const std::string& path) { return load_json_file(path, "dataset JSON file"); }
 
 // A 3x4 (or 4x4) matrix as row-major 3x4.
 std::array<double, 12> matrix34(const json& m, const std::string& path, const std::string& what) {
@@ -180,6 +173,7 @@ Capture read_nerfstudio_capture(const std::string& root_dir, const DatasetOption
   c.camera_file = path;
   c.images_dir = (root / (o.images.empty() ? "images" : o.images)).string();
   const json& frames = top["frames"];
+  std::set<std::string> names;
   for (size_t f = 0; f < frames.size(); ++f) {
     const json& fr = frames[f];
     const std::string where = "frames[" + std::to_string(f) + "]";
@@ -188,6 +182,7 @@ Capture read_nerfstudio_capture(const std::string& root_dir, const DatasetOption
     if (!fr.contains("transform_matrix")) throw Error(path, where + " has no 'transform_matrix'");
     CaptureView v;
     v.name = fs::path(fr["file_path"].get<std::string>()).lexically_normal().string();
+    if (!names.insert(v.name).second) throw Error(path, where + ".file_path: '" + v.name + "' is listed twice");
     v.image = resolve_image(root, v.name, o.images);
     if (fr.contains("mask_path") && fr["mask_path"].is_string()) {
       const std::string mp = fr["mask_path"].get<std::string>();

@@ -12,7 +12,9 @@
 #include <sstream>
 
 #include "ptir/core/error.h"
+#include "ptir/io/input_file.h"
 #include "ptir/scene/gaussian_ply.h"
+#include "ptir/scene/json_limits.h"
 #include "ptir/scene/json_node.h"
 
 namespace ptir {
@@ -420,11 +422,14 @@ void parse_integrator(const Node& n, IntegratorSettings& s) {
     else
       r.fail("must be a positive number or \"inf\"");
   }
-  s.fixed_offset = n.non_negative("fixed_offset", s.fixed_offset);
-  s.fixed_range = n.non_negative("fixed_range", s.fixed_range);
-  s.min_throughput = n.non_negative("min_throughput", s.min_throughput);
+  // Lengths in scene units, bounded before they reach Embree (a 1e30 offset tripped its assertions):
+  // a self-intersection offset or range past kMaxRayOffset is no offset but a teleport.
+  constexpr float kMaxRayOffset = 1.0e4f;
+  s.fixed_offset = n.number_in("fixed_offset", s.fixed_offset, 0.0f, kMaxRayOffset);
+  s.fixed_range = n.number_in("fixed_range", s.fixed_range, 0.0f, kMaxRayOffset);
+  s.min_throughput = n.number_in("min_throughput", s.min_throughput, 0.0f, 1.0e6f);
   s.filter.type = parse_pixel_filter(n.choice("pixel_filter", "blackman_harris", {"blackman_harris", "gaussian", "box"}));
-  s.filter.width = n.non_negative("filter_width", s.filter.width);
+  s.filter.width = n.number_in("filter_width", s.filter.width, 0.0f, 64.0f);  // pixels
   s.russian_roulette = n.boolean("russian_roulette", s.russian_roulette);
   s.min_light_bounces = int(n.integer_in("min_light_bounces", s.min_light_bounces, 0, 1024));
   s.light_selection = parse_light_selection(
@@ -494,26 +499,13 @@ Scene parse_scene(const json& root, const Ctx& ctx) {
 }  // namespace
 
 Scene scene_from_json_string(const std::string& text, const std::string& base_dir, const std::string& name) {
-  json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    // e.what() is "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
-    std::string what = e.what();
-    auto pos = what.find("] ");
-    throw Error(name, "invalid JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
-  }
+  const json root = parse_json_bounded(text, name);
   Ctx ctx{name, base_dir};
   return parse_scene(root, ctx);
 }
 
 MeshMaterial mesh_material_from_json_string(const std::string& text, const std::string& name) {
-  json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw Error(name, std::string("invalid JSON: ") + e.what());
-  }
+  const json root = parse_json_bounded(text, name);
   Ctx ctx{name, ""};
   Node n{root, "", ctx};
   n.expect_object();
@@ -521,12 +513,9 @@ MeshMaterial mesh_material_from_json_string(const std::string& text, const std::
 }
 
 Scene load_scene_json(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open scene file");
-  std::stringstream ss;
-  ss << in.rdbuf();
+  const std::string text = io::read_input_file(path, "scene file");  // regular files only, size cap
   fs::path p(path);
-  return scene_from_json_string(ss.str(), p.has_parent_path() ? p.parent_path().string() : std::string(), path);
+  return scene_from_json_string(text, p.has_parent_path() ? p.parent_path().string() : std::string(), path);
 }
 
 }  // namespace ptir
