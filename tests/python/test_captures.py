@@ -273,17 +273,18 @@ FOX = REPO / "tests" / "data" / "fox" / "transforms.json"
 
 
 def test_fox_intrinsics_and_distortion_are_read_as_written(tmp_path):
-    """instant-ngp's fox (1080x1920, OPENCV k1 k2 p1 p2): images stand in at 1/8 size."""
+    """instant-ngp's fox (1080x1920, OPENCV k1 k2 p1 p2): images stand in at 1/8 size, in nerfstudio's
+    downscale folder images_8 (photos smaller than their camera in the layout's own folder are refused)."""
     meta = json.loads(FOX.read_text())
     root = tmp_path / "fox"
     root.mkdir()
     shutil.copy(FOX, root / "transforms.json")
     w, h = int(meta["w"]) // 8, int(meta["h"]) // 8
     # EXR data under the .jpg names the file gives (OpenImageIO reads by content).
-    write_position_images(root / "images", [Path(f["file_path"]).name for f in meta["frames"]], w, h)
-    ds = load(root, "all", undistort_cache=str(tmp_path / "cache"))
+    write_position_images(root / "images_8", [Path(f["file_path"]).name for f in meta["frames"]], w, h)
+    ds = load(root, "all", images="images_8", undistort_cache=str(tmp_path / "cache"))
     assert len(ds) == 67 and ds.layout == "nerfstudio"
-    assert len(load(root, "test", undistort_cache=str(tmp_path / "cache"))) == 9  # 67 views, every 8th
+    assert len(load(root, "test", images="images_8", undistort_cache=str(tmp_path / "cache"))) == 9  # every 8th
     s = 1 / 8
     for cam, fr in zip(sorted(ds.cameras, key=lambda c: c.name), sorted(meta["frames"], key=lambda f: f["file_path"])):
         assert cam.name == Path(fr["file_path"]).stem
@@ -300,7 +301,7 @@ def test_fox_intrinsics_and_distortion_are_read_as_written(tmp_path):
         c2w[:3, :3] /= np.linalg.norm(c2w[:3, :3], axis=0)
         Rc = c2w[:3, :3] @ np.diag([1.0, -1.0, -1.0])  # COLMAP camera axes in the world
         truth[Path(fr["file_path"]).stem] = (Rc.T, -Rc.T @ c2w[:3, 3])
-    sub = ptir.load_dataset(str(root), split="test", undistort_cache=str(tmp_path / "cache"))
+    sub = ptir.load_dataset(str(root), split="test", images="images_8", undistort_cache=str(tmp_path / "cache"))
     assert check_undistorted_pixels(sub, ("OPENCV", p), truth, scale=s, src=(w, h)) < 2e-3
 
 
