@@ -81,11 +81,15 @@ fs::path nearest_existing(fs::path p) {
   return p;
 }
 
-// A result folder of ours (optimize, fit) inside a dataset: writing there is fine.
+// A result folder of ours inside a dataset: writing there is fine. One that optimize
+// or fit wrote (its checkpoint or log), or a result eval reads (gaussians.ply beside
+// env.exr: the dataset maker's oracle/, whose eval/ goes into it).
 bool is_result_folder(const fs::path& dir, const fs::path& root) {
   std::error_code ec;
-  for (fs::path d = dir; inside(d, root) && d != root; d = d.parent_path())
+  for (fs::path d = dir; inside(d, root) && d != root; d = d.parent_path()) {
     if (fs::exists(d / "checkpoint.bin", ec) || fs::exists(d / "log.csv", ec)) return true;
+    if (fs::is_regular_file(d / "gaussians.ply", ec) && fs::is_regular_file(d / "env.exr", ec)) return true;
+  }
   return false;
 }
 

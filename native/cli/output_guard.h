@@ -13,7 +13,8 @@
 //    `-o DATASET/sparse/0/cameras.txt`), no output folder that is one of them
 //    (`optimize --out DATASET/images`). A new folder directly in the dataset
 //    (`--out DATASET/result`) is fine, and so is a result folder of ours there
-//    (it holds a checkpoint.bin or log.csv).
+//    (it holds a checkpoint.bin or log.csv, or gaussians.ply beside env.exr: a
+//    result eval reads, e.g. the dataset maker's oracle/).
 // Inputs given as a scene file also bring the files the scene names (any string
 // in the JSON that names an existing file beside the scene or at an absolute
 // path), so `render scene.json -o env.exr` cannot replace the scene's map; for
