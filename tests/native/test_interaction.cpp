@@ -47,6 +47,21 @@ TEST(Interaction, AggregateMatchesHandComputation) {
   EXPECT_NEAR(si.p.z, 1.0 - si.depth, 1e-6);
 }
 
+TEST(Interaction, SignedNormalsFromTheFileKeepTheirSign) {
+  // Normals a file gives keep their sign in the sum: the third, (0, 0, -1), subtracts
+  // (0, 0.2, 0.5 - 0.24), where two-sided splats would add it.
+  GaussianField f = three_gaussians();
+  f.normals_from_file = true;
+  Ray ray{Vec3(0, 0, 1), Vec3(0, 0, -1)};
+  InteractionBuilder b(f, InteractionSettings{}, 0.001f, ray.d);
+  GaussianHit hits[3] = {{1.0f, 0.5f, 0}, {1.1f, 0.4f, 1}, {1.2f, 0.8f, 2}};
+  for (auto& h : hits) b.add(h);
+  const Vec3 n = normalize(Vec3(0, 0.2f, 0.26f));
+  const SurfaceInteraction si = b.finish(ray);
+  EXPECT_NEAR(si.n.y, n.y, 1e-5);
+  EXPECT_NEAR(si.n.z, n.z, 1e-5);
+}
+
 TEST(Interaction, ValidityThresholdAndNormalFlip) {
   GaussianField f = three_gaussians();
   Ray ray{Vec3(0, 0, -1), Vec3(0, 0, 1)};  // from below: the first normal faces away

@@ -11,14 +11,22 @@ bool InteractionBuilder::add(const GaussianHit& hit) {
   if (settings_.mode == InteractionMode::Aggregate) {
     // Running weighted sums; normalised by O in finish().
     sum_t_ += w * hit.t;
-    // Two-sided: each normal on the side of the interaction so far, seen from the
-    // ray (ref = sum w_j n_j - O d / 2; the first hit: -d), so that neighbours whose
-    // stored signs disagree reinforce instead of cancelling, a surface's normals stay
-    // consistent where they graze the ray, and a hit across them (a crease) faces
-    // the ray. Stored signs never matter.
+    // Normals without a sign from the file (a trainer's PLY: the shortest axis) are
+    // two-sided: each on the side of the interaction so far, seen from the ray (ref =
+    // sum w_j n_j - O d / 2; the first hit: -d), so that neighbours whose guessed
+    // signs disagree reinforce instead of cancelling, a surface's normals stay
+    // consistent where they graze the ray, and a hit across them (a crease) faces the
+    // ray: their guessed signs never matter. Normals the file gives keep their sign:
+    // a far side seen through the near one (thin or unsaturated layers) then pulls
+    // the aggregate less than its mirror image would (sphere-grid twin against Cycles
+    // 3.4, inside the silhouettes: 33.61 dB signed, 32.00 dB two-sided).
     const Vec3 n = field_.normal[hit.id];
-    const Vec3 ref = hits_ == 1 ? -incoming_ : sum_n_ - (0.5f * O_before) * incoming_;
-    sum_n_ += dot(n, ref) < 0.0f ? -w * n : w * n;
+    if (field_.normals_from_file) {
+      sum_n_ += w * n;
+    } else {
+      const Vec3 ref = hits_ == 1 ? -incoming_ : sum_n_ - (0.5f * O_before) * incoming_;
+      sum_n_ += dot(n, ref) < 0.0f ? -w * n : w * n;
+    }
     sum_a_ += w * field_.albedo[hit.id];
     sum_r_ += w * field_.roughness[hit.id];
     sum_m_ += w * field_.metallic[hit.id];

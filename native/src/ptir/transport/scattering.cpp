@@ -43,13 +43,14 @@ Scatterer::Scatterer(const Scene& scene, const SceneAccel& accel, const Integrat
 bool Scatterer::is_self_hit(const SpawnContext& from, Vec3 d, const GaussianHit& h) const {
   if (from.kind != SpawnContext::Gaussian) return false;
   // A hit is the surface left when the ray leaves it through the side the vertex
-  // was shaded from: its normal taken on the side of the vertex's normal from.n
-  // (two-sided splats: stored signs do not matter) points along d.
-  // The range test first: most hits lie beyond it, and need no normal fetched.
+  // was shaded from: its normal points along d -- a signed normal (from the file)
+  // as it is, an unsigned one (two-sided splats) taken on the side of the vertex's
+  // normal from.n. The range test first: most hits lie beyond it, and need no
+  // normal fetched.
   const auto leaves = [&](float cos_min) {
     const Vec3 n = field_.normal[h.id];
     const float c = dot(d, n);
-    return (dot(n, from.n) < 0.0f ? -c : c) > cos_min;
+    return (field_.normals_from_file || dot(n, from.n) >= 0.0f ? c : -c) > cos_min;
   };
   if (settings_.self_intersection == SelfIntersection::BackfaceAware)
     return h.t > 0.0f && h.t <= from.self_range && leaves(0.0f);
