@@ -84,6 +84,29 @@ TEST(ImageIo, TruncatedFilesAreErrors) {
   }
 }
 
+// An EXR header attribute declaring more bytes than the file holds (what fuzz_image
+// found: OpenEXR allocated a 1.7 GB string for an 86-byte file) is refused by name
+// before OpenEXR reads it; a real EXR's header, with every attribute in the file,
+// still reads. The huge size is put on the first attribute of a real file.
+TEST(ImageIo, ExrHeaderAttributesMustFitTheFile) {
+  const fs::path whole = image_tmp("header_whole.exr");
+  write_image(whole.string(), test_pattern());
+  std::string bytes = get_file(whole);
+  ASSERT_NO_THROW(read_image(whole.string()));
+  const size_t type_end = bytes.find('\0', bytes.find('\0', 8) + 1);  // after the first name and type
+  ASSERT_LT(type_end + 4, bytes.size());
+  for (int k = 0; k < 4; ++k) bytes[type_end + 1 + k] = char(k == 3 ? 0x65 : 0x00);  // 0x65000000 bytes
+  const fs::path bad = image_tmp("header_bad.exr");
+  put_file(bad, bytes);
+  try {
+    read_image(bad.string());
+    ADD_FAILURE() << "an EXR attribute larger than its file was read";
+  } catch (const ptir::Error& e) {
+    EXPECT_NE(std::string(e.what()).find(bad.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("declares"), std::string::npos) << e.what();
+  }
+}
+
 // 8-bit round trip: colour goes through the sRGB curve and back, alpha is stored
 // as is. Opaque linear 0.5 is byte 188; alpha 0.5 is byte 128 (OIIO stores PNG
 // colour unassociated, dividing by alpha on write and multiplying on read).

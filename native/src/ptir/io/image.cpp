@@ -10,10 +10,12 @@
 
 #include "ptir/core/error.h"
 #include "ptir/io/atomic_file.h"
+#include "ptir/io/exr_header.h"
 #include "ptir/io/input_file.h"
 
 namespace ptir {
 
+using io::check_exr_header;
 using io::check_regular_file;
 using io::write_atomic;
 namespace fs = std::filesystem;
@@ -89,7 +91,9 @@ void write_image(const std::string& path, const Image& image, Encoding encoding)
 }
 
 Image read_image(const std::string& path, Encoding encoding) {
-  check_regular_file(path, "image");  // "file not found"; a FIFO or a device is refused before OIIO blocks on it
+  // "file not found"; a FIFO or a device is refused before OIIO blocks on it; an
+  // EXR header's attributes must fit in the file before OpenEXR allocates them.
+  check_exr_header(path, check_regular_file(path, "image"));
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw Error(path, "cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& spec = in->spec();

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/error.h"
+#include "ptir/io/exr_header.h"
 #include "ptir/io/input_file.h"
 #include "ptir/scene/json_limits.h"
 #include "ptir/scene/dataset_layouts.h"
@@ -40,7 +41,7 @@ std::string first_existing(const fs::path& base) {
 
 
 ImageHeader read_image_header(const std::string& path) {
-  io::check_regular_file(path, "image");
+  io::check_exr_header(path, io::check_regular_file(path, "image"));
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw Error(path, "cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& s = in->spec();
@@ -296,7 +297,14 @@ std::unique_ptr<Dataset> load_layout(const std::string& dir, const DatasetOption
 }  // namespace
 
 std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptions& options) {
-  std::unique_ptr<Dataset> data = load_layout(dir, options);
+  std::unique_ptr<Dataset> data;
+  try {
+    data = load_layout(dir, options);
+  } catch (const fs::filesystem_error& e) {
+    // A path the file system refuses (e.g. a file name in a camera file past
+    // NAME_MAX, found by fuzz_nerfstudio): an error naming it, never an escape.
+    throw Error(e.path1().empty() ? dir : e.path1().string(), std::string("cannot read the dataset: ") + e.code().message());
+  }
   data->pixel_filter = read_dataset_filter(data->root);
   if (data->layout == "nerf") data->brdf = read_recorded_bsdf_model(data->transforms_path);
   return data;
