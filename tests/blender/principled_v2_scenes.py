@@ -2,14 +2,15 @@
 Cycles and writes the PTIR scene file itself from the values it set.
 
     <bpy venv>/bin/python tests/blender/principled_v2_scenes.py -- \
-        --out-dir DIR --env ENV.exr [--samples 256] [--seeds 1 2] [--res 320] [--jobs ggx multiggx]
+        --out-dir DIR --env ENV.exr [--samples 256] [--seeds 1 2] [--res 320] [--jobs ggx multiggx diffuse]
 
 An 8 x 4 grid of Principled v2 spheres (icospheres, 5120 flat faces, radius 0.4) above a
 Lambert ground (Diffuse BSDF, roughness 0: the same in every Blender), lit by a lat-long
 world (sky gradient + sun patch, the ENV file). Rows: Roughness 0.1 / 0.3 / 0.6 / 0.9.
 Columns: see COLUMNS (Specular IOR Level 0.2 / 0.5 / 0.8, IOR 1.3 / 1.5 / 2.0, white and
 coloured Specular Tint, Diffuse Roughness 0 / 0.5 / 1, metals and half-metals with and
-without an F82 edge tint). Jobs: "ggx" and "multiggx" (the node's Distribution).
+without an F82 edge tint). Jobs: "ggx" and "multiggx" (the node's Distribution), and "diffuse":
+2 x 4 Diffuse BSDF spheres (colours DIFFUSE_COLOURS by row, Roughness DIFFUSE_ROUGHNESS by column).
 
 For each job: Cycles renders with every seed (cycles_seedN.npy, linear RGB, row 0 = top),
 a sphere index map (index.npy: 0 = ground/background, k + 1 = sphere k, from a 1-spp
@@ -42,6 +43,9 @@ COLUMNS = (((0.8, 0.3, 0.2), 0.0, 1.5, 0.2, (1.0, 1.0, 1.0), 0.0),
            ((0.95, 0.64, 0.54), 1.0, 1.5, 0.5, (0.6, 0.8, 1.0), 0.0),
            ((0.6, 0.5, 0.9), 0.5, 1.5, 0.5, (1.0, 1.0, 1.0), 0.0),
            ((0.8, 0.8, 0.3), 0.5, 1.45, 0.5, (1.0, 0.5, 0.5), 0.5))
+# The "diffuse" job: Diffuse BSDF nodes (colour by row, Roughness by column).
+DIFFUSE_COLOURS = ((0.8, 0.3, 0.2), (0.9, 0.9, 0.85))
+DIFFUSE_ROUGHNESS = (0.25, 0.5, 0.75, 1.0)
 BOUNCES = 2
 GROUND = (0.5, 0.5, 0.5)
 
@@ -54,7 +58,7 @@ def parse_args():
     ap.add_argument("--samples", type=int, default=256)
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--res", type=int, default=320)
-    ap.add_argument("--jobs", nargs="+", default=["ggx", "multiggx"])
+    ap.add_argument("--jobs", nargs="+", default=["ggx", "multiggx", "diffuse"])
     return ap.parse_args(argv)
 
 
@@ -196,23 +200,49 @@ def write_ply(path, obj):
         f.write(faces.tobytes())
 
 
-def build(scene, distribution, job_dir):
-    """The spheres, the ground and the camera in Blender; the same as PTIR scene entries."""
+def sphere_at(row, col, ncol, nrow=4):
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=4, radius=0.4,
+                                          location=((col - (ncol - 1) / 2) * 1.0, 0.0, 0.45 + (nrow - 1 - row) * 0.95))
+    obj = bpy.context.active_object
+    obj.name = "sphere_%d_%d" % (row, col)
+    return obj
+
+
+def build_principled(distribution):
+    """The Principled grid: ROUGHNESS rows x COLUMNS."""
     shader = "principled-multiscatter" if distribution == "MULTI_GGX" else "principled"
     spheres, meshes = [], []
-    ncol = len(COLUMNS)
     for row, r in enumerate(ROUGHNESS):
         for col, (base, m, ior, level, tint, sigma) in enumerate(COLUMNS):
-            bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=4, radius=0.4,
-                                                  location=((col - (ncol - 1) / 2) * 1.0, 0.0, 0.45 + (3 - row) * 0.95))
-            obj = bpy.context.active_object
-            obj.name = "sphere_%d_%d" % (row, col)
+            obj = sphere_at(row, col, len(COLUMNS))
             obj.data.materials.append(principled(obj.name, distribution, base, r, m, ior, level, tint, sigma))
             spheres.append(obj)
             meshes.append({"name": obj.name, "file": obj.name + ".ply",
                            "material": {"shader": shader, "base_color": list(base), "roughness": r, "metallic": m,
                                         "ior": ior, "specular_ior_level": level, "specular_tint_color": list(tint),
                                         "diffuse_roughness": sigma}})
+    return spheres, meshes
+
+
+def build_diffuse():
+    """Diffuse BSDF nodes: DIFFUSE_COLOURS rows x DIFFUSE_ROUGHNESS columns (4.3+: energy-preserving Oren-Nayar)."""
+    spheres, meshes = [], []
+    for row, colour in enumerate(DIFFUSE_COLOURS):
+        for col, sigma in enumerate(DIFFUSE_ROUGHNESS):
+            obj = sphere_at(row, col, len(DIFFUSE_ROUGHNESS), len(DIFFUSE_COLOURS))
+            obj.data.materials.append(single_node_material(obj.name, "ShaderNodeBsdfDiffuse", colour, Roughness=sigma))
+            spheres.append(obj)
+            meshes.append({"name": obj.name, "file": obj.name + ".ply",
+                           "material": {"shader": "diffuse", "base_color": list(colour), "roughness": sigma}})
+    return spheres, meshes
+
+
+def build(scene, job, job_dir):
+    """The spheres, the ground and the camera in Blender; the same as PTIR scene entries."""
+    if job == "diffuse":
+        spheres, meshes = build_diffuse()
+    else:
+        spheres, meshes = build_principled("MULTI_GGX" if job == "multiggx" else "GGX")
     bpy.ops.mesh.primitive_plane_add(size=16.0, location=(0.0, 1.5, 0.0))
     ground = bpy.context.active_object
     ground.name = "ground"
@@ -250,7 +280,7 @@ def main():
         scene = reset()
         world_environment(scene, args.env)
         cycles_settings(scene, args.res, args.samples)
-        spheres, meshes, camera = build(scene, "MULTI_GGX" if job == "multiggx" else "GGX", job_dir)
+        spheres, meshes, camera = build(scene, job, job_dir)
         doc = {"version": 1, "brdf": "principled-v2",
                "comment": "Principled v2 grid, Blender %s, %s" % (bpy.app.version_string, job),
                "meshes": meshes, "cameras": [camera],
