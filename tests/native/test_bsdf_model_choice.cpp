@@ -73,6 +73,17 @@ TEST(BsdfModelChoice, DatasetRecordAndPrecedence) {
   EXPECT_FALSE(read_recorded_bsdf_model(write("none.json", R"({"frames": []})")));
   const std::string bad = write("bad.json", R"({"ptir_brdf": 3, "frames": []})");
   test::expect_error([&] { read_recorded_bsdf_model(bad); }, bad, {"ptir_brdf"});
+  // Sets that name only their maker: the Blender version decides (dataset.json beside the camera file too).
+  EXPECT_EQ(read_recorded_bsdf_model(write("g34.json", R"J({"generator": "make_dataset.py (Blender 3.4.1, Cycles)"})J")),
+            BsdfModel::PrincipledV1);
+  EXPECT_EQ(read_recorded_bsdf_model(write("g45.json", R"J({"generator": "make_dataset.py (Blender 4.5.15, Cycles)"})J")),
+            BsdfModel::PrincipledV2);
+  EXPECT_FALSE(read_recorded_bsdf_model(write("g.json", R"({"generator": "something else"})")));
+  const fs::path sub = dir / "with_meta";
+  fs::create_directories(sub);
+  std::ofstream(sub / "transforms_train.json") << R"({"frames": []})";
+  std::ofstream(sub / "dataset.json") << R"J({"generator": "scripts/make_dataset.py (Blender 3.4.1, Cycles)"})J";
+  EXPECT_EQ(read_recorded_bsdf_model((sub / "transforms_train.json").string()), BsdfModel::PrincipledV1);
   // Scene file first, then the dataset's record, then v2.
   EXPECT_EQ(resolve_bsdf_model(true, BsdfModel::DisneySimplified, BsdfModel::PrincipledV1), BsdfModel::DisneySimplified);
   EXPECT_EQ(resolve_bsdf_model(false, BsdfModel::DisneySimplified, BsdfModel::PrincipledV1), BsdfModel::PrincipledV1);

@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <regex>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -259,20 +260,46 @@ std::optional<PixelFilter> read_dataset_filter(const fs::path& root) {
 
 PixelFilter dataset_pixel_filter(const Dataset& data) { return data.pixel_filter.value_or(PixelFilter{}); }
 
-std::optional<BsdfModel> read_recorded_bsdf_model(const std::string& transforms_path) {
-  if (fs::path(transforms_path).extension() != ".json" || !fs::is_regular_file(transforms_path)) return std::nullopt;
-  nlohmann::json j;
-  try {
-    std::ifstream in(transforms_path);
-    j = nlohmann::json::parse(in);
-  } catch (const std::exception& e) {
-    throw Error(transforms_path, std::string("not valid JSON: ") + e.what());
+namespace {
+
+// The model a record names: its "ptir_brdf", else the Blender of its "generator"
+// ("... (Blender 3.4.1, Cycles)", as older sets of the dataset maker name only their
+// maker): before 4.0 Principled v1, from 4.0 on v2. Unset when it says neither.
+std::optional<BsdfModel> recorded_model(const nlohmann::json& j, const std::string& path) {
+  if (!j.is_object()) return std::nullopt;
+  if (j.contains("ptir_brdf")) {
+    const nlohmann::json& v = j["ptir_brdf"];
+    std::optional<BsdfModel> m = v.is_string() ? parse_bsdf_model(v.get<std::string>()) : std::nullopt;
+    if (!m) throw Error(path, std::string("ptir_brdf must be one of ") + bsdf_model_names() + ", got " + v.dump());
+    return m;
   }
-  if (!j.is_object() || !j.contains("ptir_brdf")) return std::nullopt;
-  const nlohmann::json& v = j["ptir_brdf"];
-  std::optional<BsdfModel> m = v.is_string() ? parse_bsdf_model(v.get<std::string>()) : std::nullopt;
-  if (!m) throw Error(transforms_path, std::string("ptir_brdf must be one of ") + bsdf_model_names() + ", got " + v.dump());
-  return m;
+  if (!j.contains("generator") || !j["generator"].is_string()) return std::nullopt;
+  const std::string g = j["generator"].get<std::string>();
+  std::smatch m;
+  if (!std::regex_search(g, m, std::regex(R"(Blender (\d{1,3})\.\d+)"))) return std::nullopt;
+  return std::stoi(m[1].str()) < 4 ? BsdfModel::PrincipledV1 : BsdfModel::PrincipledV2;
+}
+
+std::optional<nlohmann::json> read_json_record(const fs::path& path) {
+  if (!fs::is_regular_file(path)) return std::nullopt;
+  try {
+    std::ifstream in(path);
+    return nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw Error(path.string(), std::string("not valid JSON: ") + e.what());
+  }
+}
+
+}  // namespace
+
+std::optional<BsdfModel> read_recorded_bsdf_model(const std::string& transforms_path) {
+  if (fs::path(transforms_path).extension() != ".json") return std::nullopt;
+  if (auto j = read_json_record(transforms_path))
+    if (auto m = recorded_model(*j, transforms_path)) return m;
+  // The dataset maker's dataset.json beside the camera file.
+  const fs::path meta = fs::path(transforms_path).parent_path() / "dataset.json";
+  if (auto j = read_json_record(meta)) return recorded_model(*j, meta.string());
+  return std::nullopt;
 }
 
 BsdfModel resolve_bsdf_model(bool scene_named, BsdfModel scene_model, std::optional<BsdfModel> recorded) {
