@@ -1,9 +1,11 @@
 """Cycles-rendered training views of objects with known materials, and their Gaussians.
 
-Run inside Blender (3.4+), headless:
+Run inside Blender (3.4, or bpy 4.5 / 5.0 through tests/blender/blenders.py), headless:
 
     blender -b --factory-startup -noaudio --python-exit-code 1 \
         -P tests/blender/make_recovery_dataset.py -- --out DIR [--res 80] [--views 14] [--samples 64]
+
+Blender 3.x renders Principled v1, 4.0+ v2; transforms_train.json records which ("ptir_brdf").
 
 Scene: an icosphere and a cube (subdivided into a 16x16 grid per face) floating
 above nothing, lit only by a synthetic HDR environment (a blue sky gradient, a
@@ -46,6 +48,8 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
 import make_sample_splat as splat  # noqa: E402  (its trainer-style PLY writer)
+from dataset.scene import PLAIN_INPUTS  # noqa: E402  (dielectric F0 0.04, nothing else, per model)
+from ptir_blender.blender import compat  # noqa: E402
 from ptir_blender.io import surface_splats  # noqa: E402
 
 ENV_W, ENV_H = 64, 32
@@ -90,20 +94,16 @@ def env_texel(col, row):
 
 def principled(name, albedo, roughness):
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    nt = mat.node_tree
+    nt = compat.ensure_nodes(mat)
     nt.nodes.clear()
     b = nt.nodes.new("ShaderNodeBsdfPrincipled")
     b.distribution = "GGX"
     b.inputs["Base Color"].default_value = (*albedo, 1.0)
     b.inputs["Roughness"].default_value = roughness
     b.inputs["Metallic"].default_value = 0.0
-    b.inputs["Specular"].default_value = 0.5
-    b.inputs["Specular Tint"].default_value = 0.0
-    b.inputs["Sheen"].default_value = 0.0
-    b.inputs["Clearcoat"].default_value = 0.0
-    b.inputs["Subsurface"].default_value = 0.0
-    b.inputs["Transmission"].default_value = 0.0
+    for socket, value in PLAIN_INPUTS[compat.principled_model()].items():  # v1 on 3.x, v2 on 4.0+
+        if b.inputs.get(socket) is not None:  # (Diffuse Roughness: 4.3+)
+            b.inputs[socket].default_value = value
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     nt.links.new(b.outputs["BSDF"], out.inputs["Surface"])
     mat.diffuse_color = (*albedo, 1.0)
@@ -115,8 +115,7 @@ def matched(name, albedo, roughness):
     PTIR's simplified Disney BRDF up to second-order terms (Fresnel at n.v instead of
     h.v, Smith instead of Schlick-GGX masking), without Principled's Burley diffuse."""
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    nt = mat.node_tree
+    nt = compat.ensure_nodes(mat)
     nt.nodes.clear()
     d = nt.nodes.new("ShaderNodeBsdfDiffuse")
     d.inputs["Color"].default_value = (*albedo, 1.0)

@@ -56,19 +56,17 @@ Bounds, and why:
 
 import json
 import os
-import shutil
 import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import blenders
+
 REPO = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
 CLI = BUILD / "bin" / "ptir"
-BLENDER = [os.environ.get("BLENDER", "blender"), "-b", "--factory-startup", "-noaudio", "--python-exit-code", "1"]
-
-pytestmark = pytest.mark.skipif(shutil.which(BLENDER[0]) is None, reason="blender not installed")
 
 ALBEDO_REL_TOL = 0.15
 SPHERE_ROUGHNESS_MAX = 0.6 - 0.25 * (0.6 - 0.25)  # a quarter of the way from init to truth
@@ -80,10 +78,15 @@ SPHERE_ROUGHNESS_MAX = 0.6 - 0.25 * (0.6 - 0.25)  # a quarter of the way from in
 # (albedo +2.4 dB, roughness MSE 0.0050 -> 0.0028), which this scene does not have.
 
 
-def test_recovers_known_materials_from_cycles_renders(ptir, tmp_path):
+@pytest.mark.parametrize("blender", blenders.params("3.4", "4.5"))
+def test_recovers_known_materials_from_cycles_renders(ptir, tmp_path, blender):
+    """Blender 3.4 renders Principled v1 and the run inverts under v1; bpy 4.5 renders v2 and the run
+    inverts under v2 (the model each set records in its "ptir_brdf"); the same bounds hold for both.
+    Measured at 6a99184+ (seed 1): worst albedo error 4.1 % (3.4, v1) / 3.3 % (4.5, v2); sphere roughness
+    0.421 / 0.427, cube 0.614 / 0.619 (truth 0.25 / 0.65)."""
     assert CLI.exists(), f"no CLI at {CLI}"
     data = tmp_path / "data"
-    r = subprocess.run([*BLENDER, "-P", str(Path(__file__).with_name("make_recovery_dataset.py")), "--", "--out", str(data)],
+    r = subprocess.run(blenders.command(blender, Path(__file__).with_name("make_recovery_dataset.py"), ["--out", data]),
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     truth = json.loads((data / "truth.json").read_text())["parts"]
