@@ -15,6 +15,22 @@
 
 namespace ptir {
 
+// A diffuse lobe's sample: wi cosine-weighted (as Cycles samples its diffuse closures),
+// weighted by the lobe's eval / pdf.
+template <class Lobe>
+BsdfSample sample_cosine(const Lobe& lobe, Vec3 wo, float u2, float u3) {
+  BsdfSample s;
+  if (!(wo.z > 0.0f)) return s;
+  const Vec3 wi = square_to_cosine_hemisphere(u2, u3);
+  const float pdf_wi = lobe.pdf(wi);
+  if (!(pdf_wi > 0.0f)) return s;
+  s.wi = wi;
+  s.pdf = pdf_wi;
+  s.weight = lobe.eval(wi) / pdf_wi;
+  s.valid = true;
+  return s;
+}
+
 class OrenNayarBsdf {
  public:
   OrenNayarBsdf(const MaterialParams& p, Vec3 wo) : b_(p.albedo), wo_(wo), raw_sigma_(p.roughness) {
@@ -26,18 +42,7 @@ class OrenNayarBsdf {
   Vec3 eval(Vec3 wi) const { return b_ * shape(wi); }
   float pdf(Vec3 wi) const { return wo_.z > 0.0f && wi.z > 0.0f ? wi.z * kInvPi : 0.0f; }
   BsdfEvalPdf eval_pdf(Vec3 wi) const { return {eval(wi), pdf(wi)}; }
-  BsdfSample sample(float /*u1*/, float u2, float u3) const {
-    BsdfSample s;
-    if (!(wo_.z > 0.0f)) return s;
-    Vec3 wi = square_to_cosine_hemisphere(u2, u3);
-    float pdf_wi = pdf(wi);
-    if (!(pdf_wi > 0.0f)) return s;
-    s.wi = wi;
-    s.pdf = pdf_wi;
-    s.weight = eval(wi) / pdf_wi;
-    s.valid = true;
-    return s;
-  }
+  BsdfSample sample(float /*u1*/, float u2, float u3) const { return sample_cosine(*this, wo_, u2, u3); }
   Vec3 eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
     const float k = shape(wi);
     if (!(k > 0.0f)) return Vec3(0.0f);

@@ -18,6 +18,7 @@
 
 #include "ptir/material/dual.h"
 #include "ptir/material/material_params.h"
+#include "ptir/material/oren_nayar.h"
 #include "ptir/material/principled_v2_lobes.h"
 #include "ptir/math/sampling.h"
 
@@ -33,18 +34,7 @@ class OrenNayarEonBsdf {
   }
   float pdf(Vec3 wi) const { return wo_.z > 0.0f && wi.z > 0.0f ? wi.z * kInvPi : 0.0f; }
   BsdfEvalPdf eval_pdf(Vec3 wi) const { return {eval(wi), pdf(wi)}; }
-  BsdfSample sample(float /*u1*/, float u2, float u3) const {
-    BsdfSample s;
-    if (!(wo_.z > 0.0f)) return s;
-    const Vec3 wi = square_to_cosine_hemisphere(u2, u3);
-    const float pdf_wi = pdf(wi);
-    if (!(pdf_wi > 0.0f)) return s;
-    s.wi = wi;
-    s.pdf = pdf_wi;
-    s.weight = eval(wi) / pdf_wi;
-    s.valid = true;
-    return s;
-  }
+  BsdfSample sample(float /*u1*/, float u2, float u3) const { return sample_cosine(*this, wo_, u2, u3); }
   Vec3 eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
     using D = Dual<4>;  // d/d(b R, G, B, sigma)
     const std::array<D, 3> f = value<D>({D::variable(b_.x, 0), D::variable(b_.y, 1), D::variable(b_.z, 2)},
