@@ -43,6 +43,7 @@ MeshSurface mesh_surface(const TriangleMesh& mesh, uint32_t prim, float u, float
     const Vec3 ns = mesh.shading_normal(prim, u, v);
     s.n = dot(ns, ng) < 0.0f ? -ns : ns;
   }
+  s.ns = s.n;
   if (!mm.textured()) return s;
   const Uv uv = mesh.uv_at(prim, u, v);
   // Textures replace the socket's constant (Roughness and Metallic read the colour's luminance, Cycles' conversion).

@@ -15,6 +15,7 @@ struct MeshSurface {
   // BSDF's reflection correction (transport/shading_normal.h): the face normal
   // (flat), the interpolated normal (smooth), or the normal map's.
   Vec3 n;
+  Vec3 ns;  // the surface's own normal (face or interpolated, on the viewer's side): n without the map
   MaterialParams material;
 };
 

@@ -250,7 +250,11 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     if (io.stats) io.stats->vertices++;
     Frame frame(ev.n);
     Vec3 wo = frame.to_local(-ray.d);
-    const Bsdf bsdf(resolve_bsdf(settings.brdf, ev.shader), ev.material, wo, settings.min_specular_probability);
+    Bsdf bsdf(resolve_bsdf(settings.brdf, ev.shader), ev.material, wo, settings.min_specular_probability);
+    // A mesh's closure normal other than its own (a normal map, the reflection correction):
+    // Cycles' bump shadowing of the diffuse lobe.
+    if (ev.kind == NextEvent::Mesh && !(ev.ns.x == ev.n.x && ev.ns.y == ev.n.y && ev.ns.z == ev.n.z))
+      bsdf.set_bump_shadowing(frame.to_local(ev.ns));
     SpawnContext here = scatterer.spawn_context(ev, ray);
     MaterialGrad vertex_grad;
 
