@@ -11,11 +11,21 @@ silhouette band. What the engine did before (every socket's own value: no textur
 scene without its normal maps must fall far below the bound. Node setups the engine cannot render
 (a ColorRamp between an image and Roughness, a Bump node on Normal) must be reported by name.
 
-Measured (128 x 128, 256 spp; 2 shared cores; see MEASURED below and docs/splat_shading.md):
-Bounds: whole >= WHOLE_DB, interior >= INTERIOR_DB (the lowest measured value of the two Blenders
-less about 1 dB, the spread of one 256-spp estimate); without textures the whole image must lose
->= 10 dB, without normal maps the interior >= 3 dB.
-Runtime: about 1.5 minutes per Blender (Cycles ~15 s, three 256-spp renders at 128 px).
+Measured (128 x 128, 256 spp, 5020 interior and 1905 band pixels; 2 shared cores; docs/splat_shading.md):
+                                     whole   interior   band
+  3.4  textures                      43.76    42.10    40.83 dB
+  3.4  no normal maps                23.76    18.91    26.65 dB
+  3.4  no textures (before)           6.82     6.22     6.66 dB
+  4.5  textures                      38.23    34.45    36.10 dB
+  4.5  no normal maps                23.70    18.86    26.55 dB
+  4.5  no textures (before)           7.79     7.25     8.06 dB
+(before Cycles' bump shadowing term on the diffuse lobe, 3.4: 32.91 dB whole, the sphere 11 % too bright.
+4.5's remaining deficit, 2-4 % darker next to the normal-mapped objects, is Principled v2 giving its
+diffuse closure the mapped normal without the reflection correction, which the engine's one shading
+frame does not separate.)
+Bounds (BOUNDS): the measured values less about 1 dB (the spread of one 256-spp estimate); without
+textures the whole image must lose >= 10 dB, without normal maps the interior >= 3 dB.
+Runtime: about 40 s per Blender (Cycles ~10 s, three 256-spp renders at 128 px).
 """
 
 import json
@@ -31,7 +41,7 @@ from ptir_blender.io import mesh_ply
 
 SCRIPT = "textured_mesh_scene.py"
 RES, SPP = 128, 256
-WHOLE_DB, INTERIOR_DB = 36.0, 34.0
+BOUNDS = {"3.4": (42.5, 41.0), "4.5": (37.0, 33.3)}  # (whole, interior) dB
 
 
 def erode(m, r=2):
@@ -96,7 +106,8 @@ def test_textured_meshes_match_cycles(ptir, blender):
     for name, e in rows.items():
         print("\nBlender %s %-15s whole %.2f dB, interior %.2f dB (%d px), silhouette band %.2f dB (%d px)"
               % (blender, name, psnr(e), psnr(e, inner), inner.sum(), psnr(e, band), band.sum()))
-    assert psnr(err) >= WHOLE_DB, "whole image %.2f dB against Cycles %s" % (psnr(err), blender)
-    assert psnr(err, inner) >= INTERIOR_DB, "interior %.2f dB against Cycles %s" % (psnr(err, inner), blender)
+    whole_db, interior_db = BOUNDS[blender]
+    assert psnr(err) >= whole_db, "whole image %.2f dB against Cycles %s" % (psnr(err), blender)
+    assert psnr(err, inner) >= interior_db, "interior %.2f dB against Cycles %s" % (psnr(err, inner), blender)
     assert psnr(err) - psnr(flat_err) >= 10.0, "the render without textures does about as well"
     assert psnr(err, inner) - psnr(no_nm_err, inner) >= 3.0, "the normal maps make no difference"
