@@ -17,7 +17,7 @@ Measured (128 x 128, 256 spp, 4058 interior and 2127 band pixels; 2 shared cores
   3.4 face normals        37.08     32.54     36.17 dB
   3.4 vertex normals      41.85     40.52     38.83 dB   (the band: 26 % of the remaining error)
   4.5 face normals        37.35     32.64     36.71 dB
-  4.5 vertex normals      42.68     40.91     40.25 dB
+  4.5 vertex normals      42.69     40.91     40.27 dB
 Bounds: whole >= 40 dB and interior >= 38.5 dB (the measured values less the spread of one 256-spp
 estimate, about 1 dB here); face normals must lose >= 4 dB of interior (they lose 8.0).
 Runtime: about 40-50 s per Blender (Cycles ~10 s, two 256-spp renders at 128 px).

@@ -55,10 +55,17 @@ class Bsdf {
   BsdfKind kind() const { return kind_; }
   // The surface's own normal ns (local frame) where the closure's normal (z) differs
   // from it (a normal map; a smooth normal tilted by the reflection correction): the
-  // diffuse lobe then carries Cycles' bump shadowing term (bump_shadowing).
-  void set_bump_shadowing(Vec3 ns_local) {
+  // diffuse lobe then carries Cycles' bump shadowing term (bump_shadowing). nd: the
+  // diffuse lobe's normal (local frame) where it is not z: Principled v2 gives its
+  // diffuse closure the normal before the reflection correction, which only its
+  // specular closures get (Cycles 4.x: maybe_ensure_valid_specular_reflection).
+  void set_bump_shadowing(Vec3 ns_local, Vec3 nd_local = Vec3(0.0f, 0.0f, 1.0f)) {
     bumped_ = true;
     ns_ = ns_local;
+    if (v2_ && !(nd_local.x == 0.0f && nd_local.y == 0.0f && nd_local.z == 1.0f)) {
+      split_diffuse_ = true;
+      diffuse_frame_ = Frame(nd_local);
+    }
   }
 
   // Cosine-weighted value f~(wo, wi).
@@ -133,15 +140,23 @@ class Bsdf {
     if (oren_nayar_) return oren_nayar_->eval_grad(wi, d_f, g);
     return disney_eval_grad(p_, wo_, wi, d_f, g);
   }
-  // f (the model's value at wi) with its diffuse part scaled by the bump shadowing term.
+  // f (the model's value at wi) with its diffuse part about its own normal and scaled
+  // by the bump shadowing term.
   Vec3 bump_shadowed(Vec3 wi, Vec3 f) const {
-    const float b = bump_shadowing(ns_, Vec3(0.0f, 0.0f, 1.0f), wi);
-    return b < 1.0f ? f - (1.0f - b) * model_eval_diffuse(wi) : f;
+    if (!split_diffuse_) {
+      const float b = bump_shadowing(ns_, Vec3(0.0f, 0.0f, 1.0f), wi);
+      return b < 1.0f ? f - (1.0f - b) * model_eval_diffuse(wi) : f;
+    }
+    const float b = bump_shadowing(ns_, diffuse_frame_.n, wi);
+    const Vec3 d = b > 0.0f ? v2_->eval_diffuse_at(diffuse_frame_.to_local(wo_), diffuse_frame_.to_local(wi)) : Vec3(0.0f);
+    return f - model_eval_diffuse(wi) + b * d;
   }
 
   BsdfKind kind_;
   bool bumped_ = false;
   Vec3 ns_{0.0f, 0.0f, 1.0f};
+  bool split_diffuse_ = false;  // v2: the diffuse lobe in its own frame
+  Frame diffuse_frame_;
   MaterialParams p_;
   Vec3 wo_;
   std::optional<PrincipledBsdf> principled_;

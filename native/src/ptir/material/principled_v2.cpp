@@ -236,6 +236,11 @@ Vec3 PrincipledV2Bsdf::eval_diffuse(Vec3 wi) const {
   return Vec3(f[0], f[1], f[2]);
 }
 
+Vec3 PrincipledV2Bsdf::eval_diffuse_at(Vec3 wo_d, Vec3 wi_d) const {
+  const Rgb<float> f = evaluate_diffuse(v_, wo_d, wi_d);
+  return Vec3(f[0], f[1], f[2]);
+}
+
 float PrincipledV2Bsdf::pdf(Vec3 wi) const {
   if (!v_.above || !(wi.z > 0.0f)) return 0.0f;
   return p_spec_ * specular_pdf(wi) + (1.0f - p_spec_) * wi.z * kInvPi;

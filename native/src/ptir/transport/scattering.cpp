@@ -140,7 +140,7 @@ NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, cons
     ev.kind = NextEvent::Gaussian;
     ev.t = si.depth;
     ev.p = si.p;
-    ev.n = ev.ng = ev.ns = si.n;
+    ev.n = ev.ng = ev.ns = ev.nm = si.n;
     ev.material = {si.albedo, si.roughness, si.metallic, si.specular, si.specular_tint};
     ev.shader = field_.shader;
     ev.size = si.size;
@@ -167,6 +167,7 @@ NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, cons
     // a normal other than the face's gets the BSDF's reflection correction.
     const MeshSurface surface = mesh_surface(mesh, end.mesh.prim, end.mesh.u, end.mesh.v, ray.d, ng);
     ev.ns = surface.ns;
+    ev.nm = surface.n;
     ev.n = mesh.smooth() || mesh.material.normal_map ? valid_reflection_normal(ng, -ray.d, surface.n) : ng;
     ev.material = surface.material;
     ev.shader = mesh.material.shader;
