@@ -37,22 +37,11 @@ import pytest
 import addon_common as ac
 import blenders
 from ptir_blender.io import mesh_ply
+from test_smooth_mesh import erode, psnr  # the interior / silhouette-band masks and PSNR of that test
 
 SCRIPT = "textured_mesh_scene.py"
 RES, SPP = 128, 256
 BOUNDS = {"3.4": (42.5, 41.0), "4.5": (38.0, 33.8)}  # (whole, interior) dB
-
-
-def erode(m, r=2):
-    out = m.copy()
-    for dy in range(-r, r + 1):
-        for dx in range(-r, r + 1):
-            out &= np.roll(np.roll(m, dy, 0), dx, 1)
-    return out
-
-
-def psnr(err, mask=None):
-    return 10.0 * np.log10(1.0 / float((err if mask is None else err[mask]).mean()))
 
 
 def constants(material):

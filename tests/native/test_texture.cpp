@@ -9,6 +9,7 @@
 
 #include "expect_error.h"
 #include "ptir/io/image.h"
+#include "ptir/material/bsdf.h"
 #include "ptir/scene/mesh.h"
 #include "ptir/scene/mesh_surface.h"
 #include "ptir/scene/mesh_tangents.h"
@@ -154,4 +155,33 @@ TEST(Texture, PlyUvsAndTangents) {
   EXPECT_NEAR(uv.v, 0.25f, 1e-6f);
   ASSERT_EQ(m.tangents.size(), 3u);
   EXPECT_EQ(m.tangent_signs[2], -1.0f);
+}
+
+TEST(Texture, BumpShadowingScalesTheDiffuseLobeOnly) {
+  // A closure normal tilted 30 degrees from the surface's own (a normal map): light the surface
+  // turns away from reaches the specular lobe only; light on its unshadowed side sees no change.
+  MaterialParams p;
+  p.albedo = Vec3(0.6f, 0.5f, 0.4f);
+  p.roughness = 0.4f;
+  const Vec3 wo = normalize(Vec3(0.2f, 0.1f, 1.0f));
+  const Vec3 ns = normalize(Vec3(std::sin(0.5236f), 0.0f, std::cos(0.5236f)));  // own normal, closure frame
+  for (BsdfKind kind : {BsdfKind::PrincipledGGX, BsdfKind::PrincipledV2GGX}) {
+    const Bsdf plain(kind, p, wo);
+    Bsdf bumped(kind, p, wo);
+    bumped.set_bump_shadowing(ns);
+    const Vec3 behind = normalize(Vec3(-0.9f, 0.0f, 0.3f));  // above the closure's normal, behind ns
+    ASSERT_LT(dot(behind, ns), 0.0f);
+    const Vec3 lit = normalize(Vec3(0.5f, 0.2f, 1.0f));  // g >= 1: unshadowed
+    EXPECT_GE(dot(lit, ns) / (dot(lit, Vec3(0, 0, 1)) * dot(ns, Vec3(0, 0, 1))), 1.0f);
+    expect_vec(bumped.eval(lit), plain.eval(lit), 0.0f);
+    const Vec3 f = bumped.eval(behind), full = plain.eval(behind);
+    EXPECT_LT(max_component(f), max_component(full));  // the diffuse part is gone
+    EXPECT_GT(max_component(f), 0.0f);                  // the specular part stays
+    // Between: the smooth step -g^3 + g^2 + g of g = (ns.wi) / ((n.wi)(ns.n)).
+    const Vec3 mid = normalize(Vec3(-0.3f, 0.0f, 1.0f));
+    const float g = dot(ns, mid) / (mid.z * ns.z);
+    ASSERT_GT(g, 0.0f);
+    ASSERT_LT(g, 1.0f);
+    EXPECT_NEAR(Bsdf::bump_shadowing(ns, Vec3(0, 0, 1), mid), -g * g * g + g * g + g, 1e-6f);
+  }
 }
