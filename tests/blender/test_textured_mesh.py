@@ -8,7 +8,9 @@ sampling or clamping, 2 bounces) and exports it with the add-on (UVs, MikkTSpace
 entries). This test renders the export with the native module at SPP and compares with Cycles: the
 whole image, the objects' interior (coverage 1 in a 5 x 5 neighbourhood, floor excluded) and their
 silhouette band. What the engine did before (every socket's own value: no textures) and the same
-scene without its normal maps must fall far below the bound. Node setups the engine cannot render
+scene without its normal maps must fall far below the bound. The add-on's F12 / viewport path,
+`ptir serve` loading the export and taking a mesh_material edit with the textured material (as
+engine_sync sends it), must render the same pixels as the scene file. Node setups the engine cannot render
 (a ColorRamp between an image and Roughness, a Bump node on Normal) must be reported by name.
 
 Measured (128 x 128, 256 spp, 5020 interior and 1905 band pixels; 2 shared cores; docs/splat_shading.md):
@@ -53,6 +55,34 @@ def constants(material):
     return m
 
 
+def serve_renders(scene, doc, scene_path, tmp, sphere_material, spp=4):
+    """(module render, `ptir serve` render of the loaded export, after a mesh_material request with the
+    sphere's textured material, after one with constants), RGB at spp."""
+    from ptir_blender.io.engine_process import EngineProcess
+    cam = doc["cameras"][0]
+    engine = EngineProcess(str(ac.CLI))
+    try:
+        assert engine.call({"cmd": "load", "scene": str(scene_path)})["ok"]
+
+        def render(name):
+            out = tmp / (name + ".raw")
+            r = engine.call({"cmd": "render", "camera_name": cam["name"], "output": str(out), "spp": spp})
+            assert r["ok"], r
+            return np.fromfile(out, np.float32).reshape(cam["height"], cam["width"], 4)[..., :3]
+
+        loaded = render("loaded")
+        assert engine.call({"cmd": "mesh_material", "mesh": "Sphere", "material": sphere_material})["ok"]
+        edited = render("edited")
+        plain = {k: v for k, v in sphere_material.items() if k != "normal_map"}
+        plain.update(base_color=[0.8, 0.8, 0.8], roughness=0.5)
+        assert engine.call({"cmd": "mesh_material", "mesh": "Sphere", "material": plain})["ok"]
+        constant = render("constant")
+    finally:
+        engine.close()
+    seed = doc.get("integrator", {}).get("seed", 0)  # serve renders with the scene's seed
+    return scene.render(spp=spp, seed=seed)[..., :3], loaded, edited, constant
+
+
 @pytest.mark.parametrize("blender", blenders.params("3.4", "4.5", needs=blenders.v2_needs()))
 def test_textured_meshes_match_cycles(ptir, blender):
     with tempfile.TemporaryDirectory(prefix="ptir_textured_mesh_") as tmp:
@@ -89,6 +119,13 @@ def test_textured_meshes_match_cycles(ptir, blender):
         no_nm = dict(doc, meshes=[dict(m, material={k: v for k, v in m["material"].items() if k != "normal_map"})
                                   for m in doc["meshes"]])
         no_nm_err = (ptir.scene_from_dict(no_nm, str(export)).render(spp=SPP, seed=3)[..., :3] - cycles) ** 2
+        served = serve_renders(scene, doc, export / "scene.json", d, mats["Sphere"])
+
+    # The add-on's F12 / viewport path (`ptir serve` loading the export, then a material edit sending the
+    # textured material as engine_sync does) renders the textures as the scene file does.
+    module, loaded, edited, constant = served
+    assert np.abs(loaded - module).max() <= 1e-6 and np.array_equal(loaded, edited)
+    assert np.abs(constant - loaded).max() > 0.1, "a mesh_material without textures changed nothing"
 
     rows = {"textures": err, "no normal maps": no_nm_err, "no textures": flat_err}
     for name, e in rows.items():
