@@ -19,6 +19,7 @@
 #include "ptir/render/aov.h"
 #include "ptir/render/render_path.h"
 #include "ptir/scene/camera.h"
+#include "ptir/scene/mesh_tangents.h"
 #include "ptir/scene/scene_json.h"
 #include "ptir/transport/orient_normals.h"
 
@@ -288,6 +289,7 @@ json ServeSession::mesh_material(const json& request) {
   for (TriangleMesh& m : scene_->meshes)
     if (m.name == name) {
       m.material = mesh_material_from_json_string(require(request, "material").dump(), "request: mesh '" + name + "'");
+      prepare_mesh_tangents(m);  // a normal map on a mesh written without tangents
       return {{"builds", builds_}};
     }
   throw Error("request: the loaded scene has no mesh named '" + name + "'");

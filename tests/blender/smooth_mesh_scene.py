@@ -1,12 +1,13 @@
 """Smooth-shaded meshes as an artist makes them, exported by the add-on, with Cycles renders.
 
-Run inside Blender 3.4, headless:
+Run inside Blender 3.4 or a bpy module (4.1+: the corner_normals export path), headless:
 
     blender -b --factory-startup -noaudio --python-exit-code 1 -P tests/blender/smooth_mesh_scene.py -- \
         --out-dir DIR [--res 128] [--samples 256] [--bounces 2]
 
 Three objects whose facets Cycles hides: a low-poly UV sphere (16 x 8, smooth shaded), a torus
-(24 x 12, smooth shaded) and a cylinder (16 sides) with auto smooth at 30 degrees (smooth sides,
+(24 x 12, smooth shaded) and a cylinder (16 sides) with auto smooth at 30 degrees (3.x; 4.1+: Shade
+Smooth by Angle, sharp edges from the angle) (smooth sides,
 sharp cap edges: split normals; its caps stay flat), on a flat-shaded floor plane. Uniform
 Principled materials, the dataset maker's "studio" environment. Writes
     DIR/cycles.npy          the Cycles (CPU) render, float32 H x W x 3 linear (no denoising, adaptive
@@ -49,7 +50,11 @@ def parse_args():
 def smooth(obj, auto_smooth_deg=None):
     for poly in obj.data.polygons:
         poly.use_smooth = True
-    if auto_smooth_deg is not None:  # Blender 3.x: Object Data > Normals > Auto Smooth
+    if auto_smooth_deg is None:
+        return
+    if hasattr(obj.data, "set_sharp_from_angle"):  # Blender 4.1+: Shade Smooth by Angle (sharp edges)
+        obj.data.set_sharp_from_angle(angle=math.radians(auto_smooth_deg))
+    else:  # Blender 3.x: Object Data > Normals > Auto Smooth
         obj.data.use_auto_smooth = True
         obj.data.auto_smooth_angle = math.radians(auto_smooth_deg)
 

@@ -71,8 +71,9 @@ def splat_materials(obj):
 
 
 def mesh_geometry_hash(obj, depsgraph):
-    co, tris, mat, normals = scene_export._evaluated_triangles(obj, depsgraph)
-    extra = () if normals is None else (normals.astype(np.float32),)  # smooth shading re-exports too
+    co, tris, mat, normals, uvs, _ = scene_export._evaluated_triangles(obj, depsgraph, ("", False), [])
+    # Smooth shading and UV edits re-export too.
+    extra = tuple(a.astype(np.float32) for a in (normals, uvs) if a is not None)
     return _hash_arrays(co.astype(np.float32), tris, mat, *extra)
 
 
@@ -83,6 +84,12 @@ def mesh_materials(obj, warnings=None):
     if len(slots) <= 1:
         return {obj.name: scene_export.material_params(slots[0].material if len(slots) else None, warnings)}
     return {obj.name + "_%d" % i: scene_export.material_params(s.material, warnings) for i, s in enumerate(slots)}
+
+
+def _texture_layout(mats):
+    """Which meshes' materials read textures, and which a normal map (what their PLYs must carry)."""
+    uses = scene_export.material_export.texture_export.uses_textures
+    return {name: (uses(m), "normal_map" in m) for name, m in mats.items()}
 
 
 class EngineSession:
@@ -244,7 +251,9 @@ class EngineSession:
             key, splats, meshes, lights, refs = self._membership(depsgraph)
             geo, mats = self._fingerprints(depsgraph, splats, meshes, refs, changed, data_changed)
             st = self.state
-            if st is None or st["key"] != key or st["geo"] != geo or (exact and st["moved"]):
+            # A material that gains or loses its textures needs the mesh written with (or without) UVs.
+            if (st is None or st["key"] != key or st["geo"] != geo or (exact and st["moved"])
+                    or _texture_layout(st["mats"]) != _texture_layout(mats)):
                 self._material_only.clear()
                 return self._load(depsgraph, integrator, key, geo, mats, splats)
             sent = []

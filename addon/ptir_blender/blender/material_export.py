@@ -15,13 +15,17 @@ Add sums emission); Reroute. Anything else: the material's viewport colour / rou
 Custom properties on the material override the conversion: ptir_base_color (3 floats), ptir_roughness,
 ptir_metallic, ptir_emission (3 floats).
 
-Nothing is dropped silently: a socket driven by a texture or other node uses its unlinked default value,
+Image textures (blender/texture_export.py): an Image Texture linked to Base Color, Roughness or Metallic
+becomes the field's texture entry, a tangent-space Normal Map node with an Image Texture on Normal the
+"normal_map" entry; any other node there is reported by a warning and the socket's value used.
+
+Nothing is dropped silently: a socket driven by another node uses its unlinked default value,
 and a Principled layer the engine does not render (v2: Coat, Sheen, Transmission, Subsurface Weight,
 Alpha < 1, Anisotropic, Thin Film; v1: Transmission, Subsurface, Clearcoat, Sheen) is left out; each adds
 a warning naming the material and the socket, which the export report and the operators' reports show.
 """
 
-from . import compat
+from . import compat, texture_export
 
 V1_FIELDS = {"specular": 0.5, "specular_tint": 0.0}
 V2_FIELDS = {"ior": 1.5, "specular_ior_level": 0.5, "specular_tint_color": [1.0, 1.0, 1.0], "diffuse_roughness": 0.0}
@@ -97,12 +101,28 @@ def _emission(node, colour_socket, warnings, what):
     return [float(em[i]) * s for i in range(3)]
 
 
-def principled_params(node, model, warnings, what):
-    """The engine parameters of a Principled BSDF node under `model` (its Blender's)."""
-    p = {"shader": _principled_shader(node),
-         "base_color": _rgb(_socket_value(node, "Base Color", warnings, what)),
-         "roughness": float(_socket_value(node, "Roughness", warnings, what)),
-         "metallic": float(_socket_value(node, "Metallic", warnings, what))}
+def _textured_inputs(node, p, warnings, what, uv_maps):
+    """Base Color, Roughness, Metallic: an Image Texture's entry where one drives the socket (else
+    its value; texture_export warns about other nodes there); Normal: a tangent-space Normal Map."""
+    for key, name in (("base_color", "Base Color"), ("roughness", "Roughness"), ("metallic", "Metallic")):
+        found = texture_export.socket_texture(node, name, warnings, what)
+        if found is not None:
+            p[key], uv = found
+            uv_maps.append(uv)
+        else:
+            v = node.inputs[name].default_value
+            p[key] = _rgb(v) if key == "base_color" else float(v)
+    found = texture_export.normal_map(node, warnings, what)
+    if found is not None:
+        p["normal_map"], uv = found
+        uv_maps.append(uv)
+
+
+def principled_params(node, model, warnings, what, uv_maps=None):
+    """The engine parameters of a Principled BSDF node under `model` (its Blender's); the UV maps its
+    textures read are appended to uv_maps."""
+    p = {"shader": _principled_shader(node)}
+    _textured_inputs(node, p, warnings, what, [] if uv_maps is None else uv_maps)
     if model == "principled-v2":
         tint = _socket_value(node, "Specular Tint", warnings, what)
         p.update({"ior": _optional_float(node, "IOR", 1.5, warnings, what),
@@ -131,6 +151,20 @@ def output_surface_node(tree):
     return sock.links[0].from_node
 
 
+def _constants(p, warnings, what):
+    """Shader parameters with textures replaced by a constant (a mix of parameters cannot hold an image)."""
+    if p is None:
+        return None
+    for key, default in (("base_color", [0.8, 0.8, 0.8]), ("roughness", 0.5), ("metallic", 0.0)):
+        if texture_export.is_texture(p.get(key)):
+            warnings.append("%s: the image on %s is inside a Mix/Add Shader; the engine mixes constants there "
+                            "(%r used)" % (what, key, default))
+            p[key] = default
+    if p.pop("normal_map", None) is not None:
+        warnings.append("%s: a normal map inside a Mix/Add Shader is not rendered" % what)
+    return p
+
+
 def _mix(parts, weights, add, model):
     """The weighted mix of shader parameters (Mix Shader: by Fac; Add Shader: emission summed)."""
     present = [(w, p) for w, p in zip(weights, parts) if p is not None]
@@ -157,16 +191,17 @@ def _mix(parts, weights, add, model):
     return out
 
 
-def shader_params(node, model, warnings, what, depth=0):
+def shader_params(node, model, warnings, what, depth=0, uv_maps=None):
     """Parameters of the shader graph rooted at node, or None when it is not understood."""
     if node is None or depth > 16:
         return None
     t = node.type
     if t == "REROUTE":
         sock = node.inputs[0]
-        return shader_params(sock.links[0].from_node if sock.is_linked else None, model, warnings, what, depth + 1)
+        return shader_params(sock.links[0].from_node if sock.is_linked else None, model, warnings, what, depth + 1,
+                             uv_maps)
     if t == "BSDF_PRINCIPLED":
-        return principled_params(node, model, warnings, what)
+        return principled_params(node, model, warnings, what, uv_maps)
     if t == "BSDF_DIFFUSE":
         return {"shader": "diffuse", "base_color": _rgb(_socket_value(node, "Color", warnings, what)),
                 "roughness": float(_socket_value(node, "Roughness", warnings, what)), "metallic": 0.0,
@@ -182,8 +217,8 @@ def shader_params(node, model, warnings, what, depth=0):
                 "emission": [float(c[i]) * s for i in range(3)]}
     if t in ("MIX_SHADER", "ADD_SHADER"):
         shader_inputs = [s for s in node.inputs if s.type == "SHADER"]
-        parts = [shader_params(s.links[0].from_node, model, warnings, what, depth + 1) if s.is_linked else None
-                 for s in shader_inputs[:2]]
+        parts = [_constants(shader_params(s.links[0].from_node, model, warnings, what, depth + 1), warnings, what)
+                 if s.is_linked else None for s in shader_inputs[:2]]
         if t == "MIX_SHADER":
             fac = _clamp01(_socket_value(node, "Fac", warnings, what))
             weights = [1.0 - fac, fac]
@@ -198,13 +233,15 @@ def shader_params(node, model, warnings, what, depth=0):
 
 def _finish(p, model, warnings, what):
     """Fills the model's defaults and clamps to the ranges Blender's nodes allow."""
-    for i in range(3):
-        if not 0.0 <= p["base_color"][i] <= 1.0:
-            warnings.append("%s: base colour %r clamped to [0, 1]" % (what, p["base_color"]))
-            p["base_color"] = [_clamp01(x) for x in p["base_color"]]
-            break
-    p["roughness"] = _clamp01(p["roughness"])
-    p["metallic"] = _clamp01(p["metallic"])
+    if not texture_export.is_texture(p["base_color"]):
+        for i in range(3):
+            if not 0.0 <= p["base_color"][i] <= 1.0:
+                warnings.append("%s: base colour %r clamped to [0, 1]" % (what, p["base_color"]))
+                p["base_color"] = [_clamp01(x) for x in p["base_color"]]
+                break
+    for key in ("roughness", "metallic"):
+        if not texture_export.is_texture(p[key]):
+            p[key] = _clamp01(p[key])
     for k, d in model_fields(model).items():
         p.setdefault(k, list(d) if isinstance(d, list) else d)
     if model == "principled-v2":
@@ -220,9 +257,10 @@ def _finish(p, model, warnings, what):
     return p
 
 
-def material_params(material, warnings=None, model=None):
+def material_params(material, warnings=None, model=None, uv_maps=None):
     """The engine material of a Blender material (None: the default material) under `model`
-    (default: this Blender's, compat.principled_model())."""
+    (default: this Blender's, compat.principled_model()); the names of the UV maps its image
+    textures read ("" = the mesh's default) are appended to uv_maps."""
     warnings = [] if warnings is None else warnings
     model = model or compat.principled_model()
     if material is None:
@@ -234,7 +272,7 @@ def material_params(material, warnings=None, model=None):
         p = {"base_color": _rgb(material["ptir_base_color"]), "roughness": 0.5, "metallic": 0.0,
              "emission": [0.0, 0.0, 0.0]}
     elif compat.uses_nodes(material):
-        p = shader_params(output_surface_node(material.node_tree), model, warnings, what)
+        p = shader_params(output_surface_node(material.node_tree), model, warnings, what, uv_maps=uv_maps)
         if p is None:
             warnings.append("%s: surface shader not understood; using its viewport display values" % what)
     if p is None:

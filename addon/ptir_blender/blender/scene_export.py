@@ -78,11 +78,54 @@ def _corner_normals(mesh):
     return ln.reshape(-1, 3)
 
 
-def _evaluated_triangles(obj, depsgraph):
-    """World-space vertices (n, 3) float64, triangles (m, 3) int64, per-triangle material index
-    and world-space corner normals (m, 3, 3) (None: flat faces)."""
+def _uv_layer(mesh, name, warnings, what):
+    """The mesh's UV map called name ("": the render-active one, as Cycles' default), or None."""
+    layers = mesh.uv_layers
+    warnings = [] if warnings is None else warnings
+    if not len(layers):
+        warnings.append("%s has image textures but no UV map; they read UV (0, 0) as in Cycles" % what)
+        return None
+    if name:
+        if name not in layers:
+            warnings.append("%s has no UV map '%s'; the default one is used" % (what, name))
+        else:
+            return layers[name]
+    return next((l for l in layers if l.active_render), layers.active or layers[0])
+
+
+def _corner_uvs_tangents(mesh, uv_name, want_tangents, warnings, what):
+    """Per-loop UVs (n_loops, 2) and MikkTSpace tangents with bitangent sign (n_loops, 4) (None when
+    not wanted or not computable) of a UV map."""
+    layer = _uv_layer(mesh, uv_name, warnings, what)
+    if layer is None:
+        return None, None
+    uv = np.empty(len(mesh.loops) * 2, np.float64)
+    layer.data.foreach_get("uv", uv)
+    tangents = None
+    if want_tangents:
+        try:
+            mesh.calc_tangents(uvmap=layer.name)
+            t = np.empty(len(mesh.loops) * 3, np.float64)
+            sign = np.empty(len(mesh.loops), np.float64)
+            mesh.loops.foreach_get("tangent", t)
+            mesh.loops.foreach_get("bitangent_sign", sign)
+            tangents = np.concatenate([t.reshape(-1, 3), sign[:, None]], axis=1)
+        except RuntimeError as e:  # n-gons: the engine derives tangents from the UVs
+            warnings.append("%s: Blender cannot compute tangents (%s); the engine derives them from the UVs"
+                            % (what, str(e).strip()))
+        finally:
+            if hasattr(mesh, "free_tangents"):
+                mesh.free_tangents()
+    return uv.reshape(-1, 2), tangents
+
+
+def _evaluated_triangles(obj, depsgraph, uv_request=None, warnings=None):
+    """World-space vertices (n, 3) float64, triangles (m, 3) int64, per-triangle material index,
+    world-space corner normals (m, 3, 3) (None: flat faces), corner UVs (m, 3, 2) and corner
+    tangents with sign (m, 3, 4) (None unless uv_request = (uv map name, tangents wanted))."""
     ev = obj.evaluated_get(depsgraph)
     mesh = ev.to_mesh()
+    uvs = tangents = None
     try:
         mesh.calc_loop_triangles()
         nv, nt = len(mesh.vertices), len(mesh.loop_triangles)
@@ -93,41 +136,78 @@ def _evaluated_triangles(obj, depsgraph):
         mat = np.empty(nt, np.int64)
         mesh.loop_triangles.foreach_get("material_index", mat)
         normals = _corner_normals(mesh)
+        loops = np.empty(nt * 3, np.int64)
+        mesh.loop_triangles.foreach_get("loops", loops)
         if normals is not None:
-            loops = np.empty(nt * 3, np.int64)
-            mesh.loop_triangles.foreach_get("loops", loops)
             normals = normals[loops]
+        if uv_request is not None:
+            uvs, tangents = _corner_uvs_tangents(mesh, uv_request[0], uv_request[1], warnings,
+                                                 "object '%s'" % obj.name)
+            uvs = None if uvs is None else uvs[loops].reshape(-1, 3, 2)
+            tangents = None if tangents is None else tangents[loops]
     finally:
         ev.to_mesh_clear()
     m = np.array(obj.matrix_world, np.float64)
     co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
     if normals is not None:  # normals go by the inverse transpose
         normals = (normals @ np.linalg.inv(m[:3, :3])).reshape(-1, 3, 3)
-    return co, tris.reshape(-1, 3), mat, normals
+    if tangents is not None:  # tangents are surface directions; a mirror flips the bitangent's sign
+        t = tangents[:, :3] @ m[:3, :3].T
+        t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-30)
+        sign = tangents[:, 3:] * (-1.0 if np.linalg.det(m[:3, :3]) < 0 else 1.0)
+        tangents = np.concatenate([t, sign], axis=1).reshape(-1, 3, 4)
+    return co, tris.reshape(-1, 3), mat, normals, uvs, tangents
+
+
+def _uv_request(materials, warnings, what):
+    """(uv map name, tangents wanted) the slots' textures need, or None without textures; the
+    parameters of each slot's material (the UV map is the first one named; others are reported)."""
+    params, names = [], []
+    for material in materials:
+        uv_maps = []
+        params.append(material_params(material, warnings, uv_maps=uv_maps))
+        names += uv_maps
+    textured = [p for p in params if material_export.texture_export.uses_textures(p)]
+    if not textured:
+        return params, None
+    if len(set(names)) > 1:
+        warnings.append("%s: its textures read UV maps %s; the engine reads one UV map per mesh ('%s')"
+                        % (what, sorted(set(names)), names[0]))
+    return params, (names[0] if names else "", any("normal_map" in p for p in textured))
 
 
 def export_mesh_object(obj, depsgraph, out_dir, warnings):
     """Writes one PLY per material slot used; returns the scene "meshes" entries."""
-    co, tris, mat_index, corner_normals = _evaluated_triangles(obj, depsgraph)
+    slots = obj.material_slots
+    materials = [s.material for s in slots] or [None]
+    params, uv_request = _uv_request(materials, warnings, "object '%s'" % obj.name)
+    co, tris, mat_index, corner_normals, corner_uvs, corner_tangents = _evaluated_triangles(
+        obj, depsgraph, uv_request, warnings)
     if len(tris) == 0:
         return []
-    slots = obj.material_slots
     entries = []
     for idx in np.unique(mat_index):
         sel = tris[mat_index == idx]
-        normals = None
-        if corner_normals is not None:  # smooth shading: a vertex per distinct corner normal
-            verts, normals, faces = mesh_ply.split_corners(co, sel, corner_normals[mat_index == idx])
+        here = mat_index == idx
+        attrs = {"normals": None if corner_normals is None else corner_normals[here],
+                 "uvs": None if corner_uvs is None else corner_uvs[here],
+                 "tangents": None if corner_tangents is None else corner_tangents[here]}
+        if any(a is not None for a in attrs.values()):
+            # A vertex per distinct corner (normal, UV, tangent): sharp edges and UV seams stay sharp.
+            verts, split, faces = mesh_ply.split_corner_attributes(co, sel, **attrs)
+            if "normals" in split:
+                split["normals"] /= np.maximum(np.linalg.norm(split["normals"], axis=1, keepdims=True), 1e-30)
         else:
             used, inverse = np.unique(sel.reshape(-1), return_inverse=True)
-            verts = co[used]
+            verts, split = co[used], {}
             faces = inverse.reshape(-1, 3)
-        material = slots[int(idx)].material if 0 <= int(idx) < len(slots) else None
+        k = int(idx) if 0 <= int(idx) < len(slots) else -1
+        material = params[k] if k >= 0 else (params[0] if not len(slots) else material_params(None, warnings))
         suffix = "" if len(slots) <= 1 else "_%d" % int(idx)
         fname = "mesh_%s%s.ply" % (_safe_name(obj.name), suffix)
         mesh_ply.write_mesh_ply(os.path.join(out_dir, fname), verts, faces, comment="PTIR export of %s" % obj.name,
-                                normals=normals)
-        entries.append({"name": obj.name + suffix, "file": fname, "material": material_params(material, warnings)})
+                                normals=split.get("normals"), uvs=split.get("uvs"), tangents=split.get("tangents"))
+        entries.append({"name": obj.name + suffix, "file": fname, "material": material})
     return entries
 
 

@@ -90,7 +90,7 @@ void write_image(const std::string& path, const Image& image, Encoding encoding)
   });
 }
 
-Image read_image(const std::string& path, Encoding encoding) {
+Image read_image(const std::string& path, Encoding encoding, bool* stored_as_bytes) {
   // "file not found"; a FIFO or a device is refused before OIIO blocks on it; an
   // EXR header's attributes must fit in the file before OpenEXR allocates them.
   check_exr_header(path, check_regular_file(path, "image"));
@@ -116,6 +116,8 @@ Image read_image(const std::string& path, Encoding encoding) {
   }
   bool eight_bit = !is_float_format(lower_extension(path)) && spec.format.basetype != OIIO::TypeDesc::FLOAT &&
                    spec.format.basetype != OIIO::TypeDesc::HALF;
+  if (stored_as_bytes)
+    *stored_as_bytes = spec.format.basetype == OIIO::TypeDesc::UINT8 || spec.format.basetype == OIIO::TypeDesc::INT8;
   if (eight_bit && encoding == Encoding::Colour) {
     for (size_t i = 0; i < image.pixels.size(); ++i) {
       int c = int(i % size_t(image.channels));

@@ -31,7 +31,9 @@ void write_image(const std::string& path, const Image& image, Encoding encoding 
 
 // Reads any format OpenImageIO knows. 8-bit colour files are decoded from sRGB to
 // linear when encoding == Colour. Throws ptir::Error naming the file.
-Image read_image(const std::string& path, Encoding encoding = Encoding::Colour);
+// stored_as_bytes (optional) tells whether the file held 8-bit (integer) values
+// rather than float or half ones (Cycles filters 8-bit sRGB textures before decoding).
+Image read_image(const std::string& path, Encoding encoding = Encoding::Colour, bool* stored_as_bytes = nullptr);
 
 float srgb_to_linear(float c);
 float linear_to_srgb(float c);

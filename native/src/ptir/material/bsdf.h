@@ -60,15 +60,23 @@ class Bsdf {
   }
 
   BsdfKind kind() const { return kind_; }
+  // The surface's own normal ns (local frame) where the closure's normal (z) differs
+  // from it (a normal map; a smooth normal tilted by the reflection correction): the
+  // diffuse lobe then carries Cycles' bump shadowing term (bump_shadowing). nd: the
+  // diffuse lobe's normal (local frame) where it is not z: Principled v2 gives its
+  // diffuse closure the normal before the reflection correction, which only its
+  // specular closures get (Cycles 4.x: maybe_ensure_valid_specular_reflection).
+  void set_bump_shadowing(Vec3 ns_local, Vec3 nd_local = Vec3(0.0f, 0.0f, 1.0f)) {
+    bumped_ = true;
+    ns_ = ns_local;
+    if (v2_ && !(nd_local.x == 0.0f && nd_local.y == 0.0f && nd_local.z == 1.0f)) {
+      split_diffuse_ = true;
+      diffuse_frame_ = Frame(nd_local);
+    }
+  }
 
   // Cosine-weighted value f~(wo, wi).
-  Vec3 eval(Vec3 wi) const {
-    if (principled_) return principled_->eval(wi);
-    if (v2_) return v2_->eval(wi);
-    if (oren_nayar_) return oren_nayar_->eval(wi);
-    if (eon_) return eon_->eval(wi);
-    return disney_eval(p_, wo_, wi);
-  }
+  Vec3 eval(Vec3 wi) const { return bumped_ ? bump_shadowed(wi, model_eval(wi)) : model_eval(wi); }
   // Density of sample() over wi.
   float pdf(Vec3 wi) const {
     if (principled_) return principled_->pdf(wi);
@@ -78,31 +86,90 @@ class Bsdf {
     return disney_pdf(p_, wo_, wi);
   }
   BsdfEvalPdf eval_pdf(Vec3 wi) const {
+    BsdfEvalPdf r = model_eval_pdf(wi);
+    if (bumped_) r.f = bump_shadowed(wi, r.f);
+    return r;
+  }
+  // Three uniforms: u1 picks a lobe, (u2, u3) sample it.
+  BsdfSample sample(float u1, float u2, float u3) const {
+    BsdfSample s = model_sample(u1, u2, u3);
+    if (bumped_ && s.valid) s.weight = bump_shadowed(s.wi, s.weight * s.pdf) / s.pdf;
+    return s;
+  }
+  // Adds the material adjoints for the adjoint d_f of f~(wo, wi); returns f~. (With bump
+  // shadowing the returned value carries it; the adjoints are the unshadowed lobes'.)
+  Vec3 eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
+    const Vec3 f = model_eval_grad(wi, d_f, g);
+    return bumped_ ? bump_shadowed(wi, f) : f;
+  }
+
+  // Cycles' bump shadowing term (Chiang et al. 2019, "Taming the Shadow Terminator";
+  // bump_shadowing_term in its kernel, applied to diffuse closures): light arriving
+  // along wi on the side the surface's own normal Ns turns away from fades out
+  // smoothly instead of lighting the tilted closure normal N fully. 1 where N = Ns.
+  static float bump_shadowing(Vec3 Ns, Vec3 N, Vec3 wi) {
+    const float denom = dot(N, wi) * dot(Ns, N);
+    const float g = denom != 0.0f ? dot(Ns, wi) / denom : 0.0f;
+    if (g >= 1.0f) return 1.0f;  // the unshadowed side
+    if (g < 0.0f) return 0.0f;   // light from behind the surface
+    const float g2 = g * g;
+    return -g2 * g + g2 + g;  // a smooth step at the terminator
+  }
+
+ private:
+  Vec3 model_eval(Vec3 wi) const {
+    if (principled_) return principled_->eval(wi);
+    if (v2_) return v2_->eval(wi);
+    if (oren_nayar_) return oren_nayar_->eval(wi);
+    if (eon_) return eon_->eval(wi);
+    return disney_eval(p_, wo_, wi);
+  }
+  // The diffuse lobe's part of model_eval (the simplified Disney model: none).
+  Vec3 model_eval_diffuse(Vec3 wi) const {
+    if (principled_) return principled_->eval_diffuse(wi);
+    if (v2_) return v2_->eval_diffuse(wi);
+    if (oren_nayar_) return oren_nayar_->eval(wi);
+    if (eon_) return eon_->eval(wi);
+    return Vec3(0.0f);
+  }
+  BsdfEvalPdf model_eval_pdf(Vec3 wi) const {
     if (principled_) return principled_->eval_pdf(wi);
     if (v2_) return v2_->eval_pdf(wi);
     if (oren_nayar_) return oren_nayar_->eval_pdf(wi);
     if (eon_) return eon_->eval_pdf(wi);
     return disney_eval_pdf(p_, wo_, wi);
   }
-  // Three uniforms: u1 picks a lobe, (u2, u3) sample it.
-  BsdfSample sample(float u1, float u2, float u3) const {
+  BsdfSample model_sample(float u1, float u2, float u3) const {
     if (principled_) return principled_->sample(u1, u2, u3);
     if (v2_) return v2_->sample(u1, u2, u3);
     if (oren_nayar_) return oren_nayar_->sample(u1, u2, u3);
     if (eon_) return eon_->sample(u1, u2, u3);
     return disney_sample(p_, wo_, u1, u2, u3);
   }
-  // Adds the material adjoints for the adjoint d_f of f~(wo, wi); returns f~.
-  Vec3 eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
+  Vec3 model_eval_grad(Vec3 wi, Vec3 d_f, MaterialGrad& g) const {
     if (principled_) return principled_->eval_grad(wi, d_f, g);
     if (v2_) return v2_->eval_grad(wi, d_f, g);
     if (oren_nayar_) return oren_nayar_->eval_grad(wi, d_f, g);
     if (eon_) return eon_->eval_grad(wi, d_f, g);
     return disney_eval_grad(p_, wo_, wi, d_f, g);
   }
+  // f (the model's value at wi) with its diffuse part about its own normal and scaled
+  // by the bump shadowing term.
+  Vec3 bump_shadowed(Vec3 wi, Vec3 f) const {
+    if (!split_diffuse_) {
+      const float b = bump_shadowing(ns_, Vec3(0.0f, 0.0f, 1.0f), wi);
+      return b < 1.0f ? f - (1.0f - b) * model_eval_diffuse(wi) : f;
+    }
+    const float b = bump_shadowing(ns_, diffuse_frame_.n, wi);
+    const Vec3 d = b > 0.0f ? v2_->eval_diffuse_at(diffuse_frame_.to_local(wo_), diffuse_frame_.to_local(wi)) : Vec3(0.0f);
+    return f - model_eval_diffuse(wi) + b * d;
+  }
 
- private:
   BsdfKind kind_;
+  bool bumped_ = false;
+  Vec3 ns_{0.0f, 0.0f, 1.0f};
+  bool split_diffuse_ = false;  // v2: the diffuse lobe in its own frame
+  Frame diffuse_frame_;
   MaterialParams p_;
   Vec3 wo_;
   std::optional<PrincipledBsdf> principled_;

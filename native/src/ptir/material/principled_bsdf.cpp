@@ -185,6 +185,11 @@ Vec3 PrincipledBsdf::eval(Vec3 wi) const {
   return diffuse_weight_ * tm.Kd + F * M * st.S;
 }
 
+Vec3 PrincipledBsdf::eval_diffuse(Vec3 wi) const {
+  if (!above_ || !(wi.z > 0.0f)) return Vec3(0.0f);
+  return diffuse_weight_ * terms(wi).Kd;
+}
+
 float PrincipledBsdf::pdf(Vec3 wi) const {
   if (!above_ || !(wi.z > 0.0f)) return 0.0f;
   const Vec3 h = half_vector_of(wo_, wi);

@@ -70,6 +70,7 @@ class PrincipledBsdf {
   PrincipledBsdf(const MaterialParams& p, Vec3 wo, bool multiscatter, float min_specular_prob = kMinSpecularProb);
 
   Vec3 eval(Vec3 wi) const;   // f~ = f max(n.wi, 0); zero unless n.wo > 0 and n.wi > 0
+  Vec3 eval_diffuse(Vec3 wi) const;  // the diffuse lobe's part of eval
   float pdf(Vec3 wi) const;   // density of sample()
   BsdfEvalPdf eval_pdf(Vec3 wi) const;
   // u1 picks the lobe, (u2, u3) sample it.

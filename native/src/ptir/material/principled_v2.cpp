@@ -174,14 +174,23 @@ Rgb<T> evaluate(const Vertex<T>& v, Vec3 wo, Vec3 wi) {
     }
   }
   // The diffuse base.
+  const Rgb<T> d = evaluate_diffuse(v, wo, wi);
+  for (int k = 0; k < 3; ++k) f[k] = f[k] + d[k];
+  return f;
+}
+
+template <class T>
+Rgb<T> evaluate_diffuse(const Vertex<T>& v, Vec3 wo, Vec3 wi) {
+  Rgb<T> f{T(0.0f), T(0.0f), T(0.0f)};
+  if (!v.above || !(wi.z > 0.0f)) return f;
   if (v.oren_nayar) {
     float t = dot(wo, wi) - wi.z * wo.z;
     if (t > 0.0f) t /= std::max(wi.z, wo.z) + FLT_MIN;
     const float single = v.on_a + v.on_b * t;
     const float E_on_i = v.on_a * kPi + v.on_b * oren_nayar_G(wi.z);
-    for (int k = 0; k < 3; ++k) f[k] = f[k] + v.w_diffuse[k] * (wi.z * (single + v.on_ms[k] * (1.0f - E_on_i)));
+    for (int k = 0; k < 3; ++k) f[k] = v.w_diffuse[k] * (wi.z * (single + v.on_ms[k] * (1.0f - E_on_i)));
   } else {
-    for (int k = 0; k < 3; ++k) f[k] = f[k] + v.w_diffuse[k] * (wi.z * kInvPi);
+    for (int k = 0; k < 3; ++k) f[k] = v.w_diffuse[k] * (wi.z * kInvPi);
   }
   return f;
 }
@@ -189,6 +198,7 @@ Rgb<T> evaluate(const Vertex<T>& v, Vec3 wo, Vec3 wi) {
 template Vertex<float> prepare<float>(const Inputs<float>&, const MaterialParams&, Vec3, bool);
 template Vertex<Dual<5>> prepare<Dual<5>>(const Inputs<Dual<5>>&, const MaterialParams&, Vec3, bool);
 template Rgb<float> evaluate<float>(const Vertex<float>&, Vec3, Vec3);
+template Rgb<float> evaluate_diffuse<float>(const Vertex<float>&, Vec3, Vec3);
 template Rgb<Dual<5>> evaluate<Dual<5>>(const Vertex<Dual<5>>&, Vec3, Vec3);
 
 }  // namespace principled_v2_detail
@@ -218,6 +228,16 @@ float PrincipledV2Bsdf::specular_pdf(Vec3 wi) const {
 
 Vec3 PrincipledV2Bsdf::eval(Vec3 wi) const {
   const Rgb<float> f = evaluate(v_, wo_, wi);
+  return Vec3(f[0], f[1], f[2]);
+}
+
+Vec3 PrincipledV2Bsdf::eval_diffuse(Vec3 wi) const {
+  const Rgb<float> f = evaluate_diffuse(v_, wo_, wi);
+  return Vec3(f[0], f[1], f[2]);
+}
+
+Vec3 PrincipledV2Bsdf::eval_diffuse_at(Vec3 wo_d, Vec3 wi_d) const {
+  const Rgb<float> f = evaluate_diffuse(v_, wo_d, wi_d);
   return Vec3(f[0], f[1], f[2]);
 }
 

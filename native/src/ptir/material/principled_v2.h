@@ -32,6 +32,9 @@ class PrincipledV2Bsdf {
   PrincipledV2Bsdf(const MaterialParams& p, Vec3 wo, bool multiscatter, float min_specular_prob = kMinSpecularProb);
 
   Vec3 eval(Vec3 wi) const;  // f~ = f max(n.wi, 0); zero unless n.wo > 0 and n.wi > 0
+  Vec3 eval_diffuse(Vec3 wi) const;  // the diffuse base's part of eval
+  // The diffuse base about another normal: wo and wi in that normal's frame (its weight stays this vertex's).
+  Vec3 eval_diffuse_at(Vec3 wo_d, Vec3 wi_d) const;
   float pdf(Vec3 wi) const;  // density of sample()
   BsdfEvalPdf eval_pdf(Vec3 wi) const;
   // u1 picks the strategy, (u2, u3) sample it.

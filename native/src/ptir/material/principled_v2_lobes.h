@@ -136,6 +136,9 @@ template <class T>
 Vertex<T> prepare(const Inputs<T>& in, const MaterialParams& p, Vec3 wo, bool multiscatter);
 template <class T>
 Rgb<T> evaluate(const Vertex<T>& v, Vec3 wo, Vec3 wi);
+// The diffuse base's part of evaluate.
+template <class T>
+Rgb<T> evaluate_diffuse(const Vertex<T>& v, Vec3 wo, Vec3 wi);
 
 }  // namespace principled_v2_detail
 }  // namespace ptir

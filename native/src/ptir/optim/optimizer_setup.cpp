@@ -93,6 +93,11 @@ Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<Gau
                                   " instead (the optimiser's Gaussians come from one PLY)");
     if (scene.environment.present() && note)
       note("the scene's environment is ignored: the environment is what gets recovered");
+    // Recovered mesh materials are constants: a textured input would ignore them.
+    for (const TriangleMesh& m : scene.meshes)
+      if (s.params.optimize_meshes && m.material.textured())
+        throw Error(scene_path, "mesh '" + m.name + "' has image textures; " + names("optimize_meshes") +
+                                    " recovers constant materials only (leave that mesh's material out)");
     const IntegratorSettings& is = scene.integrator;
     s.integrator.interaction = is.interaction;
     s.integrator.geometric_criterion = is.geometric_criterion;

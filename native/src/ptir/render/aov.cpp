@@ -8,6 +8,7 @@
 
 #include "ptir/core/error.h"
 #include "ptir/math/path_sampler.h"
+#include "ptir/scene/mesh_surface.h"
 
 namespace ptir {
 
@@ -63,13 +64,14 @@ AovSample aov_sample(const SceneAccel& accel, const Ray& ray, const SurfaceInter
     if (dot(ng, ray.d) > 0.0f) ng = -ng;
     s.opacity += T;
     // Preview shades the mesh by its base colour under a headlight (display space).
-    Vec3 shaded = mesh.material.base_colour * std::fabs(dot(ng, ray.d));
+    const Vec3 base_colour = mesh_base_colour(mesh, end.mesh.prim, end.mesh.u, end.mesh.v);
+    Vec3 shaded = base_colour * std::fabs(dot(ng, ray.d));
     s.preview += T * Vec3(linear_to_srgb(shaded.x), linear_to_srgb(shaded.y), linear_to_srgb(shaded.z));
     if (!si.valid) {
       s.hit = true;
       s.depth = end.mesh.t;
       s.normal = ng;
-      s.albedo = mesh.material.base_colour;
+      s.albedo = base_colour;
       s.roughness = mesh.material.roughness;
       s.metallic = mesh.material.metallic;
     }

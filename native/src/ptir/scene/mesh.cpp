@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <string_view>
 
@@ -45,6 +46,33 @@ void load_ply_mesh(const std::string& path, TriangleMesh& mesh) {
       if (!is_finite(n) || !(length_sq(n) > 0.0f))
         throw Error(path, "vertex " + std::to_string(i) + " has a zero or non-finite normal");
       mesh.normals[i] = normalize(n);
+    }
+  }
+
+  // Texture coordinates: s, t (Blender's PLY names) or u, v; tangents: tx, ty, tz, tw.
+  const char* uv_names[2][2] = {{"s", "t"}, {"u", "v"}};
+  for (const auto& names : uv_names) {
+    if (!vertex->get(names[0]) && !vertex->get(names[1])) continue;
+    const std::vector<float> cu = vertex->column_as_float(names[0], path), cv = vertex->column_as_float(names[1], path);
+    mesh.uvs.resize(vertex->count);
+    for (size_t i = 0; i < vertex->count; ++i) {
+      if (!std::isfinite(cu[i]) || !std::isfinite(cv[i]))
+        throw Error(path, "vertex " + std::to_string(i) + " has a non-finite texture coordinate");
+      mesh.uvs[i] = {cu[i], cv[i]};
+    }
+    break;
+  }
+  if (vertex->get("tx") || vertex->get("ty") || vertex->get("tz") || vertex->get("tw")) {
+    for (int k = 0; k < 3; ++k) c[k] = vertex->column_as_float(std::string("t") + "xyz"[k], path);
+    const std::vector<float> sign = vertex->column_as_float("tw", path);
+    mesh.tangents.resize(vertex->count);
+    mesh.tangent_signs.resize(vertex->count);
+    for (size_t i = 0; i < vertex->count; ++i) {
+      const Vec3 t(c[0][i], c[1][i], c[2][i]);
+      if (!is_finite(t) || !std::isfinite(sign[i]))
+        throw Error(path, "vertex " + std::to_string(i) + " has a non-finite tangent");
+      mesh.tangents[i] = t;
+      mesh.tangent_signs[i] = sign[i] < 0.0f ? -1.0f : 1.0f;
     }
   }
 

@@ -3,11 +3,13 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "ptir/math/vec.h"
 #include "ptir/material/shading_model.h"
+#include "ptir/material/texture.h"
 
 namespace ptir {
 
@@ -25,6 +27,14 @@ struct MeshMaterial {
   Vec3 specular_tint_color{1.0f, 1.0f, 1.0f};  // Specular Tint (colour)
   float diffuse_roughness = 0.0f;       // Diffuse Roughness
   Vec3 emission{0.0f, 0.0f, 0.0f};  // emitted radiance (W/m^2/sr), zero for non-emitters
+  // Image textures (Blender's Image Texture node on the socket, read at the mesh's
+  // UVs; scene/mesh_surface.h), each replacing its constant above where set.
+  std::shared_ptr<const Texture> base_colour_map;  // Base Color
+  std::shared_ptr<const Texture> roughness_map;    // Roughness (the colour's luminance)
+  std::shared_ptr<const Texture> metallic_map;     // Metallic (the colour's luminance)
+  std::shared_ptr<const Texture> normal_map;       // Normal Map node (tangent space) into Normal
+  float normal_map_strength = 1.0f;                // the Normal Map node's Strength
+  bool textured() const { return base_colour_map || roughness_map || metallic_map || normal_map; }
 };
 
 struct TriangleMesh {
@@ -35,6 +45,15 @@ struct TriangleMesh {
   // A corner that needs its own normal (a sharp edge, a flat face, Blender's custom
   // split normals) comes as its own vertex.
   std::vector<Vec3> normals;
+  // Per-vertex texture coordinates (the UV map the textures use), or empty: every
+  // point reads uv (0, 0), as Cycles does without the map. A corner with its own
+  // UV (a seam) comes as its own vertex.
+  std::vector<Uv> uvs;
+  // Per-vertex tangents of that UV map (MikkTSpace, as Blender computes them: unit
+  // tangent and the bitangent's sign, B = sign n x t), or empty (then computed from
+  // the UVs when a normal map needs them: mesh_tangents.h).
+  std::vector<Vec3> tangents;
+  std::vector<float> tangent_signs;
   MeshMaterial material;
 
   // Unit geometric normal of triangle `prim` (right-handed winding).
@@ -52,10 +71,19 @@ struct TriangleMesh {
     const Vec3 n = normalize((1.0f - u - v) * normals[tri[0]] + u * normals[tri[1]] + v * normals[tri[2]]);
     return length_sq(n) > 0.0f ? n : face_normal(prim);
   }
+  // Texture coordinates at barycentrics (u, v) of triangle `prim`.
+  Uv uv_at(uint32_t prim, float u, float v) const {
+    if (uvs.empty()) return {};
+    const auto& tri = triangles[prim];
+    const float w = 1.0f - u - v;
+    return {w * uvs[tri[0]].u + u * uvs[tri[1]].u + v * uvs[tri[2]].u,
+            w * uvs[tri[0]].v + u * uvs[tri[1]].v + v * uvs[tri[2]].v};
+  }
 };
 
 // Loads a triangle mesh from .ply (element "vertex" with x,y,z, optionally nx,ny,nz
-// (shading normals, normalised; all three or none), and element "face" with a
+// (shading normals, normalised; all three or none), s,t (or u,v: texture
+// coordinates), tx,ty,tz,tw (tangent and bitangent sign), and element "face" with a
 // vertex_indices/vertex_index list; polygons are fan-triangulated) or .obj
 // (v and f lines; polygons fan-triangulated; negative indices allowed; texture and
 // normal indices ignored). Throws ptir::Error("<path>: <problem>") on bad input:

@@ -16,6 +16,8 @@
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/json_limits.h"
 #include "ptir/scene/json_node.h"
+#include "ptir/scene/material_json.h"
+#include "ptir/scene/mesh_tangents.h"
 
 namespace ptir {
 
@@ -182,42 +184,13 @@ namespace {
 // ---------------------------------------------------------------------------
 // Sections
 
-MeshMaterial parse_material(const Node& n, const std::string& default_name) {
-  n.check_keys({"name", "shader", "base_color", "roughness", "metallic", "specular", "specular_tint", "ior",
-                "specular_ior_level", "specular_tint_color", "diffuse_roughness", "emission"});
-  MeshMaterial m;
-  m.name = n.string("name", default_name);
-  m.shader = *parse_surface_shader(n.choice("shader", "principled", {"principled", "principled-multiscatter", "diffuse"}));
-  if (n.has("base_color")) {
-    Node c = n["base_color"];
-    m.base_colour = c.vec3();
-    for (int k = 0; k < 3; ++k)
-      if (m.base_colour[k] < 0.0f || m.base_colour[k] > 1.0f) c.fail("components must be in [0, 1] (linear RGB)");
-  }
-  m.roughness = n.number_in("roughness", m.roughness, 0.0f, 1.0f);
-  m.metallic = n.number_in("metallic", m.metallic, 0.0f, 1.0f);
-  m.specular = n.number_in("specular", m.specular, 0.0f, 12.0f);  // 12.5 would be an infinite IOR
-  m.specular_tint = n.number_in("specular_tint", m.specular_tint, 0.0f, 1.0f);
-  // Principled v2 (docs/scene_format.md: which model reads which field).
-  m.ior = n.number_in("ior", m.ior, 1e-3f, 1000.0f);
-  m.specular_ior_level = n.number_in("specular_ior_level", m.specular_ior_level, 0.0f, 1.0f);
-  if (n.has("specular_tint_color")) {
-    Node c = n["specular_tint_color"];
-    m.specular_tint_color = c.vec3();
-    for (int k = 0; k < 3; ++k)
-      if (!(m.specular_tint_color[k] >= 0.0f && m.specular_tint_color[k] <= 1.0f)) c.fail("components must be in [0, 1] (linear RGB)");
-  }
-  m.diffuse_roughness = n.number_in("diffuse_roughness", m.diffuse_roughness, 0.0f, 1.0f);
-  m.emission = n.colour("emission", m.emission);
-  return m;
-}
-
-TriangleMesh parse_mesh(const Node& n, size_t index) {
-  n.check_keys({"name", "file", "vertices", "triangles", "normals", "transform", "material"});
+TriangleMesh parse_mesh(const Node& n, size_t index, TextureCache& textures) {
+  n.check_keys({"name", "file", "vertices", "triangles", "normals", "uvs", "tangents", "transform", "material"});
   TriangleMesh mesh;
   const bool has_file = n.has("file"), has_inline = n.has("vertices") || n.has("triangles");
   if (has_file == has_inline) n.fail("needs either \"file\" or inline \"vertices\" and \"triangles\" (not both)");
-  if (has_file && n.has("normals")) n["normals"].fail("belongs to inline meshes (a file carries its own nx, ny, nz)");
+  for (const char* key : {"normals", "uvs", "tangents"})
+    if (has_file && n.has(key)) n[key].fail("belongs to inline meshes (a file carries its own vertex properties)");
   if (has_file) {
     std::string path = n.file("file");
     mesh = with_context(n["file"], [&] { return load_mesh(path); });
@@ -253,6 +226,27 @@ TriangleMesh parse_mesh(const Node& n, size_t index) {
         mesh.normals.push_back(normalize(v));
       }
     }
+    if (n.has("uvs")) {  // texture coordinates [u, v], one per vertex
+      Node nu = n["uvs"];
+      nu.expect_array();
+      if (nu.j.size() != mesh.vertices.size()) nu.fail("must hold one [u, v] per vertex");
+      for (size_t i = 0; i < nu.j.size(); ++i) {
+        Node e = nu.at(i);
+        if (!e.j.is_array() || e.j.size() != 2) e.fail("must be [u, v]");
+        mesh.uvs.push_back({e.at(0).number(), e.at(1).number()});
+      }
+    }
+    if (n.has("tangents")) {  // [tx, ty, tz, sign], one per vertex
+      Node nt = n["tangents"];
+      nt.expect_array();
+      if (nt.j.size() != mesh.vertices.size()) nt.fail("must hold one [tx, ty, tz, sign] per vertex");
+      for (size_t i = 0; i < nt.j.size(); ++i) {
+        Node e = nt.at(i);
+        if (!e.j.is_array() || e.j.size() != 4) e.fail("must be [tx, ty, tz, sign]");
+        mesh.tangents.push_back(Vec3(e.at(0).number(), e.at(1).number(), e.at(2).number()));
+        mesh.tangent_signs.push_back(e.at(3).number() < 0.0f ? -1.0f : 1.0f);
+      }
+    }
   }
   mesh.name = n.string("name", mesh.name.empty() ? "mesh_" + std::to_string(index) : mesh.name);
   if (n.has("transform")) {
@@ -271,11 +265,16 @@ TriangleMesh parse_mesh(const Node& n, size_t index) {
     if (det < 0.0)
       for (auto& tri : mesh.triangles) std::swap(tri[1], tri[2]);
     for (Vec3& nv : mesh.normals) nv = normalize(cof * nv) * (det < 0.0 ? -1.0f : 1.0f);
+    // Tangents are surface directions (the linear part carries them); a mirror flips the bitangent's sign.
+    for (Vec3& tv : mesh.tangents) tv = normalize(l * tv);
+    if (det < 0.0)
+      for (float& sign : mesh.tangent_signs) sign = -sign;
   }
   for (const Vec3& p : mesh.vertices)
     if (!is_finite(p)) n.fail("has a non-finite vertex");
-  mesh.material = n.has("material") ? parse_material(n["material"], mesh.name) : MeshMaterial{};
+  mesh.material = n.has("material") ? parse_material(n["material"], mesh.name, textures) : MeshMaterial{};
   if (!n.has("material")) mesh.material.name = mesh.name;
+  prepare_mesh_tangents(mesh);
   return mesh;
 }
 
@@ -463,7 +462,8 @@ Scene parse_scene(const json& root, const Ctx& ctx) {
   if (n.has("meshes")) {
     Node m = n["meshes"];
     m.expect_array();
-    for (size_t i = 0; i < m.j.size(); ++i) scene.meshes.push_back(parse_mesh(m.at(i), i));
+    TextureCache textures;  // materials sharing an image load it once
+    for (size_t i = 0; i < m.j.size(); ++i) scene.meshes.push_back(parse_mesh(m.at(i), i, textures));
   }
   if (n.has("gaussians")) {
     Node g = n["gaussians"];
@@ -509,7 +509,8 @@ MeshMaterial mesh_material_from_json_string(const std::string& text, const std::
   Ctx ctx{name, ""};
   Node n{root, "", ctx};
   n.expect_object();
-  return parse_material(n, name);
+  TextureCache textures;
+  return parse_material(n, name, textures);
 }
 
 Scene load_scene_json(const std::string& path) {

@@ -250,7 +250,17 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
     if (io.stats) io.stats->vertices++;
     Frame frame(ev.n);
     Vec3 wo = frame.to_local(-ray.d);
-    const Bsdf bsdf(resolve_bsdf(settings.brdf, ev.shader), ev.material, wo, settings.min_specular_probability);
+    Bsdf bsdf(resolve_bsdf(settings.brdf, ev.shader), ev.material, wo, settings.min_specular_probability);
+    // A mesh's closure normal other than its own (a normal map, the reflection correction):
+    // Cycles' bump shadowing of the diffuse lobe, which under Principled v2 keeps the
+    // normal before the correction.
+    if (ev.kind == NextEvent::Mesh) {
+      const auto same = [](Vec3 a, Vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; };
+      if (!same(ev.nm, ev.n))
+        bsdf.set_bump_shadowing(frame.to_local(ev.ns), frame.to_local(ev.nm));
+      else if (!same(ev.ns, ev.n))
+        bsdf.set_bump_shadowing(frame.to_local(ev.ns));
+    }
     SpawnContext here = scatterer.spawn_context(ev, ray);
     MaterialGrad vertex_grad;
 

@@ -6,6 +6,7 @@
 
 #include "ptir/math/path_sampler.h"
 #include "ptir/math/sampling.h"
+#include "ptir/scene/mesh_surface.h"
 #include "ptir/transport/gradient_tile.h"
 #include "ptir/transport/path_tracer.h"
 #include "ptir/transport/shading_normal.h"
@@ -139,7 +140,7 @@ NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, cons
     ev.kind = NextEvent::Gaussian;
     ev.t = si.depth;
     ev.p = si.p;
-    ev.n = ev.ng = si.n;
+    ev.n = ev.ng = ev.ns = ev.nm = si.n;
     ev.material = {si.albedo, si.roughness, si.metallic, si.specular, si.specular_tint};
     ev.shader = field_.shader;
     ev.size = si.size;
@@ -162,15 +163,14 @@ NextEvent Scatterer::classify(const Ray& ray, const SurfaceInteraction& si, cons
     ev.t = end.mesh.t;
     ev.p = ray.at(end.mesh.t);
     ev.ng = ng;
-    ev.n = ng;
-    if (mesh.smooth()) {
-      const Vec3 ns = mesh.shading_normal(end.mesh.prim, end.mesh.u, end.mesh.v);
-      ev.n = valid_reflection_normal(ng, -ray.d, dot(ns, ng) < 0.0f ? -ns : ns);
-    }
-    const MeshMaterial& mm = mesh.material;
-    ev.material = {mm.base_colour, mm.roughness, mm.metallic, mm.specular, mm.specular_tint,
-                   mm.ior, mm.specular_ior_level, mm.specular_tint_color, mm.diffuse_roughness};
-    ev.shader = mm.shader;
+    // The shading normal and the textured inputs at the hit (scene/mesh_surface.h);
+    // a normal other than the face's gets the BSDF's reflection correction.
+    const MeshSurface surface = mesh_surface(mesh, end.mesh.prim, end.mesh.u, end.mesh.v, ray.d, ng);
+    ev.ns = surface.ns;
+    ev.nm = surface.n;
+    ev.n = mesh.smooth() || mesh.material.normal_map ? valid_reflection_normal(ng, -ray.d, surface.n) : ng;
+    ev.material = surface.material;
+    ev.shader = mesh.material.shader;
     ev.emission = mesh_emission(mesh, end.mesh, ray.d);
     return ev;
   }

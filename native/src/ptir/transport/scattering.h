@@ -86,6 +86,11 @@ struct NextEvent {
   Vec3 n;           // unit shading normal facing the incoming ray
   Vec3 ng;          // unit geometric normal facing the incoming ray (Gaussians: n; a smooth
                     // mesh: the face's, n put on its side; offsets and side tests use it)
+  Vec3 ns;          // a mesh's own normal (face or interpolated) before its normal map and the
+                    // reflection correction (Cycles' sd->N); where it differs from n the BSDF's
+                    // diffuse lobe carries the bump shadowing term (material/bsdf.h). Gaussians: n
+  Vec3 nm;          // a mesh's closure normal before the reflection correction (Principled v2's
+                    // diffuse closure keeps it). Gaussians: n
   MaterialParams material;  // albedo, roughness, metallic, specular, specular tint
   SurfaceShader shader = SurfaceShader::PrincipledGGX;
   Vec3 emission;    // mesh emission toward the ray (zero for Gaussians)
