@@ -322,6 +322,13 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     std::error_code ec_budget;  // a fresh run without a budget: an older run's budget is stale
     std::filesystem::remove(std::filesystem::path(o.out) / "budget.json", ec_budget);
   }
+  if (budget.budget_s > 0.0) {
+    // A budget takes the automatic batch (optim/patch_batch.h: patches across the views where a view
+    // is larger than the batch), unless given: its iterations then cost the same at any photo size.
+    // --iters runs keep whole views (the measured defaults; docs/performance.md#time-to-quality).
+    if (!cmd.count("--views-per-iter")) o.opt.views_per_iter = 0;
+    if (!cmd.count("--crop")) o.opt.crop = -1;
+  }
   const double fit_seconds = budget.budget_s > 0.0 ? kFitShare * (budget.budget_s - budget.spent_s) : 0.0;
   if (const int rc = geometry_stage(o, comm, fit_seconds)) return rc;
   // Bounce light from the splats' captured radiance where the geometry stage has

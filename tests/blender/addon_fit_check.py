@@ -13,7 +13,8 @@
 4. The same with the object moved: the object's local splats are the fitted (world-space) PLY
    brought back through the inverse of its transform.
 5. The time presets: Draft gives the fit `--budget` of FIT_SHARE of its 2 minutes and the inversion
-   the rest with no iteration count; Custom keeps `--iters` / `--spp` and no budget.
+   the rest with no iteration count (and the engine's automatic batch); Custom keeps `--iters` /
+   `--spp` / `--crop` and no budget.
 Prints "FIT_STATS: {json}".
 """
 
@@ -139,7 +140,8 @@ def check_presets(spec, splats, work):
         fit_budget = job.fit_args[job.fit_args.index("--budget") + 1]
         h.check(fit_budget == "%.0fs" % (optimize_job.FIT_SHARE * 120), "Draft: the fit's budget (%s)" % fit_budget)
         h.check(job.args[job.args.index("--budget") + 1] == "%.0fs" % ((1 - optimize_job.FIT_SHARE) * 120)
-                and "--iters" not in job.args, "Draft: the inversion's budget, no count: %s" % job.args)
+                and "--iters" not in job.args and "--crop" not in job.args,
+                "Draft: the inversion's budget, no count, the engine's batch: %s" % job.args)
         s.preset = "CUSTOM"
         job = optimize_job.prepare(bpy.context, s, os.path.join(work, "preset_job2"), cli)
         h.check("--budget" not in job.args + job.fit_args and job.args[job.args.index("--iters") + 1] == "5",

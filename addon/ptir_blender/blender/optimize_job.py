@@ -231,15 +231,15 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
             "--out", job.out_dir,
             "--bounces", settings.bounces, "--env", settings.env,
             "--env-size", "%dx%d" % (settings.env_width, settings.env_height), "--seed", settings.seed,
-            "--views-per-iter", settings.views_per_iter, "--crop", settings.crop,
             "--fit-iters", 0]  # the flow's own fit stage (above) decides, with its progress
     # The bounce light from the splats' SH where that fit makes them what the photos saw
     # (`ptir optimize --indirect`; its "auto" sees only its own fit stage).
     args += ["--indirect", "field" if job.fit_args else "path"]
     if budget:  # a time preset: what the fit leaves of it, samples and iterations planned by the engine
         args += ["--budget", "%.0fs" % ((1.0 - FIT_SHARE) * budget if job.fit_args else budget)]
-    else:
-        args += ["--iters", settings.iterations, "--spp", settings.spp]
+    else:  # (a budget takes the engine's automatic batch: patches across the views)
+        args += ["--iters", settings.iterations, "--spp", settings.spp,
+                 "--views-per-iter", settings.views_per_iter, "--crop", settings.crop]
     if scene_json:
         args += ["--scene", scene_json]
     if want_meshes:

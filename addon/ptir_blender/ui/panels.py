@@ -205,8 +205,9 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             col.prop(s, "iterations")
             col.prop(s, "spp")
         col.prop(s, "bounces")
-        col.prop(s, "views_per_iter")
-        col.prop(s, "crop")
+        if s.preset == "CUSTOM":  # a time preset takes the engine's batch
+            col.prop(s, "views_per_iter")
+            col.prop(s, "crop")
         col.prop(s, "seed")
         col.prop(s, "output_dir")
 
