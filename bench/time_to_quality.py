@@ -77,7 +77,7 @@ def optimise(a, exe, dataset, out_dir, flags):
     rec = {"command": cmd, "wall_s": wall, "cpu_s": cpu, "iterations": len(rows) - 1,
            "s_per_iter": sum(secs) / len(secs) if secs else None, "iter_s": sum(secs),
            "albedo": m.get("albedo_psnr"), "relight": sum(rel) / len(rel) if rel else None,
-           "nvs": m.get("psnr"), "rough_mse": m.get("roughness_mse")}
+           "nvs": m.get("nvs_psnr"), "rough_mse": m.get("roughness_mse")}
     json.dump(rec, open(rec_path, "w"), indent=1)
     return rec
 

@@ -311,9 +311,12 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     if (comm.size() > 1) throw Error("--budget is for single-process runs (each MPI rank would plan its own count): use --iters");
     budget.budget_s = parse_duration(o.budget, "--budget");
   }
-  if (o.resume && !o.estimate && !cmd.count("--iters")) {
+  bool budgeted = budget.budget_s > 0.0;  // (a budgeted run resumed with --iters keeps its batch)
+  if (o.resume && !o.estimate) {
     const BudgetState kept = read_budget_state(o.out);
-    if (kept.budget_s > 0.0) {
+    budgeted = budgeted || kept.budget_s > 0.0;
+    if (kept.spp > 0 && !cmd.count("--spp")) o.opt.spp = kept.spp;  // the planned samples go on
+    if (kept.budget_s > 0.0 && !cmd.count("--iters")) {
       if (budget.budget_s == 0.0) budget.budget_s = kept.budget_s;
       budget.spent_s = kept.spent_s;
       budget.spp = kept.spp;
@@ -322,7 +325,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     std::error_code ec_budget;  // a fresh run without a budget: an older run's budget is stale
     std::filesystem::remove(std::filesystem::path(o.out) / "budget.json", ec_budget);
   }
-  if (budget.budget_s > 0.0) {
+  if (budgeted) {
     // A budget takes the automatic batch (optim/patch_batch.h: patches across the views where a view
     // is larger than the batch), unless given: its iterations then cost the same at any photo size.
     // --iters runs keep whole views (the measured defaults; docs/performance.md#time-to-quality).
