@@ -23,6 +23,11 @@ and its fraction of the reference's wall time.
 
 Writes OUT/<set>/<run>/ (kept and reused while the command is the same), OUT/ttq.md (the
 table) and OUT/ttq.png (quality against minutes; matplotlib).
+
+    bench/time_to_quality.py --plot-points POINTS.json --png OUT.png
+
+plots runs measured by hand (a JSON list of {"label", "minutes", "albedo", "relight"}; the
+docs' plot, docs/time_to_quality.png, is made so from performance.md's table).
 """
 
 import argparse
@@ -74,8 +79,10 @@ def optimise(a, exe, dataset, out_dir, flags):
     rows = open(os.path.join(result, "log.csv")).read().splitlines()
     head = rows[0].split(",")
     secs = [float(r.split(",")[head.index("seconds")]) for r in rows[1:]] if "seconds" in head else []
+    cpus = [float(r.split(",")[head.index("cpu_s")]) for r in rows[1:]] if "cpu_s" in head else []
     rec = {"command": cmd, "wall_s": wall, "cpu_s": cpu, "iterations": len(rows) - 1,
            "s_per_iter": sum(secs) / len(secs) if secs else None, "iter_s": sum(secs),
+           "cpu_per_iter": sum(cpus) / len(cpus) if cpus else None, "iter_cpu_s": sum(cpus),
            "albedo": m.get("albedo_psnr"), "relight": sum(rel) / len(rel) if rel else None,
            "nvs": m.get("nvs_psnr"), "rough_mse": m.get("roughness_mse")}
     json.dump(rec, open(rec_path, "w"), indent=1)
@@ -86,7 +93,32 @@ def fmt(v, d=2):
     return "n/a" if v is None else ("%%.%df" % d) % v
 
 
+def plot_points(points_path, png_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    points = json.load(open(points_path))
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for ax, key in zip(axes, ("albedo", "relight")):
+        for pt in points:
+            if pt.get(key) is not None:
+                ax.plot([pt["minutes"]], [pt[key]], pt.get("marker", "o"), label=pt["label"])
+        ax.set_xscale("log")
+        ax.set_xlabel(points[0].get("xlabel", "minutes"))
+        ax.set_ylabel("%s PSNR (dB)" % key)
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=100)
+    print("wrote", png_path)
+
+
 def main():
+    if "--plot-points" in sys.argv:
+        q = argparse.ArgumentParser()
+        q.add_argument("--plot-points", required=True)
+        q.add_argument("--png", required=True)
+        b = q.parse_args()
+        return plot_points(b.plot_points, b.png)
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--dataset", action="append", required=True)
     p.add_argument("--out", default=os.path.join(ROOT, "out", "ttq"))
@@ -104,7 +136,7 @@ def main():
     budgets = [float(b) for b in a.budgets.split(",") if b]
     lines = ["| set | run | wall min | CPU min | iterations | albedo fg sRGB | relight | NVS | rough MSE |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
-    summary = ["| set | previous 800 × 32: wall min (albedo / relight) | reached in (budget) | fraction of its wall time |",
+    summary = ["| set | previous 800 × 32: wall min (albedo / relight) | reached in (budget) | fraction of its wall / CPU time |",
                "|---|---|---|---:|"]
     curves = {}
     for ds in a.dataset:
@@ -113,9 +145,11 @@ def main():
         shortened = a.previous_iters < 800
         prev = optimise(a, a.previous, ds, os.path.join(base, "previous_%d" % a.previous_iters),
                         ["--iters", str(a.previous_iters)])
-        ref_wall = prev["wall_s"]
-        if shortened and prev["s_per_iter"]:
+        ref_wall, ref_cpu = prev["wall_s"], prev["cpu_s"]
+        if shortened and prev["s_per_iter"]:  # 800 iterations at the shortened run's mean cost
             ref_wall = prev["wall_s"] - prev["iter_s"] + 800 * prev["s_per_iter"]
+            if prev.get("cpu_per_iter"):
+                ref_cpu = prev["cpu_s"] - prev["iter_cpu_s"] + 800 * prev["cpu_per_iter"]
         ours = []
         for b in budgets:
             r = optimise(a, a.ptir, ds, os.path.join(base, "budget_%gm" % b), ["--budget", "%gm" % b])
@@ -123,7 +157,7 @@ def main():
             ours.append(r)
         label = "previous, %d × 32%s" % (a.previous_iters, " (800 projected)" if shortened else "")
         lines.append("| %s | %s | %s | %s | %d | %s | %s | %s | %s |" % (
-            name, label, fmt(ref_wall / 60, 1), fmt(prev["cpu_s"] / 60, 1), prev["iterations"], fmt(prev["albedo"]),
+            name, label, fmt(ref_wall / 60, 1), fmt(ref_cpu / 60, 1), prev["iterations"], fmt(prev["albedo"]),
             fmt(prev["relight"]), fmt(prev["nvs"]), fmt(prev["rough_mse"], 4)))
         for r in ours:
             lines.append("| %s | --budget %gm | %s | %s | %d | %s | %s | %s | %s |" % (
@@ -139,7 +173,7 @@ def main():
         summary.append("| %s | %s (%s) | %s | %s |" % (
             name, fmt(ref_wall / 60, 1), ref_q,
             "%s min (%gm)" % (fmt(reached["wall_s"] / 60, 1), reached["budget_min"]) if reached else "not within the budgets",
-            fmt(reached["wall_s"] / ref_wall, 3) if reached else "–"))
+            "%s / %s" % (fmt(reached["wall_s"] / ref_wall, 3), fmt(reached["cpu_s"] / ref_cpu, 3)) if reached else "–"))
         curves[name] = (prev, ref_wall, shortened, ours)
     text = "\n".join(summary) + "\n\n" + "\n".join(lines) + "\n"
     print(text)
@@ -150,7 +184,7 @@ def main():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        print("time_to_quality: no matplotlib, no plot")
+        print("time_to_quality: no matplotlib (pip install matplotlib), no plot")
         return
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     for name, (prev, ref_wall, shortened, ours) in curves.items():
