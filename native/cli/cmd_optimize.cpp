@@ -308,7 +308,6 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (!o.budget.empty()) {
     if (cmd.count("--iters"))
       throw Error("give --iters or --budget, not both (--iters: a reproducible run; --budget: one that ends in time)");
-    if (comm.size() > 1) throw Error("--budget is for single-process runs (each MPI rank would plan its own count): use --iters");
     budget.budget_s = parse_duration(o.budget, "--budget");
   }
   bool budgeted = budget.budget_s > 0.0;  // (a budgeted run resumed with --iters keeps its batch)
@@ -325,6 +324,8 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     std::error_code ec_budget;  // a fresh run without a budget: an older run's budget is stale
     std::filesystem::remove(std::filesystem::path(o.out) / "budget.json", ec_budget);
   }
+  if (budget.budget_s > 0.0 && comm.size() > 1)
+    throw Error("--budget is for single-process runs (each MPI rank would plan its own count): use --iters");
   if (budgeted) {
     // A budget takes the automatic batch (optim/patch_batch.h: patches across the views where a view
     // is larger than the batch), unless given: its iterations then cost the same at any photo size.
