@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Time to a relightable asset (issue 38): wall time until this build's `ptir optimize`
 reaches the previous release's default result (800 iterations x 32 spp), and the quality
 each reaches at fixed budgets.
