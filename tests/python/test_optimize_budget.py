@@ -44,3 +44,15 @@ def test_budget_estimate_and_errors(cli, dataset, tmp_path):  # noqa: F811
     assert r.returncode != 0 and "--budget must be a positive duration" in r.stderr
     r = optimize(cli, dataset, tmp_path / "x", "--budget", "1m", "--iters", "5", check=False)
     assert r.returncode != 0 and "not both" in r.stderr
+
+
+def test_fit_budget_stops_a_long_fit_early(cli, dataset, tmp_path):  # noqa: F811
+    """`ptir fit --budget` (the geometry stage's share of a budget): at most --iters, fewer when
+    they would not end in time -- 100000 iterations of ~10 ms cannot fit into 3 s."""
+    import subprocess
+    out = tmp_path / "fit"
+    r = subprocess.run([str(cli), "fit", "--dataset", str(dataset), "--gaussians", str(dataset / "g.ply"), "--out",
+                        str(out), "--iters", "100000", "--budget", "3s", "--threads", "1", "-q"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert 1 <= _iterations(out) < 100000 and (out / "gaussians.ply").exists()
