@@ -65,10 +65,14 @@ TEST(BudgetPlan, PacerLandsOnTheEndTime) {
   EXPECT_EQ(pacer.replan(2, 2, 5.0, 10.0, 50), 50);      // too early to tell
 }
 
-TEST(PatchBatch, PatchesOnlyWhereAViewIsLargerThanTheBatch) {
+TEST(PatchBatch, PatchesOnlyWhereAViewIsMuchLargerThanTheBatch) {
   PatchBatch b = default_patch_batch(64, 64, 24);  // 4096 pixels: whole views
   EXPECT_EQ(b.side, 0);
   EXPECT_EQ(b.views, 1);
+  b = default_patch_batch(128, 128, 24);  // twice the batch's 8192 pixels: still whole views (measured)
+  EXPECT_EQ(b.side, 0);
+  b = default_patch_batch(182, 182, 24);  // past twice
+  EXPECT_EQ(b.side, kDefaultPatchSide);
   b = default_patch_batch(256, 256, 24);
   EXPECT_EQ(b.side, kDefaultPatchSide);
   EXPECT_EQ(b.views, kDefaultPatchViews);

@@ -23,9 +23,10 @@ struct PatchBatch {
   int side = 0;   // square side in pixels (0: whole views)
 };
 
-// The default batch for views of width x height: whole views when a view is no
-// larger than the batch's pixels, else kDefaultPatchViews patches of
-// kDefaultPatchSide (docs/performance.md, "Time to quality", has the measurements).
+// The default batch for views of width x height: whole views when a view has at
+// most twice the batch's pixels (128^2 and smaller: measured, whole views won
+// there), else kDefaultPatchViews patches of kDefaultPatchSide
+// (docs/performance.md, "Time to quality", has the measurements).
 constexpr int kDefaultPatchSide = 32;
 constexpr int kDefaultPatchViews = 8;
 PatchBatch default_patch_batch(int width, int height, int views_in_dataset);
