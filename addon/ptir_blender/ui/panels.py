@@ -151,10 +151,10 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             if total is not None and s.preset != "CUSTOM":
                 box = layout.box()
                 box.label(text="Ends within %s" % optimize_estimate.duration_text(total), icon="TIME")
-                if measured and s.estimate_s_per_iter > 0.0:  # at the Samples below; the engine plans its own
+                if measured and s.estimate_s_per_iter > 0.0:  # at the samples the engine planned for it
                     share = 1.0 - (optimize_job.FIT_SHARE if s.estimate_fit_s_per_iter > 0.0 else 0.0)
                     n = max(0, int((share * total - s.estimate_setup_s) / s.estimate_s_per_iter))
-                    box.label(text="about %d iterations of %.2f s at %d spp" % (n, s.estimate_s_per_iter, s.spp))
+                    box.label(text="about %d iterations of %.2f s" % (n, s.estimate_s_per_iter))
             elif total is not None:
                 box = layout.box()
                 box.label(text="Estimated: %s" % optimize_estimate.duration_text(total), icon="TIME")
