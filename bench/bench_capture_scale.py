@@ -4,6 +4,12 @@ with millions of Gaussians at images_4-like photo sizes.
 
     bench/bench_capture_scale.py [--build build] [--gaussians 3000000] [--size 1237x822] [--views 8]
                                  [--iters 2] [--spp 4] [--threads 0] [--work /tmp/ptir_scale]
+                                 [--masks] [--ptir EXE] [--estimate] [--extra "..."]
+
+--masks writes RGBA photos whose alpha keeps the central disc (the object; masked
+captures supervise it alone); --ptir runs another build (the previous release, say);
+--estimate asks only for its estimate (`--estimate`: setup and s/iter, no iterations;
+where one iteration would take many minutes); --extra passes more optimize flags.
 
 The capture: N Gaussians of a full 3DGS PLY (SH degree 3, 62 float properties, as
 trainers write them; 80 % on a sphere shell, 20 % scattered in a box around it, like
@@ -58,7 +64,7 @@ def write_scene_ply(path, n, rng):
         f.write(rec.tobytes())
 
 
-def write_capture(root, views, w, h, rng):
+def write_capture(root, views, w, h, rng, masks=False):
     f = 0.9 * w
     imgs = []
     for i in range(views):
@@ -73,6 +79,10 @@ def write_capture(root, views, w, h, rng):
     layouts.write_colmap_bin(root / "sparse" / "0", {1: ("PINHOLE", w, h, [f, f, w / 2, h / 2])}, imgs)
     (root / "images").mkdir(parents=True, exist_ok=True)
     base = png.to_8bit(rng.uniform(0.2, 0.8, size=(h, w, 3)))
+    if masks:  # the object: a central disc of half the short side's radius
+        yy, xx = np.mgrid[0:h, 0:w]
+        inside = (xx - w / 2) ** 2 + (yy - h / 2) ** 2 <= (0.25 * min(w, h)) ** 2
+        base = np.concatenate([base, np.where(inside, 255, 0).astype(base.dtype)[..., None]], axis=2)
     for _, _, _, _, name, _, _ in imgs:
         png.write_png(root / "images" / name, base)
 
@@ -87,6 +97,10 @@ def main():
     p.add_argument("--spp", type=int, default=4)
     p.add_argument("--threads", type=int, default=0)
     p.add_argument("--work", default="/tmp/ptir_scale")
+    p.add_argument("--masks", action="store_true", help="RGBA photos: the alpha masks the object")
+    p.add_argument("--ptir", help="the ptir to run (default: BUILD/bin/ptir)")
+    p.add_argument("--estimate", action="store_true", help="the estimate only (no iterations)")
+    p.add_argument("--extra", default="", help="more optimize flags")
     a = p.parse_args()
     w, h = (int(v) for v in a.size.lower().split("x"))
     work = Path(a.work)
@@ -95,15 +109,16 @@ def main():
     ply = work / ("scene_%d.ply" % a.gaussians)
     if not ply.exists():
         write_scene_ply(ply, a.gaussians, rng)
-    cap = work / ("capture_%dx%d_%d" % (w, h, a.views))
+    cap = work / ("capture_%dx%d_%d%s" % (w, h, a.views, "_masked" if a.masks else ""))
     if not (cap / "sparse").exists():
-        write_capture(cap, a.views, w, h, rng)
+        write_capture(cap, a.views, w, h, rng, a.masks)
     out = work / "out"
-    cmd = ["/usr/bin/time", "-v", str(Path(a.build) / "bin" / "ptir"), "optimize", "--dataset", str(cap), "--gaussians",
+    cmd = ["/usr/bin/time", "-v", a.ptir or str(Path(a.build) / "bin" / "ptir"), "optimize", "--dataset", str(cap), "--gaussians",
            str(ply), "--out", str(out), "--iters", str(a.iters), "--spp", str(a.spp), "--bounces", "2", "--force",
            "--checkpoint-every", "0", "--fit-iters", "0"]
     if a.threads > 0:
         cmd += ["--threads", str(a.threads)]
+    cmd += a.extra.split() + (["--estimate"] if a.estimate else [])
     t0 = time.time()
     r = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.time() - t0
@@ -111,7 +126,10 @@ def main():
         sys.exit("ptir optimize failed:\n" + r.stderr[-3000:])
     err = r.stderr
     rss_gb = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", err).group(1)) / 2 ** 20
-    est = re.search(r"estimated ([\d.]+) s/iter", err)
+    est = re.search(r"estimated ([\d.]+) s/iter", err) or re.search(r'"s_per_iter": ([\d.]+)', r.stdout)
+    cpu = re.search(r"User time \(seconds\): ([\d.]+)", err), re.search(r"System time \(seconds\): ([\d.]+)", err)
+    print("process CPU s: %.1f" % (float(cpu[0].group(1)) + float(cpu[1].group(1))))
+    print(r.stdout.strip())
     its = [float(x) for x in re.findall(r"\)\s+([\d.]+) s/iter", err)]
     print("\n".join(l for l in err.splitlines() if l.startswith(("optimize:", "iter "))))
     print("\n| Gaussians | photos | train views | spp x bounces | peak RSS (GB) | estimated s/iter | measured s/iter | "

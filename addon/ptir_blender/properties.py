@@ -117,6 +117,18 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
         default="AUTO")
     fit_iterations: IntProperty(name="Fit Iterations", description="Iterations of the geometry fit", default=1500,
                                 min=1, soft_max=30000)
+    # Time presets (issue 38): the run ends within the preset's minutes (`ptir fit --budget` for the
+    # geometry stage, at most 20 % of them, then `ptir optimize --budget`, which plans its samples and
+    # iterations from the measured cost). Custom: the iteration count and samples below, a
+    # reproducible run. Decision: Custom stays the default, so a saved file and a script that set
+    # Iterations keep doing what they did; an artist picks a time.
+    preset: EnumProperty(
+        name="Quality", description="How long the optimisation may take (the iterations are planned to end in time)",
+        items=[("CUSTOM", "Custom", "The iterations and samples below (a reproducible run)"),
+               ("DRAFT", "Draft", "About 2 minutes"),
+               ("GOOD", "Good", "About 10 minutes"),
+               ("FINAL", "Final", "About 30 minutes")],
+        default="CUSTOM")
     iterations: IntProperty(name="Iterations", default=800, min=1, soft_max=5000)
     spp: IntProperty(name="Samples", description="Samples per pixel per iteration", default=32, min=1)
     bounces: IntProperty(name="Bounces", default=2, min=0, soft_max=8)

@@ -7,6 +7,7 @@
 
 #include "run_control.h"
 #include "ptir/core/error.h"
+#include "ptir/optim/budget_plan.h"
 #include "ptir/optim/checkpoint.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/scene/gaussian_ply.h"
@@ -49,9 +50,15 @@ int run_fit_stage(const FitStage& f, const std::string& continue_hint) {
   ro.out_dir = f.out;
   ro.checkpoint_every = f.checkpoint_every;
   ro.cancel = &g_interrupted;
+  const BudgetPacer pacer(f.seconds);
   ro.on_iteration = [&](const FitLog& l) {
-    if (f.quiet) return true;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (f.seconds > 0.0) {  // a time limit (ptir optimize --budget): never more than the iterations asked for
+      const int total = std::min(s.iterations, pacer.replan(fit.iteration(), fit.iteration() - start_it, elapsed, elapsed,
+                                                            fit.settings().iterations));
+      if (total != fit.settings().iterations) fit.set_iterations(total);
+    }
+    if (f.quiet) return true;
     const int done = fit.iteration() - start_it;
     const double eta = (done > 0 ? elapsed / done : l.seconds) * double(fit.settings().iterations - fit.iteration());
     std::fprintf(stderr, "iter %d/%d  loss %.5f (image %.5f mask %.5f normal %.5f)  %zu Gaussians", l.iteration,

@@ -18,6 +18,7 @@ struct FitStage {
   bool quiet = false, no_densify = false;
   int checkpoint_every = 200;
   size_t max_gaussians = 0;  // 0: 1.5 x the input's count
+  double seconds = 0.0;      // > 0: a time limit; the iteration count is re-planned from the measured rate
   GeometryFitSettings s;
   CaptureFlags capture;
 };

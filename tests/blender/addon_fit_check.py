@@ -12,6 +12,9 @@
    inversion took its bounce light from the fitted splats' SH (`--indirect field`).
 4. The same with the object moved: the object's local splats are the fitted (world-space) PLY
    brought back through the inverse of its transform.
+5. The time presets: Draft gives the fit `--budget` of FIT_SHARE of its 2 minutes and the inversion
+   the rest with no iteration count (and the engine's automatic batch); Custom keeps `--iters` /
+   `--spp` / `--crop` and no budget.
 Prints "FIT_STATS: {json}".
 """
 
@@ -126,10 +129,32 @@ def fit_and_optimise(spec, splats, work, name, stats):
                    "loss_last_epoch": last, "position_error": err}
 
 
+def check_presets(spec, splats, work):
+    s = settings(spec, splats, os.path.join(work, "preset"), FIT_ITERS)
+    cli = os.environ.get("PTIR_CLI", "ptir")
+    for d in ("preset_job", "preset_job2"):
+        os.makedirs(os.path.join(work, d), exist_ok=True)
+    try:
+        s.preset = "DRAFT"
+        job = optimize_job.prepare(bpy.context, s, os.path.join(work, "preset_job"), cli)
+        fit_budget = job.fit_args[job.fit_args.index("--budget") + 1]
+        h.check(fit_budget == "%.0fs" % (optimize_job.FIT_SHARE * 120), "Draft: the fit's budget (%s)" % fit_budget)
+        h.check(job.args[job.args.index("--budget") + 1] == "%.0fs" % ((1 - optimize_job.FIT_SHARE) * 120)
+                and "--iters" not in job.args and "--crop" not in job.args,
+                "Draft: the inversion's budget, no count, the engine's batch: %s" % job.args)
+        s.preset = "CUSTOM"
+        job = optimize_job.prepare(bpy.context, s, os.path.join(work, "preset_job2"), cli)
+        h.check("--budget" not in job.args + job.fit_args and job.args[job.args.index("--iters") + 1] == "5",
+                "Custom: the iteration count, no budget: %s" % job.args)
+    finally:
+        s.preset = "CUSTOM"
+
+
 def main():
     spec, work, splats = h.spec_scene_with_splats()
     stats = {}
     check_decisions(spec)
+    check_presets(spec, splats, work)
     cancel_during_fit(spec, splats, work, stats)
     fit_and_optimise(spec, splats, work, "identity", stats)
     splats.location = (0.5, -0.25, 0.1)

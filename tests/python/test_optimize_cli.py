@@ -349,7 +349,7 @@ def test_help_lists_the_common_options_and_help_all_every_one(cli):
 
     text, common = options("--help")
     _, every = options("--help-all")
-    assert len(common) <= 25 and "--dataset" in " ".join(common) and "--help-all" in common, common
+    assert len(common) <= 26 and "--dataset" in " ".join(common) and "--help-all" in common, common
     assert "--lr-env" not in " ".join(common) and "--lr-env" in " ".join(every)
     assert set(common) < set(every) and "ptir optimize --help-all" in text
     for removed in ("--light-solve", "--lambda-env-smooth", "--lambda-env-chroma", "--env-fine-warmup",

@@ -55,7 +55,7 @@ def key(context, settings):
              settings.split, obj.name if obj else "", len(obj.data.vertices) if obj else 0, settings.spp,
              settings.bounces, settings.views_per_iter, settings.crop, settings.env, settings.env_width,
              settings.env_height, settings.optimize_meshes, settings.optimize_metallic, settings.learn_exposure,
-             settings.threads, len(_visible_meshes(context)), settings.fit_geometry]
+             settings.threads, len(_visible_meshes(context)), settings.fit_geometry, settings.preset]
     return json.dumps(parts)
 
 
@@ -111,7 +111,11 @@ def _measure_fit(job, job_dir):
 
 
 def seconds(context, settings):
-    """The estimated duration of Optimise with the current settings, or None when not measured for them."""
+    """The estimated duration of Optimise with the current settings, or None when not measured for them
+    (a time preset: its seconds, which the run plans itself to end within)."""
+    budget = optimize_job.preset_seconds(settings)
+    if budget:
+        return budget
     if not settings.estimate_key or settings.estimate_key != key(context, settings):
         return None
     fit = settings.fit_iterations * settings.estimate_fit_s_per_iter

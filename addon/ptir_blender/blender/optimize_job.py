@@ -33,6 +33,16 @@ from ..errors import OptimizeError
 
 ENV_NODE = "PTIR Environment"
 
+# The Optimise panel's time presets (properties.py, `preset`): seconds the whole run may take,
+# of which the geometry stage takes at most FIT_SHARE (as `ptir optimize --budget` gives its own).
+PRESET_SECONDS = {"DRAFT": 120.0, "GOOD": 600.0, "FINAL": 1800.0}
+FIT_SHARE = 0.2
+
+
+def preset_seconds(settings):
+    """The time preset's seconds, or 0 for Custom (the iteration count)."""
+    return PRESET_SECONDS.get(getattr(settings, "preset", "CUSTOM"), 0.0)
+
 
 class OptimizeJob:
     def __init__(self):
@@ -205,24 +215,31 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
             raise OptimizeError("Mesh Materials is on but the scene has no meshes")
 
     gaussians = splats
+    budget = preset_seconds(settings)
     if wants_fit(settings, bpy.path.abspath(settings.dataset_dir) if settings.source == "DATASET" else None, split,
                  has_meshes=bool(job.mesh_entries)):
         job.fit_dir = os.path.join(job.out_dir, "fit")
         gaussians = os.path.join(job.fit_dir, "gaussians.ply")
         job.fit_args = [cli_exe, "fit", "--dataset", dataset_dir, "--split", split, "--gaussians", splats,
                         "--out", job.fit_dir, "--iters", settings.fit_iterations, "--seed", settings.seed]
+        if budget:  # at most FIT_SHARE of a time preset (the fit's count re-planned as it runs)
+            job.fit_args += ["--budget", "%.0fs" % (FIT_SHARE * budget)]
         if settings.threads > 0:
             job.fit_args += ["--threads", settings.threads]
         job.fit_args = [str(a) for a in job.fit_args]
     args = [cli_exe, "optimize", "--dataset", dataset_dir, "--split", split, "--gaussians", gaussians,
-            "--out", job.out_dir, "--iters", settings.iterations, "--spp", settings.spp,
+            "--out", job.out_dir,
             "--bounces", settings.bounces, "--env", settings.env,
             "--env-size", "%dx%d" % (settings.env_width, settings.env_height), "--seed", settings.seed,
-            "--views-per-iter", settings.views_per_iter, "--crop", settings.crop,
             "--fit-iters", 0]  # the flow's own fit stage (above) decides, with its progress
     # The bounce light from the splats' SH where that fit makes them what the photos saw
     # (`ptir optimize --indirect`; its "auto" sees only its own fit stage).
     args += ["--indirect", "field" if job.fit_args else "path"]
+    if budget:  # a time preset: what the fit leaves of it, samples and iterations planned by the engine
+        args += ["--budget", "%.0fs" % ((1.0 - FIT_SHARE) * budget if job.fit_args else budget)]
+    else:  # (a budget takes the engine's automatic batch: patches across the views)
+        args += ["--iters", settings.iterations, "--spp", settings.spp,
+                 "--views-per-iter", settings.views_per_iter, "--crop", settings.crop]
     if scene_json:
         args += ["--scene", scene_json]
     if want_meshes:

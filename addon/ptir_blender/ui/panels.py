@@ -3,7 +3,7 @@
 
 import bpy
 
-from ..blender import optimize_estimate, splat_object
+from ..blender import optimize_estimate, optimize_job, splat_object
 
 
 class _RenderPropertiesPanel:
@@ -145,14 +145,23 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             if problem:
                 layout.label(text=problem, icon="ERROR")
             layout.operator("ptir.optimize", text="Optimise", icon="PLAY")
+            layout.prop(s, "preset")
             total = optimize_estimate.seconds(context, s)
-            if total is not None:
+            measured = bool(s.estimate_key) and s.estimate_key == optimize_estimate.key(context, s)
+            if total is not None and s.preset != "CUSTOM":
+                box = layout.box()
+                box.label(text="Ends within %s" % optimize_estimate.duration_text(total), icon="TIME")
+                if measured and s.estimate_s_per_iter > 0.0:  # at the samples the engine planned for it
+                    share = 1.0 - (optimize_job.FIT_SHARE if s.estimate_fit_s_per_iter > 0.0 else 0.0)
+                    n = max(0, int((share * total - s.estimate_setup_s) / s.estimate_s_per_iter))
+                    box.label(text="about %d iterations of %.2f s" % (n, s.estimate_s_per_iter))
+            elif total is not None:
                 box = layout.box()
                 box.label(text="Estimated: %s" % optimize_estimate.duration_text(total), icon="TIME")
                 box.label(text="%d × %.2f s + %.0f s setup" % (s.iterations, s.estimate_s_per_iter, s.estimate_setup_s))
                 if s.estimate_fit_s_per_iter > 0.0:
                     box.label(text="+ fit %d × %.3f s" % (s.fit_iterations, s.estimate_fit_s_per_iter))
-            elif not problem:
+            if not measured and not problem and (total is None or s.preset != "CUSTOM"):
                 layout.operator("ptir.optimize_estimate", icon="TIME")
             if s.status:
                 layout.label(text=s.status, icon="INFO")
@@ -192,11 +201,13 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
         col.prop(s, "fit_geometry")
         if s.fit_geometry != "OFF":
             col.prop(s, "fit_iterations")
-        col.prop(s, "iterations")
-        col.prop(s, "spp")
+        if s.preset == "CUSTOM":  # a time preset plans them
+            col.prop(s, "iterations")
+            col.prop(s, "spp")
         col.prop(s, "bounces")
-        col.prop(s, "views_per_iter")
-        col.prop(s, "crop")
+        if s.preset == "CUSTOM":  # a time preset takes the engine's batch
+            col.prop(s, "views_per_iter")
+            col.prop(s, "crop")
         col.prop(s, "seed")
         col.prop(s, "output_dir")
 

@@ -100,8 +100,8 @@ IterationEstimate estimate_iteration(const Optimizer& opt) {
     render_aov_backward(opt.tracer().accel(), cam, as, &d_alb, &d_rough, grads, &walks);
     e.regulariser_per_pixel = seconds_of(t0) / (double(cam.width) * cam.height);
   }
-  e.seconds = pixels * (double(s.integrator.spp) * (e.primal_per_sample + e.replay_per_sample) + e.regulariser_per_pixel) +
-              s.views_per_iteration * e.replay_fixed;
+  e.fixed_seconds = pixels * e.regulariser_per_pixel + s.views_per_iteration * e.replay_fixed;
+  e.seconds = pixels * double(s.integrator.spp) * (e.primal_per_sample + e.replay_per_sample) + e.fixed_seconds;
   return e;
 }
 

@@ -21,6 +21,7 @@ namespace ptir {
 
 struct IterationEstimate {
   double seconds = 0.0;           // one iteration
+  double fixed_seconds = 0.0;     // the part of it that does not scale with the spp (regulariser, replay calls)
   double primal_per_sample = 0.0;  // seconds per path sample, primal
   double replay_per_sample = 0.0;  // seconds per path sample, replay (backward)
   double replay_fixed = 0.0;       // seconds per replay call, whatever its size

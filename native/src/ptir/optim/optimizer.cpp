@@ -14,6 +14,7 @@
 #include "ptir/optim/data_parallel.h"
 #include "ptir/optim/light_balance.h"
 #include "ptir/optim/loss_space.h"
+#include "ptir/optim/patch_batch.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/aov_backward.h"
 #include "ptir/render/material_maps.h"
@@ -67,8 +68,11 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   if (settings_.iterations < 0) throw Error("iterations must be >= 0");
   if (settings_.integrator.spp < 1) throw Error("spp must be at least 1");
   if (settings_.integrator.max_bounces < 0) throw Error("bounces must be at least 0");
-  if (settings_.views_per_iteration < 1) throw Error("views per iteration must be at least 1");
-  if (settings_.crop_size < 0) throw Error("crop size must be >= 0");
+  // Automatic batch (views 0, crop -1): patches across the views (patch_batch.h).
+  if (settings_.views_per_iteration < 0) throw Error("views per iteration must be at least 1 (0: automatic)");
+  if (settings_.crop_size < -1) throw Error("crop size must be >= 0 (-1: automatic)");
+  resolve_patch_batch(dataset_->width, dataset_->height, int(dataset_->size()), &settings_.views_per_iteration,
+                      &settings_.crop_size);
   if (!(settings_.lr_final > 0.0f && settings_.lr_final <= 1.0f)) throw Error("the final learning-rate factor must be in (0, 1]");
   if (!(settings_.lr_decay_start >= 0.0f && settings_.lr_decay_start < 1.0f))
     throw Error("the learning-rate decay start must be in [0, 1)");

@@ -171,6 +171,8 @@ class Optimizer {
   const OptimizerSettings& settings() const { return settings_; }
   // The target iteration count may change (a resumed run can go further).
   void set_iterations(int n) { settings_.iterations = n; }
+  // The samples per pixel of the iterations to come (a time budget plans them; budget_plan.h).
+  void set_spp(int spp) { settings_.integrator.spp = spp; }
   // Data-parallel runs (optim/data_parallel.h): every rank's optimiser shares each
   // iteration's views through `comm` (which must outlive it); default: one process.
   void set_communicator(const Communicator& comm) { comm_ = &comm; }

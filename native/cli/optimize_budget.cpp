@@ -1,0 +1,75 @@
+#include "optimize_budget.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
+#include "ptir/optim/budget_plan.h"
+#include "ptir/optim/iteration_estimate.h"
+#include "ptir/optim/optimizer.h"
+
+namespace ptir::cli {
+
+namespace {
+std::string budget_path(const std::string& out_dir) { return (std::filesystem::path(out_dir) / "budget.json").string(); }
+}  // namespace
+
+BudgetState read_budget_state(const std::string& out_dir) {
+  BudgetState b;
+  const std::string path = budget_path(out_dir);
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return b;
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    const nlohmann::json j = nlohmann::json::parse(text.str());
+    b.budget_s = j.at("budget_s").get<double>();
+    b.spent_s = j.at("spent_s").get<double>();
+    b.spp = j.at("spp").get<int>();
+  } catch (const std::exception& e) {
+    throw Error(path, std::string("not a budget record (budget_s, spent_s, spp): ") + e.what());
+  }
+  if (!(b.budget_s > 0.0) || !(b.spent_s >= 0.0) || b.spp < 0) throw Error(path, "budget_s, spent_s or spp out of range");
+  return b;
+}
+
+void write_budget_state(const std::string& out_dir, const BudgetState& b) {
+  nlohmann::ordered_json j;
+  j["budget_s"] = b.budget_s;
+  j["spent_s"] = b.spent_s;
+  j["spp"] = b.spp;
+  io::write_text_atomic(budget_path(out_dir), j.dump() + "\n");
+}
+
+BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::steady_clock::time_point t_start,
+                                  bool quiet) {
+  const double since_start = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const double left = b.budget_s - b.spent_s - since_start - kOutputReserve;
+  if (b.spp > 0 && b.spp != opt.settings().integrator.spp) opt.set_spp(b.spp);  // a resumed budget keeps its spp
+  const IterationEstimate est = estimate_iteration(opt);
+  int spp = opt.settings().integrator.spp;
+  int iterations = 0;
+  if (b.spp > 0) {
+    iterations = left > 0.0 ? int(left / std::max(1e-9, est.seconds)) : 0;
+  } else {
+    const BudgetPlan p = plan_budget(std::max(0.0, left), est, opt.settings());
+    spp = p.spp;
+    iterations = left > 0.0 ? p.iterations : 0;
+    opt.set_spp(spp);
+  }
+  opt.set_iterations(opt.iteration() + iterations);
+  b.spp = spp;
+  if (!quiet)
+    std::fprintf(stderr, "optimize: budget %.0f s (%.0f s left): %d iterations at %d spp, %d patch(es) of %s per iteration\n",
+                 b.budget_s, std::max(0.0, left), iterations, spp, opt.settings().views_per_iteration,
+                 opt.settings().crop_size > 0 ? (std::to_string(opt.settings().crop_size) + "^2").c_str() : "whole views");
+  return b;
+}
+
+}  // namespace ptir::cli

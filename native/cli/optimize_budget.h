@@ -1,0 +1,42 @@
+// `ptir optimize --budget 10m` (src/ptir/optim/budget_plan.h): the whole
+// command -- loading, the geometry stage, the iterations and the outputs --
+// ends within the budget. The geometry stage takes at most kFitShare of it
+// (its iteration count re-planned from its measured rate); the inversion
+// plans its spp and iterations from the probe's estimate, then re-plans the
+// iteration count after every iteration from its own rate.
+//
+// OUT/budget.json (atomic, after every iteration) holds the budget, the
+// seconds spent and the planned spp: `--resume` continues a budgeted run with
+// what is left of it (a new --budget replaces the total), at the same spp.
+#pragma once
+
+#include <chrono>
+#include <string>
+
+namespace ptir {
+class Optimizer;
+}
+
+namespace ptir::cli {
+
+constexpr double kFitShare = 0.2;  // the geometry stage's share of a budget, at most
+// Seconds kept for writing the outputs and the last checkpoint after the last iteration.
+constexpr double kOutputReserve = 2.0;
+
+struct BudgetState {
+  double budget_s = 0.0;  // 0: no budget
+  double spent_s = 0.0;   // by earlier runs of this output folder (resumed)
+  int spp = 0;            // planned (0: not planned yet)
+};
+
+// OUT/budget.json, or a zero state when there is none.
+BudgetState read_budget_state(const std::string& out_dir);
+void write_budget_state(const std::string& out_dir, const BudgetState& b);
+
+// Plans the optimiser's spp and iterations for what is left of the budget at
+// `now` (the command started at t_start); prints the plan unless quiet.
+// Returns the state to keep (with the planned spp).
+BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::steady_clock::time_point t_start,
+                                  bool quiet);
+
+}  // namespace ptir::cli

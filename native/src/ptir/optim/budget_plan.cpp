@@ -1,0 +1,56 @@
+#include "ptir/optim/budget_plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "ptir/core/error.h"
+
+namespace ptir {
+
+double parse_duration(const std::string& text, const std::string& what) {
+  const char* s = text.c_str();
+  char* end = nullptr;
+  const double v = std::strtod(s, &end);
+  const std::string unit(end == nullptr ? "" : end);
+  double scale = 0.0;
+  if (unit.empty() || unit == "s") scale = 1.0;
+  else if (unit == "m" || unit == "min") scale = 60.0;
+  else if (unit == "h") scale = 3600.0;
+  if (end == s || scale == 0.0 || !std::isfinite(v) || !(v > 0.0))
+    throw Error(what + " must be a positive duration such as 90s, 10m or 1.5h, got '" + text + "'");
+  return v * scale;
+}
+
+double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp) {
+  if (s.integrator.spp <= 0) return e.seconds;
+  // The estimate's seconds are fixed costs plus a per-sample part proportional to the spp.
+  const double per_spp_part = e.seconds - e.fixed_seconds;
+  return e.fixed_seconds + per_spp_part * double(spp) / double(s.integrator.spp);
+}
+
+BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const OptimizerSettings& s) {
+  BudgetPlan p;
+  auto iterations_at = [&](int spp) { return int(std::floor(seconds / std::max(1e-9, iteration_seconds(e, s, spp)))); };
+  p.spp = s.integrator.spp;
+  int n = iterations_at(p.spp);
+  if (n < kMinIterations) {  // short budget: fewer samples per iteration, down to kMinSpp
+    while (p.spp > kMinSpp && iterations_at(p.spp) < kMinIterations) p.spp = std::max(kMinSpp, p.spp / 2);
+  } else if (n > kReferenceIterations) {  // long budget: more samples per iteration, up to kMaxSpp
+    while (p.spp < kMaxSpp && iterations_at(2 * p.spp) >= kReferenceIterations) p.spp *= 2;
+  }
+  p.iterations = std::max(1, iterations_at(p.spp));
+  p.s_per_iter = iteration_seconds(e, s, p.spp);
+  return p;
+}
+
+int BudgetPacer::replan(int done, int done_here, double elapsed_s, double now_s, int total) const {
+  if (done_here < 3 || elapsed_s <= 0.0) return total;  // the first iterations warm caches up
+  const double rate = elapsed_s / double(done_here);
+  const double left = end_s_ - now_s;
+  const int want = done + std::max(0, int(std::floor(left / rate)));
+  if (std::abs(want - total) <= std::max(1, total / 100) && want >= done) return total;
+  return std::max(done, want);
+}
+
+}  // namespace ptir

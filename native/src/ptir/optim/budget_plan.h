@@ -1,0 +1,55 @@
+// A time budget for `ptir optimize --budget 10m` (issue 38): artists think in
+// minutes, not iterations x spp.
+//
+// Before the first iteration, plan_budget turns the seconds left into
+// iterations and samples per pixel from the measured cost of an iteration
+// (iteration_estimate.h): the default's 32 spp where that gives between
+// kMinIterations and kReferenceIterations iterations; fewer spp (down to
+// kMinSpp) where the budget would leave fewer iterations than kMinIterations;
+// more spp (up to kMaxSpp) where it would give more than kReferenceIterations
+// (measured: longer runs lose albedo to the late drift, more samples per
+// iteration gain; docs/inversion.md). Then the pacer re-plans the iteration
+// count from the run's own measured rate after every iteration, so the run ends
+// within the budget whatever the estimate's error (the schedules -- warm-up,
+// decay, balance -- are fractions of the count, so they stretch with it).
+#pragma once
+
+#include <string>
+
+#include "ptir/optim/iteration_estimate.h"
+
+namespace ptir {
+
+// "90", "90s", "10m", "1.5h" -> seconds; throws Error naming `what` on anything else.
+double parse_duration(const std::string& text, const std::string& what);
+
+constexpr int kReferenceIterations = 800;  // the default run's count (METHOD §6)
+constexpr int kMinIterations = 200;
+constexpr int kMinSpp = 8, kMaxSpp = 128;
+
+struct BudgetPlan {
+  int iterations = 0;
+  int spp = 0;
+  double s_per_iter = 0.0;  // estimated, at the planned spp
+};
+
+// The plan for `seconds` of iterations from the estimate of an iteration at `s`'s spp and batch.
+BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const OptimizerSettings& s);
+
+// Seconds per iteration at `spp`, from the estimate's per-sample and per-pixel costs.
+double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp);
+
+// Re-plans the iteration count during a run that must end `end_s` seconds
+// after the pacer's clock started (the caller's seconds).
+class BudgetPacer {
+ public:
+  explicit BudgetPacer(double end_s) : end_s_(end_s) {}
+  // After `done` iterations, `done_here` of them in this process over `elapsed_s` of
+  // iterating, at `now_s`: the total to run (>= done; `total` when within 1 %).
+  int replan(int done, int done_here, double elapsed_s, double now_s, int total) const;
+
+ private:
+  double end_s_;
+};
+
+}  // namespace ptir

@@ -1,0 +1,93 @@
+// Time budgets and patch batches (optim/budget_plan.h, optim/patch_batch.h):
+// durations parse with their units and refuse the rest; a plan fits its budget
+// by its own cost model (iteration_seconds x iterations <= budget) and moves
+// the spp the way the header says; the pacer's re-plan lands the run on its end
+// time; the automatic batch takes patches only where a view is larger than it.
+#include <gtest/gtest.h>
+
+#include "ptir/core/error.h"
+#include "ptir/optim/budget_plan.h"
+#include "ptir/optim/patch_batch.h"
+
+using namespace ptir;
+
+TEST(BudgetPlan, DurationsParseWithUnits) {
+  EXPECT_DOUBLE_EQ(parse_duration("90", "--budget"), 90.0);
+  EXPECT_DOUBLE_EQ(parse_duration("90s", "--budget"), 90.0);
+  EXPECT_DOUBLE_EQ(parse_duration("10m", "--budget"), 600.0);
+  EXPECT_DOUBLE_EQ(parse_duration("1.5h", "--budget"), 5400.0);
+  for (const char* bad : {"", "m", "-3m", "0", "10 m", "10d", "nan", "inf"}) {
+    try {
+      parse_duration(bad, "--budget");
+      FAIL() << "accepted '" << bad << "'";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("--budget"), std::string::npos) << e.what();
+    }
+  }
+}
+
+namespace {
+// An estimate of 1 s per iteration at 32 spp, of which 0.1 s does not scale with the spp.
+IterationEstimate one_second_estimate() {
+  IterationEstimate e;
+  e.seconds = 1.0;
+  e.fixed_seconds = 0.1;
+  return e;
+}
+}  // namespace
+
+TEST(BudgetPlan, FitsTheBudgetAndMovesTheSamples) {
+  OptimizerSettings s;  // 32 spp
+  const IterationEstimate e = one_second_estimate();
+  EXPECT_NEAR(iteration_seconds(e, s, 16), 0.1 + 0.9 * 0.5, 1e-12);
+  // 500 s: between kMinIterations and kReferenceIterations at 32 spp, kept.
+  BudgetPlan p = plan_budget(500.0, e, s);
+  EXPECT_EQ(p.spp, 32);
+  EXPECT_EQ(p.iterations, 500);
+  // 60 s: too few iterations at 32 spp; halved down to kMinSpp.
+  p = plan_budget(60.0, e, s);
+  EXPECT_EQ(p.spp, kMinSpp);
+  EXPECT_LE(p.iterations * iteration_seconds(e, s, p.spp), 60.0 + 1e-9);
+  EXPECT_GT(p.iterations, 60);
+  // 4000 s: more than kReferenceIterations at 32 spp; doubled while 800 still fit.
+  p = plan_budget(4000.0, e, s);
+  EXPECT_EQ(p.spp, 128);  // 0.1 + 4 x 0.9 = 3.7 s at 128 spp: 1081 iterations
+  EXPECT_GE(p.iterations, kReferenceIterations);
+  EXPECT_LE(p.iterations * p.s_per_iter, 4000.0 + 1e-9);
+}
+
+TEST(BudgetPlan, PacerLandsOnTheEndTime) {
+  const BudgetPacer pacer(100.0);
+  // 10 iterations in 5 s, at 10 s since the start: 90 s left at 0.5 s each.
+  EXPECT_EQ(pacer.replan(10, 10, 5.0, 10.0, 50), 190);
+  EXPECT_EQ(pacer.replan(10, 10, 5.0, 10.0, 189), 189);  // within 1 %: unchanged
+  EXPECT_EQ(pacer.replan(10, 10, 5.0, 120.0, 190), 10);  // past the end: stop now
+  EXPECT_EQ(pacer.replan(2, 2, 5.0, 10.0, 50), 50);      // too early to tell
+}
+
+TEST(PatchBatch, PatchesOnlyWhereAViewIsMuchLargerThanTheBatch) {
+  PatchBatch b = default_patch_batch(64, 64, 24);  // 4096 pixels: whole views
+  EXPECT_EQ(b.side, 0);
+  EXPECT_EQ(b.views, 1);
+  b = default_patch_batch(128, 128, 24);  // twice the batch's 8192 pixels: still whole views (measured)
+  EXPECT_EQ(b.side, 0);
+  b = default_patch_batch(182, 182, 24);  // past twice
+  EXPECT_EQ(b.side, kDefaultPatchSide);
+  b = default_patch_batch(256, 256, 24);
+  EXPECT_EQ(b.side, kDefaultPatchSide);
+  EXPECT_EQ(b.views, kDefaultPatchViews);
+  b = default_patch_batch(256, 256, 3);  // never more patches than views
+  EXPECT_EQ(b.views, 3);
+  int views = 0, crop = -1;
+  resolve_patch_batch(256, 256, 24, &views, &crop);
+  EXPECT_EQ(views, kDefaultPatchViews);
+  EXPECT_EQ(crop, kDefaultPatchSide);
+  views = 2, crop = -1;  // given views, automatic side
+  resolve_patch_batch(256, 256, 24, &views, &crop);
+  EXPECT_EQ(views, 2);
+  EXPECT_EQ(crop, kDefaultPatchSide);
+  views = 0, crop = 0;  // whole views asked for: one per iteration
+  resolve_patch_batch(256, 256, 24, &views, &crop);
+  EXPECT_EQ(views, 1);
+  EXPECT_EQ(crop, 0);
+}

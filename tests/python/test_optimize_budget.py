@@ -1,0 +1,58 @@
+"""`ptir optimize --budget` (optim/budget_plan.h, cli/optimize_budget.h): the plan, the
+record --resume continues from, and the errors. Runs are a few seconds on the tiny
+sphere set of test_optimize_cli.py (6 views of 32x32, 1 thread). How close a budget
+lands to its time is a benchmark (bench/time_to_quality.py), not asserted here."""
+
+import json
+
+from test_optimize_cli import dataset, optimize  # noqa: F401  (the module's fixture and runner)
+
+
+def _iterations(out):
+    with open(out / "log.csv") as f:
+        return len(f.read().splitlines()) - 1
+
+
+def test_budget_plans_the_run_and_resume_continues_it(cli, dataset, tmp_path):  # noqa: F811
+    out = tmp_path / "b"
+    r = optimize(cli, dataset, out, "--budget", "8s", "--spp", "8")
+    assert "budget 8 s" in r.stderr and "iterations at" in r.stderr, r.stderr[-2000:]
+    rec = json.loads((out / "budget.json").read_text())
+    n1 = _iterations(out)
+    assert rec["budget_s"] == 8.0 and rec["spp"] >= 1 and n1 >= 1  # (how many: the machine's load)
+    # The pacer plans the end at the budget less 2 s for the outputs; one iteration here is
+    # well under 0.1 s, so the last recorded time is inside the budget (not a timing bound:
+    # the re-plan after every iteration guarantees it for any steady rate).
+    assert 0.0 < rec["spent_s"] <= rec["budget_s"]
+    # --resume with a larger budget: what is left of it, at the same spp, from the same checkpoint.
+    r = optimize(cli, dataset, out, "--budget", "16s", "--spp", "8", "--resume")
+    assert "resumed from" in r.stderr, r.stderr[-2000:]
+    rec2 = json.loads((out / "budget.json").read_text())
+    assert rec2["budget_s"] == 16.0 and rec2["spp"] == rec["spp"]
+    assert rec2["spent_s"] > rec["spent_s"] and _iterations(out) > n1
+    # A fresh run without a budget leaves no stale record behind.
+    optimize(cli, dataset, out, "--iters", "2")
+    assert not (out / "budget.json").exists()
+
+
+def test_budget_estimate_and_errors(cli, dataset, tmp_path):  # noqa: F811
+    r = optimize(cli, dataset, tmp_path / "e", "--budget", "1m", "--estimate")
+    est = json.loads(next(l for l in r.stdout.splitlines() if l.startswith('{"estimate"')))["estimate"]
+    assert est["budget_s"] == 60.0 and est["iterations"] > 0 and est["spp"] >= 1
+    assert est["total_s"] <= 60.0 * 1.01  # the plan fits the budget by its own estimate
+    r = optimize(cli, dataset, tmp_path / "x", "--budget", "10 minutes", check=False)
+    assert r.returncode != 0 and "--budget must be a positive duration" in r.stderr
+    r = optimize(cli, dataset, tmp_path / "x", "--budget", "1m", "--iters", "5", check=False)
+    assert r.returncode != 0 and "not both" in r.stderr
+
+
+def test_fit_budget_stops_a_long_fit_early(cli, dataset, tmp_path):  # noqa: F811
+    """`ptir fit --budget` (the geometry stage's share of a budget): at most --iters, fewer when
+    they would not end in time -- 100000 iterations of ~10 ms cannot fit into 3 s."""
+    import subprocess
+    out = tmp_path / "fit"
+    r = subprocess.run([str(cli), "fit", "--dataset", str(dataset), "--gaussians", str(dataset / "g.ply"), "--out",
+                        str(out), "--iters", "100000", "--budget", "3s", "--threads", "1", "-q"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert 1 <= _iterations(out) < 100000 and (out / "gaussians.ply").exists()
