@@ -57,6 +57,7 @@
 #include "run_control.h"
 #include "filter_flags.h"
 #include "fit_stage.h"
+#include "radiance_stage.h"
 #include "job_stop.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
@@ -132,6 +133,7 @@ struct OptimizeCommand {
   CaptureFlags capture;  // real captures (docs/dataset_format.md)
   int fit_iters = 1500;  // the geometry stage first (0: the splats' geometry as given)
   bool fitted = false;   // the inversion runs on splats its geometry stage fitted (OUT/fit/)
+  RadianceStage radiance;  // no --dataset: targets from the splats' own radiance (radiance_stage.h)
 };
 
 // Defaults that depend on the dataset: the environment model (24 SGs for real
@@ -139,6 +141,15 @@ struct OptimizeCommand {
 // Gaussians a 3DGS output folder names (point_cloud/iteration_N, largest N).
 // Returns false (a usage error) when --gaussians is missing and the dataset names none.
 bool resolve_dataset_defaults(OptimizeCommand& o) {
+  if (o.dataset.empty()) {  // targets from the splats' own radiance (radiance_stage.h)
+    if (o.gaussians.empty()) {
+      std::fprintf(stderr, "ptir: error: give --dataset (photos and poses) or --gaussians (a splat PLY: the inversion then "
+                           "runs on its own captured radiance), or both\n");
+      return false;
+    }
+    if (o.opt.env == "auto") o.opt.env = "latlong";
+    return true;
+  }
   const std::string layout = o.capture.layout == "auto" ? detect_layout(o.dataset) : o.capture.layout;
   if (o.opt.env == "auto") o.opt.env = (layout == "nerf" || layout.empty()) ? "latlong" : "sg";
   if (o.gaussians.empty()) {
@@ -273,6 +284,37 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm) {
   return rc;
 }
 
+// No --dataset: the targets are rendered from the splats' own radiance into
+// OUT/radiance/ (cached: a run stopped there re-uses them), which then is the
+// dataset; no geometry stage (the targets are the splats' own). With SH degree 0
+// the targets do not change with the view: roughness and metallic stay at their
+// priors (their learning rates are 0), and the run says so.
+int radiance_stage(OptimizeCommand& o, const Communicator& comm) {
+  o.radiance.gaussians = o.gaussians;
+  o.radiance.out = o.out;
+  o.radiance.quiet = o.quiet || comm.rank() != 0;
+  std::error_code ec;
+  if (o.resume && !std::filesystem::exists(std::filesystem::path(o.out) / "checkpoint.bin", ec))
+    o.resume = false;  // stopped before the first checkpoint: the cached targets are the progress
+  int degree = 0;
+  if (comm.rank() == 0) {
+    if (const int rc = run_radiance_stage(o.radiance, &o.dataset, &degree)) return rc;
+  } else {
+    degree = load_gaussians(o.gaussians).sh_degree;
+  }
+  comm.barrier();
+  o.dataset = (std::filesystem::path(o.out) / "radiance").string();
+  if (degree == 0) {
+    if (!o.quiet)
+      std::fprintf(stderr, "note: the splats have SH degree 0 (no view-dependent colour): roughness and metallic are "
+                           "unconstrained by their radiance and stay at their priors (%s)\n",
+                   o.opt.init_from_ply ? "the PLY's values" : "roughness 0.6, metallic 0");
+    o.opt.lr_roughness = 0;
+    o.opt.optimize_metallic = false;
+  }
+  return 0;
+}
+
 int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   const auto t_start = std::chrono::steady_clock::now();
   // Data-parallel runs (world.h): rank 0 alone reports and writes.
@@ -285,7 +327,11 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
   guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}, {o.dataset}}, {{}, {o.out}}, o.force);
   if (comm.rank() == 0 && !o.estimate) remove_stale_outputs({o.out}, o.quiet);
-  if (const int rc = geometry_stage(o, comm)) return rc;
+  if (o.dataset.empty()) {
+    if (const int rc = radiance_stage(o, comm)) return rc;
+  } else if (const int rc = geometry_stage(o, comm)) {
+    return rc;
+  }
   // Bounce light from the splats' captured radiance where the geometry stage has
   // just fitted their SH to these photos (field_radiance.h); else path-traced. A
   // resumed run goes on as it began (its checkpoint names `field`; older ones
@@ -387,8 +433,9 @@ Runner add_optimize_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("optimize", "Recover materials and lighting from posed images (inverse rendering)");
   cmd->add_option("--dataset", o->dataset,
                   "dataset folder: NeRF-synthetic/TensoIR (transforms_<split>.json), COLMAP (sparse/0), 3DGS output "
-                  "(cameras.json + cfg_args) or nerfstudio (transforms.json); docs/dataset_format.md")
-      ->required();
+                  "(cameras.json + cfg_args) or nerfstudio (transforms.json); docs/dataset_format.md. Without it, "
+                  "--gaussians alone: the inversion runs on targets rendered from the splats' own radiance "
+                  "(docs/relightable.md)");
   cmd->add_option("--gaussians", o->gaussians,
                   "input 3DGS .ply (its geometry fitted first unless --fit-iters 0, then fixed); default for a 3DGS output folder: point_cloud/iteration_N (largest N)");
   cmd->add_option("--scene", o->scene, "scene file with meshes and lights to include (docs/scene_format.md)");
@@ -486,6 +533,7 @@ Runner add_optimize_command(CLI::App& app) {
   add_force_flag(cmd, o->force);
   add_capture_flags(cmd, &o->capture);
   add_filter_flags(cmd, &o->filter);
+  add_radiance_flags(cmd, &o->radiance);
   show_common_options(cmd);
   return [o, cmd] {
     if (!resolve_dataset_defaults(*o)) return 2;
