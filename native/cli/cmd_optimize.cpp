@@ -26,6 +26,8 @@
 // setup_s is what a real run spends before its first iteration (loading the
 // dataset and Gaussians, building the BVH, the probe itself, which a real run
 // also does): the add-on's Optimise panel shows total_s before starting.
+// Without --dataset it renders the first radiance target only (into
+// OUT/radiance_estimate/) and counts that view's time for each of the others.
 //
 // --scene adds the scene file's meshes and lights (its Gaussians must be given
 // with --gaussians instead; its environment is replaced by the recovered one; its
@@ -133,6 +135,7 @@ struct OptimizeCommand {
   CaptureFlags capture;  // real captures (docs/dataset_format.md)
   int fit_iters = 1500;  // the geometry stage first (0: the splats' geometry as given)
   bool fitted = false;   // the inversion runs on splats its geometry stage fitted (OUT/fit/)
+  double targets_left_s = 0;  // --estimate without --dataset: the radiance targets still to render
   RadianceStage radiance;  // no --dataset: targets from the splats' own radiance (radiance_stage.h)
 };
 
@@ -217,9 +220,9 @@ std::string stop_message(const std::string& ckpt, int done, int saved) {
 }
 
 // --estimate: the inputs are loaded (setup timed from t_start), then the probe; one JSON line on stdout.
-int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start) {
+int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double extra_setup_s) {
   const IterationEstimate est = estimate_iteration(opt);
-  const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() + extra_setup_s;
   const int iters = opt.settings().iterations - opt.iteration();
   std::printf("{\"estimate\": {\"setup_s\": %.4f, \"s_per_iter\": %.6f, \"iterations\": %d, \"total_s\": %.3f, "
               "\"gaussians\": %zu, \"views\": %zu, \"width\": %d, \"height\": %d, \"probe_pixels\": %d, "
@@ -289,21 +292,28 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm) {
 // dataset; no geometry stage (the targets are the splats' own). With SH degree 0
 // the targets do not change with the view: roughness and metallic stay at their
 // priors (their learning rates are 0), and the run says so.
-int radiance_stage(OptimizeCommand& o, const Communicator& comm) {
+int radiance_stage(OptimizeCommand& o, const CLI::App& cmd, const Communicator& comm) {
+  // Defaults of its own (docs/relightable.md: a 100K-splat object in minutes on 2
+  // cores): random 128-pixel crops of the virtual views, 16 spp, 400 iterations.
+  if (cmd.count("--iters") == 0) o.opt.iters = 400;
+  if (cmd.count("--spp") == 0) o.opt.spp = 16;
+  if (cmd.count("--crop") == 0) o.opt.crop = 128;
+  if (cmd.count("--neutral-light") == 0) o.opt.neutral_light = true;
   o.radiance.gaussians = o.gaussians;
   o.radiance.out = o.out;
   o.radiance.quiet = o.quiet || comm.rank() != 0;
+  o.radiance.estimate = o.estimate;
   std::error_code ec;
   if (o.resume && !std::filesystem::exists(std::filesystem::path(o.out) / "checkpoint.bin", ec))
     o.resume = false;  // stopped before the first checkpoint: the cached targets are the progress
   int degree = 0;
   if (comm.rank() == 0) {
-    if (const int rc = run_radiance_stage(o.radiance, &o.dataset, &degree)) return rc;
+    if (const int rc = run_radiance_stage(o.radiance, &o.dataset, &degree, &o.targets_left_s)) return rc;
   } else {
     degree = load_gaussians(o.gaussians).sh_degree;
   }
   comm.barrier();
-  o.dataset = (std::filesystem::path(o.out) / "radiance").string();
+  o.dataset = (std::filesystem::path(o.out) / (o.estimate ? "radiance_estimate" : "radiance")).string();
   if (degree == 0) {
     if (!o.quiet)
       std::fprintf(stderr, "note: the splats have SH degree 0 (no view-dependent colour): roughness and metallic are "
@@ -328,7 +338,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}, {o.dataset}}, {{}, {o.out}}, o.force);
   if (comm.rank() == 0 && !o.estimate) remove_stale_outputs({o.out}, o.quiet);
   if (o.dataset.empty()) {
-    if (const int rc = radiance_stage(o, comm)) return rc;
+    if (const int rc = radiance_stage(o, cmd, comm)) return rc;
   } else if (const int rc = geometry_stage(o, comm)) {
     return rc;
   }
@@ -359,7 +369,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
-  if (o.estimate) return comm.rank() == 0 ? print_estimate(opt, t_start) : 0;
+  if (o.estimate) return comm.rank() == 0 ? print_estimate(opt, t_start, o.targets_left_s) : 0;
   opt.set_communicator(comm);
   if (!o.quiet)
     std::fprintf(stderr,
@@ -523,6 +533,9 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-fine-rate", o->opt.env_fine_rate,
                   "with a coarse level: the fine texels' rate as a fraction of --lr-env (the coarse level's)")
       ->capture_default_str();
+  cmd->add_option("--neutral-light", o->opt.neutral_light,
+                  "keep the learnt environment's colour neutral, its colour going into the albedos (default: on "
+                  "without --dataset, where baked radiance fixes only albedo x light; off with photos)");
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("--learn-exposure", o->opt.learn_exposure,

@@ -71,7 +71,7 @@ std::vector<Camera> capture_cameras(const std::string& given, int max_side) {
 
 }  // namespace
 
-int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree) {
+int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s) {
   if (r.target_spp < 1) throw Error("--target-spp must be at least 1");
   const auto t0 = std::chrono::steady_clock::now();
   GaussianField field = load_gaussians(r.gaussians);
@@ -117,7 +117,13 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
     }
     return !g_interrupted.load();
   };
-  const fs::path dir = fs::path(r.out) / "radiance";
+  fs::path dir = fs::path(r.out) / "radiance";
+  const size_t all_views = cameras.size();
+  if (r.estimate) {  // the probe's view alone, in a folder of its own (the run's cache stays whole)
+    cameras.resize(1);
+    dir = fs::path(r.out) / "radiance_estimate";
+  }
+  const auto t_render = std::chrono::steady_clock::now();
   RadianceTargetReport rep;
   {
     SceneAccel accel(field, {});
@@ -129,6 +135,10 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
                  "command again to continue)\n", rep.rendered + rep.reused, dir.string().c_str());
     return 130;
   }
+  if (remaining_s)
+    *remaining_s = r.estimate ? std::chrono::duration<double>(std::chrono::steady_clock::now() - t_render).count() *
+                                    double(all_views - 1)
+                              : 0.0;
   if (!r.quiet)
     std::fprintf(stderr, "radiance: %d views rendered, %d reused from %s (%s)\n", rep.rendered, rep.reused,
                  dir.string().c_str(),

@@ -21,6 +21,9 @@ struct RadianceStage {
   int target_spp = 4;     // --target-spp (filter-jittered; docs/relightable.md)
   int max_side = 0;       // --orbit-size with --cameras: the long side of the targets (0: 800)
   bool quiet = false;
+  // --estimate: only the first view is rendered (the probe's); the time the
+  // others will take (that view's, each) goes to *remaining_s.
+  bool estimate = false;
 };
 
 void add_radiance_flags(CLI::App* cmd, RadianceStage* r);
@@ -28,6 +31,6 @@ void add_radiance_flags(CLI::App* cmd, RadianceStage* r);
 // Renders (or reuses) the targets. Returns 0 with *dataset = OUT/radiance and
 // *sh_degree = the PLY's SH degree, or 130 when Ctrl-C stopped it (the views
 // rendered so far stay cached for the next run).
-int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree);
+int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s = nullptr);
 
 }  // namespace ptir::cli

@@ -137,8 +137,13 @@ def wants_fit(settings, dataset_dir=None, split="train", has_meshes=False):
     return not (has_meshes and capture_cameras.is_nerf_folder(dataset_dir, split))
 
 
-def prepare(context, settings, job_dir, cli_exe, out_dir=None):
-    """Writes the inputs and returns an OptimizeJob (raises OptimizeError and the io errors)."""
+def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_defaults=False):
+    """Writes the inputs and returns an OptimizeJob (raises OptimizeError and the io errors). source
+    overrides settings.source; with "SPLATS" (no photos) own_defaults leaves the iterations, samples and
+    crops to `ptir optimize`'s own defaults for that path (Make Relightable)."""
+    source = source or settings.source
+    if source == "SPLATS":
+        return _prepare_splats_only(context, settings, job_dir, cli_exe, out_dir, own_defaults)
     job = OptimizeJob()
     job.job_dir = job_dir
     job.out_dir = out_dir or os.path.join(job_dir, "out")
@@ -229,6 +234,35 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
         args.append("--optimize-meshes")
     if settings.learn_exposure:
         args.append("--learn-exposure")
+    if settings.optimize_metallic:
+        args.append("--optimize-metallic")
+    if settings.threads > 0:
+        args += ["--threads", settings.threads]
+    job.args = [str(a) for a in args]
+    return job
+
+
+def _prepare_splats_only(context, settings, job_dir, cli_exe, out_dir, own_defaults):
+    """`ptir optimize --gaussians splats.ply` without --dataset: the targets are rendered from the splats'
+    own radiance (docs/relightable.md). The scene's meshes and lights take no part (the targets show the
+    splats alone); no geometry stage (the targets are the splats' own)."""
+    job = OptimizeJob()
+    job.job_dir = job_dir
+    job.out_dir = out_dir or os.path.join(job_dir, "out")
+    obj = _target_object(context, settings)
+    job.object_name = obj.name
+    job.count = len(obj.data.vertices)
+    job.matrix = np.array(obj.matrix_world, np.float64)
+    job.write_environment = bool(settings.write_environment)
+    splats = os.path.join(job_dir, "splats.ply")
+    splat_ply.write_splat_ply(splats, splat_object.world_data(obj),
+                              comment="PTIR optimisation input: Blender object %s" % obj.name)
+    args = [cli_exe, "optimize", "--gaussians", splats, "--out", job.out_dir, "--bounces", settings.bounces,
+            "--env", settings.env, "--env-size", "%dx%d" % (settings.env_width, settings.env_height),
+            "--seed", settings.seed]
+    if not own_defaults:
+        args += ["--iters", settings.iterations, "--spp", settings.spp, "--views-per-iter", settings.views_per_iter,
+                 "--crop", settings.crop]
     if settings.optimize_metallic:
         args.append("--optimize-metallic")
     if settings.threads > 0:

@@ -1,0 +1,51 @@
+"""bpy.ops.ptir.make_relightable in blender -b on a splat PLY with the DC colour only, as other tools
+write them (checks in addon_relightable_check.py): no dataset, the materials come from the splats' own
+radiance. The splats: 400 flat Gaussians on a sphere, DC colour (0.8, 0.4, 0.15), no f_rest, no normals.
+8 virtual views of 64 x 64 and 40 iterations at 4 spp take seconds.
+"""
+
+import json
+import math
+import sys
+
+import numpy as np
+import pytest
+
+import addon_common as ac
+
+sys.path.insert(0, str(ac.REPO / "tests" / "python"))
+import ptir_testing as pt  # noqa: E402
+
+pytestmark = pytest.mark.skipif(not ac.have_blender(), reason="blender not installed")
+
+
+@pytest.fixture(scope="module")
+def dc_only_ply(tmp_path_factory):
+    if not ac.CLI.exists():
+        pytest.fail("no CLI at %s (run 'make build' or set PTIR_BUILD_DIR)" % ac.CLI)
+    n = 400
+    normals = np.array(pt.fibonacci_sphere(n), np.float64)
+    quats = pt.quat_z_to(normals)
+    sigma = np.tile([0.12, 0.12, 0.002], (n, 1))
+    path = tmp_path_factory.mktemp("dc_only") / "other_tool.ply"
+    pt.write_splat_ply(str(path), normals, sigma, quat=quats, opacity=0.95, colour=(0.8, 0.4, 0.15), sh_rest=0)
+    return str(path)
+
+
+def _run(mode, ply, tmp_path, iterations=40):
+    r = ac.run_blender("addon_relightable_check.py", mode, ply, tmp_path, iterations, timeout=600)
+    assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
+    line = next(l for l in r.stdout.splitlines() if l.startswith("RELIGHTABLE_STATS: "))
+    return json.loads(line[len("RELIGHTABLE_STATS: "):]), r
+
+
+def test_make_relightable_without_photos(dc_only_ply, tmp_path):
+    stats, r = _run("finish", dc_only_ply, tmp_path)
+    print("make relightable: %s" % stats)
+    assert "roughness and metallic are unconstrained" in r.stdout + r.stderr  # SH degree 0, said by the engine
+    assert "radiance: view 8/8 rendered" in r.stdout + r.stderr
+
+
+def test_cancelled_make_relightable_leaves_scene_unchanged(dc_only_ply, tmp_path):
+    stats, _ = _run("cancel", dc_only_ply, tmp_path)
+    assert stats["seconds"] < 90
