@@ -49,11 +49,9 @@ def _redraw(context):
                 area.tag_redraw()
 
 
-class PTIR_OT_optimize(bpy.types.Operator):
-    """Recover materials and lighting from the photos with the PTIR optimiser (runs in a child process; Esc cancels)"""
-    bl_idname = "ptir.optimize"
-    bl_label = "Optimise Materials"
-    bl_options = {"REGISTER", "UNDO"}
+class _OptimizeRun:
+    """The run of an optimisation as an operator (a mixin: Blender registers each operator class on its
+    own, and a registered operator class cannot be subclassed)."""
 
     _timer = None
     _child = None
@@ -238,6 +236,13 @@ class PTIR_OT_optimize(bpy.types.Operator):
         context.scene.ptir_optimize.running = False
 
 
+class PTIR_OT_optimize(_OptimizeRun, bpy.types.Operator):
+    """Recover materials and lighting from the photos with the PTIR optimiser (runs in a child process; Esc cancels)"""
+    bl_idname = "ptir.optimize"
+    bl_label = "Optimise Materials"
+    bl_options = {"REGISTER", "UNDO"}
+
+
 class PTIR_OT_optimize_cancel(bpy.types.Operator):
     """Stop the running optimisation (nothing is written back)"""
     bl_idname = "ptir.optimize_cancel"
@@ -276,7 +281,7 @@ class PTIR_OT_optimize_estimate(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class PTIR_OT_make_relightable(PTIR_OT_optimize):
+class PTIR_OT_make_relightable(_OptimizeRun, bpy.types.Operator):
     """Make the splat object relightable: recover its materials and the light from the photos of the
     panel's dataset folder when one is set, else from the splats' own captured radiance (no photos
     needed; runs in a child process; Esc cancels)"""
