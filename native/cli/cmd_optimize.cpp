@@ -9,6 +9,10 @@
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
 //       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [--estimate] [-q]
 //
+// Without --dataset (`ptir optimize --gaussians IN.ply --out OUT [--cameras cameras.json]`):
+// the targets are rendered from the splats' own radiance (radiance_stage.h,
+// docs/relightable.md), with defaults of their own (400 iterations, 16 spp, 128 crops).
+//
 // First the geometry stage (--fit-iters, `ptir fit` into OUT/fit/; 0: none; see
 // geometry_stage below), then the inversion on the fitted splats.
 // Writes OUT/gaussians.ply (every input property + albedo_0..2, roughness,
@@ -83,7 +87,7 @@ const std::set<std::string> kCommonOptions = {
     "--help", "--help-all", "--dataset", "--gaussians", "--scene", "--out", "--fit-iters", "--iters", "--spp",
     "--bounces", "--env", "--env-size", "--env-init", "--seed", "--brdf", "--resume", "--threads",
     "--checkpoint-every", "--images", "--holdout", "--optimize-metallic", "--learn-exposure", "--estimate",
-    "--quiet", "--force"};
+    "--quiet", "--force", "--cameras", "--orbit-views", "--orbit-size"};
 
 class CommonOptionsFormatter : public CLI::Formatter {
  public:
