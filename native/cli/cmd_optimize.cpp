@@ -87,7 +87,7 @@ const std::set<std::string> kCommonOptions = {
     "--help", "--help-all", "--dataset", "--gaussians", "--scene", "--out", "--fit-iters", "--iters", "--spp",
     "--bounces", "--env", "--env-size", "--env-init", "--seed", "--brdf", "--resume", "--threads",
     "--checkpoint-every", "--images", "--holdout", "--optimize-metallic", "--learn-exposure", "--estimate",
-    "--quiet", "--force", "--cameras", "--orbit-views", "--orbit-size"};
+    "--quiet", "--force"};
 
 class CommonOptionsFormatter : public CLI::Formatter {
  public:
