@@ -66,11 +66,9 @@ def compare(a):
                      "--orbit-size", size],
         "ply_auto": ["optimize", "--gaussians", fitted],
     }
-    relight = []
-    for env in sorted(os.listdir(os.path.join(a.dataset, "envmaps"))):
-        name = os.path.splitext(env)[0]
-        if name != "train" and any(os.path.exists(os.path.join(a.dataset, "test_000", "rgba_%s.png" % name)) for _ in [0]):
-            relight += ["--relight", "%s=%s" % (name, os.path.join(a.dataset, "envmaps", env))]
+    meta = json.load(open(os.path.join(a.dataset, "dataset.json")))
+    relight = [x for env in meta.get("relight_envs", [])
+               for x in ("--relight", "%s=%s" % (env, os.path.join(a.dataset, meta["envmaps"][env])))]
     table = ["| run | albedo PSNR (dB) | relight PSNR (dB) | roughness MSE | NVS PSNR (dB) | minutes (wall) | CPU minutes |",
              "|---|---:|---:|---:|---:|---:|---:|"]
     for name, cmd in rows.items():
