@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import addon_common as ac
+import blenders
 
 sys.path.insert(0, str(ac.REPO / "tests" / "python"))
 import ptir_testing as pt  # noqa: E402
@@ -32,15 +33,16 @@ def dc_only_ply(tmp_path_factory):
     return str(path)
 
 
-def _run(mode, ply, tmp_path, iterations=40):
-    r = ac.run_blender("addon_relightable_check.py", mode, ply, tmp_path, iterations, timeout=600)
+def _run(mode, ply, tmp_path, iterations=40, blender="3.4"):
+    r = ac.run_blender("addon_relightable_check.py", mode, ply, tmp_path, iterations, timeout=600, blender=blender)
     assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
     line = next(l for l in r.stdout.splitlines() if l.startswith("RELIGHTABLE_STATS: "))
     return json.loads(line[len("RELIGHTABLE_STATS: "):]), r
 
 
-def test_make_relightable_without_photos(dc_only_ply, tmp_path):
-    stats, r = _run("finish", dc_only_ply, tmp_path)
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_make_relightable_without_photos(blender, dc_only_ply, tmp_path):
+    stats, r = _run("finish", dc_only_ply, tmp_path, blender=blender)
     print("make relightable: %s" % stats)
     assert "roughness and metallic are unconstrained" in r.stdout + r.stderr  # SH degree 0, said by the engine
     assert "radiance: view 8/8 rendered" in r.stdout + r.stderr
