@@ -4,7 +4,7 @@
 
 PLY: a splat file from "another tool" with the DC colour only (SH degree 0, no material, no normals).
 MODE
-  finish   no dataset folder: the operator renders the splats' own radiance and recovers materials from
+  finish   the duration estimate with Views "Splats' Own Radiance"; then no dataset folder: the operator renders the splats' own radiance and recovers materials from
            it; the splat attributes equal the engine's gaussians.ply, the world gets the recovered
            environment, roughness stays at its prior (SH degree 0) and the albedo takes the splats' hue;
            prints "RELIGHTABLE_STATS: {json}"
@@ -66,6 +66,15 @@ def main():
     s.output_dir = os.path.join(work, "out")
     stats = {"mode": mode}
     if mode == "finish":
+        # The duration estimate without photos (Views: Splats' Own Radiance): one target rendered, the probe.
+        s.source, s.iterations, s.spp, s.crop = "SPLATS", 40, 4, 0
+        h.check(bpy.ops.ptir.optimize_estimate() == {"FINISHED"}, "estimate")
+        from ptir_blender.blender import optimize_estimate
+        total = optimize_estimate.seconds(bpy.context, s)
+        h.check(total is not None and s.estimate_s_per_iter > 0 and s.estimate_setup_s > 0,
+                "an estimate: %s s (%s s/iter)" % (total, s.estimate_s_per_iter))
+        stats["estimate_s"] = total
+        s.source = "DATASET"
         t0 = time.perf_counter()
         result, msg = run_op(iterations=iterations, samples=4, views=8, size=64)
         stats["seconds"] = time.perf_counter() - t0
