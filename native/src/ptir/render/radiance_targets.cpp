@@ -86,6 +86,7 @@ RadianceTargetReport render_radiance_targets(const SceneAccel& accel, const std:
   std::error_code ec;
   fs::create_directories(train, ec);
   if (ec) throw Error(train.string(), "cannot create folder: " + ec.message());
+  io::remove_stale_temps(train);  // a run killed mid-write left its temp behind
   // A different input or plan: the cached views are stale.
   if (read_text(key_file) != s.key) {
     for (const auto& e : fs::directory_iterator(train))
