@@ -4,8 +4,6 @@ radiance. The splats: 400 flat Gaussians on a sphere, DC colour (0.8, 0.4, 0.15)
 8 virtual views of 64 x 64 and 40 iterations at 4 spp take seconds.
 """
 
-import json
-import math
 import sys
 
 import numpy as np
@@ -34,18 +32,16 @@ def dc_only_ply(tmp_path_factory):
 
 
 def _run(mode, ply, tmp_path, iterations=40, blender="3.4"):
-    r = ac.run_blender("addon_relightable_check.py", mode, ply, tmp_path, iterations, timeout=600, blender=blender)
-    assert r.returncode == 0 and "ADDON_CHECK: OK" in r.stdout, ac.output_of(r)
-    line = next(l for l in r.stdout.splitlines() if l.startswith("RELIGHTABLE_STATS: "))
-    return json.loads(line[len("RELIGHTABLE_STATS: "):]), r
+    return ac.blender_result("addon_relightable_check.py", "RELIGHTABLE_STATS", mode, ply, tmp_path, iterations,
+                             blender=blender, with_output=True)
 
 
 @pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
 def test_make_relightable_without_photos(blender, dc_only_ply, tmp_path):
     stats, r = _run("finish", dc_only_ply, tmp_path, blender=blender)
     print("make relightable: %s" % stats)
-    assert "roughness and metallic are unconstrained" in r.stdout + r.stderr  # SH degree 0, said by the engine
-    assert "radiance: view 8/8 rendered" in r.stdout + r.stderr
+    assert "roughness and metallic are unconstrained" in r  # SH degree 0, said by the engine
+    assert "radiance: view 8/8 rendered" in r
 
 
 def test_cancelled_make_relightable_leaves_scene_unchanged(dc_only_ply, tmp_path):
