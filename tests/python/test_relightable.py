@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from blender_kit import look_at
-from ptir_testing import SH_C0, sphere_scene, write_splat_ply
+from ptir_testing import quat_z_to, sphere_scene, write_splat_ply
 
 SIZE = 40
 ROUGHNESS = 0.1  # glossy: the view-dependent SH carries highlights worth a sign
@@ -64,8 +64,7 @@ def capture(ptir, cli, tmp_path_factory):
     pos = np.array(p, np.float64)
     g = root / "input.ply"
     spacing = math.sqrt(4 * math.pi / len(pos))
-    import ptir_testing
-    write_splat_ply(g, pos, (0.7 * spacing, 0.7 * spacing, 1e-3 * spacing), quat=ptir_testing.quat_z_to(pos),
+    write_splat_ply(g, pos, (0.7 * spacing, 0.7 * spacing, 1e-3 * spacing), quat=quat_z_to(pos),
                     colour=(0.5, 0.5, 0.5), sh_rest=45)
     run([cli, "fit", "--dataset", data, "--gaussians", g, "--out", root / "fit", "--iters", "300", "-q",
          "--threads", "2"])
