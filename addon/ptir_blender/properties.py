@@ -75,7 +75,9 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
         items=[("DATASET", "Dataset Folder", "A capture folder: NeRF (transforms_<split>.json), COLMAP, 3DGS output "
                                              "or nerfstudio"),
                ("CAMERAS", "Scene Cameras", "The scene's cameras, each with an image (custom property "
-                                            "'ptir_image' or its first background image)")],
+                                            "'ptir_image' or its first background image)"),
+               ("SPLATS", "Splats' Own Radiance", "No photos: views around the splats rendered from their own "
+                                                  "captured radiance (ptir optimize without --dataset)")],
         default="DATASET")
     dataset_dir: StringProperty(name="Dataset", description="Capture folder: NeRF (transforms_train.json), COLMAP "
                                 "(sparse/0), 3DGS output (cameras.json) or nerfstudio (transforms.json)",

@@ -13,6 +13,10 @@
 // (optimize_budget.h: spp and iterations planned from the estimate, the count
 // re-planned from the measured rate; OUT/budget.json lets --resume continue it).
 //
+// Without --dataset (`ptir optimize --gaussians IN.ply --out OUT [--cameras cameras.json]`):
+// the targets are rendered from the splats' own radiance (radiance_stage.h,
+// docs/relightable.md), with defaults of their own (400 iterations, 16 spp, 128 crops).
+//
 // First the geometry stage (--fit-iters, `ptir fit` into OUT/fit/; 0: none; see
 // geometry_stage below), then the inversion on the fitted splats.
 // Writes OUT/gaussians.ply (every input property + albedo_0..2, roughness,
@@ -30,6 +34,8 @@
 // setup_s is what a real run spends before its first iteration (loading the
 // dataset and Gaussians, building the BVH, the probe itself, which a real run
 // also does): the add-on's Optimise panel shows total_s before starting.
+// Without --dataset it renders the first radiance target only (into
+// OUT/radiance_estimate/) and counts that view's time for each of the others.
 //
 // --scene adds the scene file's meshes and lights (its Gaussians must be given
 // with --gaussians instead; its environment is replaced by the recovered one; its
@@ -62,6 +68,8 @@
 #include "run_control.h"
 #include "filter_flags.h"
 #include "fit_stage.h"
+#include "help_groups.h"
+#include "radiance_stage.h"
 #include "job_stop.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
@@ -79,46 +87,12 @@ namespace ptir::cli {
 
 namespace {
 
-// `--help` lists the options most runs need; `--help-all` every one (the rest in
-// the group kAdvanced, which the formatter leaves out of the plain help).
-constexpr const char* kAdvanced = "Advanced options (--help-all)";
+// `--help` lists the options most runs need (help_groups.h); `--help-all` every one.
 const std::set<std::string> kCommonOptions = {
     "--help", "--help-all", "--dataset", "--gaussians", "--scene", "--out", "--fit-iters", "--iters", "--spp",
     "--bounces", "--env", "--env-size", "--env-init", "--seed", "--brdf", "--resume", "--threads",
     "--checkpoint-every", "--images", "--holdout", "--optimize-metallic", "--learn-exposure", "--estimate",
     "--quiet", "--force", "--budget"};
-
-class CommonOptionsFormatter : public CLI::Formatter {
- public:
-  std::string make_help(const CLI::App* app, std::string name, CLI::AppFormatMode mode) const override {
-    all_ = mode == CLI::AppFormatMode::All;
-    std::string help = CLI::Formatter::make_help(app, name, mode);
-    for (size_t at; (at = help.find("\n\n\n")) != std::string::npos;) help.erase(at, 1);  // the empty group's lines
-    return help;
-  }
-  std::string make_group(std::string group, bool positional, std::vector<const CLI::Option*> opts) const override {
-    if (group == kAdvanced && !all_) return "";
-    return CLI::Formatter::make_group(group, positional, opts);
-  }
-  std::string make_footer(const CLI::App* app) const override {
-    const std::string footer = CLI::Formatter::make_footer(app);
-    if (all_) return footer;
-    size_t hidden = 0;
-    for (const CLI::Option* opt : app->get_options()) hidden += opt->get_group() == kAdvanced;
-    return footer + "\n" + std::to_string(hidden) + " more options (schedules, learning rates, loss terms, capture " +
-           "and pixel-filter settings): ptir optimize --help-all\n";
-  }
-
- private:
-  mutable bool all_ = false;
-};
-
-void show_common_options(CLI::App* cmd) {
-  cmd->set_help_all_flag("--help-all", "print every option (--help lists the common ones)");
-  for (CLI::Option* opt : cmd->get_options())
-    if (!kCommonOptions.count(opt->get_name())) opt->group(kAdvanced);
-  cmd->formatter(std::make_shared<CommonOptionsFormatter>());
-}
 
 // The command's own options around the set-up shared with the Python module.
 struct OptimizeCommand {
@@ -139,6 +113,8 @@ struct OptimizeCommand {
   CaptureFlags capture;  // real captures (docs/dataset_format.md)
   int fit_iters = 1500;  // the geometry stage first (0: the splats' geometry as given)
   bool fitted = false;   // the inversion runs on splats its geometry stage fitted (OUT/fit/)
+  double targets_left_s = 0;  // --estimate without --dataset: the radiance targets still to render
+  RadianceStage radiance;  // no --dataset: targets from the splats' own radiance (radiance_stage.h)
 };
 
 // Defaults that depend on the dataset: the Gaussians a 3DGS output folder names
@@ -150,6 +126,14 @@ struct OptimizeCommand {
 // Returns false (a usage error) when --gaussians is missing and the dataset names none.
 bool resolve_dataset_defaults(OptimizeCommand& o) {
   if (o.opt.env == "auto") o.opt.env = "latlong";
+  if (o.dataset.empty()) {  // targets from the splats' own radiance (radiance_stage.h)
+    if (o.gaussians.empty()) {
+      std::fprintf(stderr, "ptir: error: give --dataset (photos and poses) or --gaussians (a splat PLY: the inversion then "
+                           "runs on its own captured radiance), or both\n");
+      return false;
+    }
+    return true;
+  }
   if (o.gaussians.empty()) {
     o.gaussians = layout_gaussians(o.dataset);
     if (o.gaussians.empty()) {
@@ -216,9 +200,11 @@ std::string stop_message(const std::string& ckpt, int done, int saved) {
 
 // --estimate: the inputs are loaded (setup timed from t_start), then the probe; one JSON line on stdout.
 // With a budget (budget_s > 0): the plan for what is left of it after the set-up ("spp" is the planned one).
-int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double budget_s) {
+// extra_setup_s: set-up still to come (radiance targets not rendered yet).
+int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double budget_s,
+                   double extra_setup_s) {
   IterationEstimate est = estimate_iteration(opt);
-  const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() + extra_setup_s;
   int iters = opt.settings().iterations - opt.iteration(), spp = opt.settings().integrator.spp;
   if (budget_s > 0.0) {
     const BudgetPlan p = plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings());
@@ -291,6 +277,44 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm, double fit_seco
   return rc;
 }
 
+// No --dataset: the targets are rendered from the splats' own radiance into
+// OUT/radiance/ (cached: a run stopped there re-uses them), which then is the
+// dataset; no geometry stage (the targets are the splats' own). With SH degree 0
+// the targets do not change with the view: roughness and metallic stay at their
+// priors (their learning rates are 0), and the run says so.
+int radiance_stage(OptimizeCommand& o, const CLI::App& cmd, const Communicator& comm) {
+  // Defaults of its own (docs/relightable.md: a 100K-splat object in minutes on 2
+  // cores): random 128-pixel crops of the virtual views, 16 spp, 400 iterations.
+  if (cmd.count("--iters") == 0) o.opt.iters = 400;
+  if (cmd.count("--spp") == 0) o.opt.spp = 16;
+  if (cmd.count("--crop") == 0) o.opt.crop = 128;
+  if (cmd.count("--neutral-light") == 0) o.opt.neutral_light = true;
+  o.radiance.gaussians = o.gaussians;
+  o.radiance.out = o.out;
+  o.radiance.quiet = o.quiet || comm.rank() != 0;
+  o.radiance.estimate = o.estimate;
+  std::error_code ec;
+  if (o.resume && !std::filesystem::exists(std::filesystem::path(o.out) / "checkpoint.bin", ec))
+    o.resume = false;  // stopped before the first checkpoint: the cached targets are the progress
+  int degree = 0;
+  if (comm.rank() == 0) {
+    if (const int rc = run_radiance_stage(o.radiance, &o.dataset, &degree, &o.targets_left_s)) return rc;
+  } else {
+    degree = load_gaussians(o.gaussians).sh_degree;
+  }
+  comm.barrier();
+  o.dataset = (std::filesystem::path(o.out) / (o.estimate ? "radiance_estimate" : "radiance")).string();
+  if (degree == 0) {
+    if (!o.quiet)
+      std::fprintf(stderr, "note: the splats have SH degree 0 (no view-dependent colour): roughness and metallic are "
+                           "unconstrained by their radiance and stay at their priors (%s)\n",
+                   o.opt.init_from_ply ? "the PLY's values" : "roughness 0.6, metallic 0");
+    o.opt.lr_roughness = 0;
+    o.opt.optimize_metallic = false;
+  }
+  return 0;
+}
+
 int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   const auto t_start = std::chrono::steady_clock::now();
   // Data-parallel runs (world.h): rank 0 alone reports and writes.
@@ -334,7 +358,11 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     if (!cmd.count("--crop")) o.opt.crop = -1;
   }
   const double fit_seconds = budget.budget_s > 0.0 ? kFitShare * (budget.budget_s - budget.spent_s) : 0.0;
-  if (const int rc = geometry_stage(o, comm, fit_seconds)) return rc;
+  if (o.dataset.empty()) {
+    if (const int rc = radiance_stage(o, cmd, comm)) return rc;
+  } else if (const int rc = geometry_stage(o, comm, fit_seconds)) {
+    return rc;
+  }
   // Bounce light from the splats' captured radiance where the geometry stage has
   // just fitted their SH to these photos (field_radiance.h); else path-traced. A
   // resumed run goes on as it began (its checkpoint names `field`; older ones
@@ -363,7 +391,10 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
   if (o.estimate)  // with a budget: the inversion's share of it (a geometry stage would take up to kFitShare)
-    return comm.rank() == 0 ? print_estimate(opt, t_start, budget.budget_s * (o.fit_iters > 0 ? 1.0 - kFitShare : 1.0)) : 0;
+    return comm.rank() == 0 ? print_estimate(opt, t_start,
+                                             budget.budget_s * (o.fit_iters > 0 && !o.dataset.empty() ? 1.0 - kFitShare : 1.0),
+                                             o.targets_left_s)
+                            : 0;
   if (budget.budget_s > 0.0) budget = plan_optimizer_budget(opt, budget, t_start, o.quiet);
   opt.set_communicator(comm);
   if (!o.quiet)
@@ -449,8 +480,9 @@ Runner add_optimize_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("optimize", "Recover materials and lighting from posed images (inverse rendering)");
   cmd->add_option("--dataset", o->dataset,
                   "dataset folder: NeRF-synthetic/TensoIR (transforms_<split>.json), COLMAP (sparse/0), 3DGS output "
-                  "(cameras.json + cfg_args) or nerfstudio (transforms.json); docs/dataset_format.md")
-      ->required();
+                  "(cameras.json + cfg_args) or nerfstudio (transforms.json); docs/dataset_format.md. Without it, "
+                  "--gaussians alone: the inversion runs on targets rendered from the splats' own radiance "
+                  "(docs/relightable.md)");
   cmd->add_option("--gaussians", o->gaussians,
                   "input 3DGS .ply (its geometry fitted first unless --fit-iters 0, then fixed); default for a 3DGS output folder: point_cloud/iteration_N (largest N)");
   cmd->add_option("--scene", o->scene, "scene file with meshes and lights to include (docs/scene_format.md)");
@@ -538,6 +570,9 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-fine-rate", o->opt.env_fine_rate,
                   "with a coarse level: the fine texels' rate as a fraction of --lr-env (the coarse level's)")
       ->capture_default_str();
+  cmd->add_option("--neutral-light", o->opt.neutral_light,
+                  "keep the learnt environment's colour neutral, its colour going into the albedos (default: on "
+                  "without --dataset, where baked radiance fixes only albedo x light; off with photos)");
   cmd->add_flag("--optimize-metallic", o->opt.optimize_metallic, "also optimise metallic (default: fixed 0)");
   cmd->add_flag("--optimize-meshes", o->opt.optimize_meshes, "also optimise the --scene meshes' materials");
   cmd->add_flag("--learn-exposure", o->opt.learn_exposure,
@@ -551,7 +586,8 @@ Runner add_optimize_command(CLI::App& app) {
   add_force_flag(cmd, o->force);
   add_capture_flags(cmd, &o->capture);
   add_filter_flags(cmd, &o->filter);
-  show_common_options(cmd);
+  add_radiance_flags(cmd, &o->radiance);
+  show_common_options(cmd, kCommonOptions);
   return [o, cmd] {
     if (!resolve_dataset_defaults(*o)) return 2;
     return run_optimize(*o, *cmd);

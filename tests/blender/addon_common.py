@@ -47,15 +47,17 @@ def run_blender(script, *args, blend=None, timeout=600, env_extra=None, blender=
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
 
 
-def blender_result(script, marker, *args, timeout=600, blender="3.4"):
-    """Runs HERE/script with run_blender and returns the JSON of the last stdout line `marker: {...}`;
-    fails the calling test, with the end of Blender's output, when Blender fails or prints no such line."""
+def blender_result(script, marker, *args, timeout=600, blender="3.4", with_output=False):
+    """Runs HERE/script with run_blender and returns the JSON of the last stdout line `marker: {...}`
+    (with_output: and Blender's stdout + stderr); fails the calling test, with the end of Blender's
+    output, when Blender fails or prints no such line."""
     proc = run_blender(script, *args, timeout=timeout, blender=blender)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, "Blender %s failed:\n%s" % (blender, out[-4000:])
     lines = [l for l in proc.stdout.splitlines() if l.startswith(marker + ": ")]
     assert lines, "no result line from Blender %s:\n%s" % (blender, out[-4000:])
-    return json.loads(lines[-1].split(": ", 1)[1])
+    result = json.loads(lines[-1].split(": ", 1)[1])
+    return (result, out) if with_output else result
 
 
 def output_of(result):

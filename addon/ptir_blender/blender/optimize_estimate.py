@@ -61,7 +61,8 @@ def key(context, settings):
 
 def measure(context, settings, cli_exe):
     """Measures the estimate for the current settings and stores it in them; returns the seconds per
-    iteration. Raises OptimizeError (and the io errors) as Optimise would."""
+    iteration. Raises OptimizeError (and the io errors) as Optimise would. Without photos (source SPLATS)
+    the engine renders the first radiance target and counts its time for every other view in setup_s."""
     job_dir = tempfile.mkdtemp(prefix="ptir_estimate_")
     try:
         t0 = time.monotonic()

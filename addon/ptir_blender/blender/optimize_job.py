@@ -147,8 +147,8 @@ def wants_fit(settings, dataset_dir=None, split="train", has_meshes=False):
     return not (has_meshes and capture_cameras.is_nerf_folder(dataset_dir, split))
 
 
-def prepare(context, settings, job_dir, cli_exe, out_dir=None):
-    """Writes the inputs and returns an OptimizeJob (raises OptimizeError and the io errors)."""
+def _new_job(context, settings, job_dir, out_dir):
+    """The job of the chosen splat object, its splats written in world space: (job, object, PLY path)."""
     job = OptimizeJob()
     job.job_dir = job_dir
     job.out_dir = out_dir or os.path.join(job_dir, "out")
@@ -157,11 +157,20 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
     job.count = len(obj.data.vertices)
     job.matrix = np.array(obj.matrix_world, np.float64)
     job.write_environment = bool(settings.write_environment)
-
-    # Splats in world space.
-    d = splat_object.world_data(obj)
     splats = os.path.join(job_dir, "splats.ply")
-    splat_ply.write_splat_ply(splats, d, comment="PTIR optimisation input: Blender object %s" % obj.name)
+    splat_ply.write_splat_ply(splats, splat_object.world_data(obj),
+                              comment="PTIR optimisation input: Blender object %s" % obj.name)
+    return job, obj, splats
+
+
+def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_defaults=False):
+    """Writes the inputs and returns an OptimizeJob (raises OptimizeError and the io errors). source
+    overrides settings.source; with "SPLATS" (no photos) own_defaults leaves the iterations, samples and
+    crops to `ptir optimize`'s own defaults for that path (Make Relightable)."""
+    source = source or settings.source
+    if source == "SPLATS":
+        return _prepare_splats_only(context, settings, job_dir, cli_exe, out_dir, own_defaults)
+    job, obj, splats = _new_job(context, settings, job_dir, out_dir)
 
     # Views.
     split = settings.split.strip() or "train"
@@ -246,12 +255,31 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None):
         args.append("--optimize-meshes")
     if settings.learn_exposure:
         args.append("--learn-exposure")
+    return _with_common_args(job, args, settings)
+
+
+def _with_common_args(job, args, settings):
+    """The job with its command line: args and the switches every optimise run takes."""
     if settings.optimize_metallic:
         args.append("--optimize-metallic")
     if settings.threads > 0:
         args += ["--threads", settings.threads]
     job.args = [str(a) for a in args]
     return job
+
+
+def _prepare_splats_only(context, settings, job_dir, cli_exe, out_dir, own_defaults):
+    """`ptir optimize --gaussians splats.ply` without --dataset: the targets are rendered from the splats'
+    own radiance (docs/relightable.md). The scene's meshes and lights take no part (the targets show the
+    splats alone); no geometry stage (the targets are the splats' own)."""
+    job, _, splats = _new_job(context, settings, job_dir, out_dir)
+    args = [cli_exe, "optimize", "--gaussians", splats, "--out", job.out_dir, "--bounces", settings.bounces,
+            "--env", settings.env, "--env-size", "%dx%d" % (settings.env_width, settings.env_height),
+            "--seed", settings.seed]
+    if not own_defaults:
+        args += ["--iters", settings.iterations, "--spp", settings.spp, "--views-per-iter", settings.views_per_iter,
+                 "--crop", settings.crop]
+    return _with_common_args(job, args, settings)
 
 
 class Results:

@@ -90,9 +90,14 @@ class Progress:
         self.loss = None
         self.seconds_per_iteration = None
         self.eta = ""
+        self.targets = False   # optimize without --dataset: radiance targets were rendered first
+        self.estimate = ""     # optimize's own duration estimate ("4m05s"), once printed
 
 
 _RENDER_RE = re.compile(r"\]\s*([0-9.]+)%\s+([0-9.]+)s\s+ETA\s+([0-9.]+)s")
+_TARGET_RE = re.compile(r"^radiance: view\s+(\d+)/(\d+) rendered")
+_EST_RE = re.compile(r"^optimize: estimated ([0-9.]+) s/iter, (\S+) for (\d+) iterations")
+TARGET_SHARE = 0.1  # of the progress bar, for the radiance targets (no --dataset) before the iterations
 _OPT_RE = re.compile(r"^iter\s+(\d+)/(\d+)\s+loss\s+([-+0-9.eEinfa]+).*?([0-9.]+)\s*s/iter\s+ETA\s+(\S+)")
 
 
@@ -108,8 +113,22 @@ def parse_render_progress(line, progress):
 
 
 def parse_optimize_progress(line, progress):
-    """Updates progress from one `ptir optimize` iteration line; returns True when it was one."""
-    m = _OPT_RE.search(line.strip())
+    """Updates progress from one `ptir optimize` progress line (an iteration; without --dataset also a
+    radiance target and the duration estimate); returns True when it was one."""
+    line = line.strip()
+    m = _TARGET_RE.search(line)
+    if m:
+        done, total = int(m.group(1)), int(m.group(2))
+        progress.targets = True
+        progress.fraction = TARGET_SHARE * done / max(1, total)
+        progress.text = "rendering the splats' radiance: view %d/%d" % (done, total)
+        return True
+    m = _EST_RE.search(line)
+    if m:
+        progress.estimate = m.group(2)
+        progress.text = "estimated %s for %s iterations" % (m.group(2), m.group(3))
+        return True
+    m = _OPT_RE.search(line)
     if not m:
         return False
     it, total = int(m.group(1)), int(m.group(2))
@@ -121,6 +140,8 @@ def parse_optimize_progress(line, progress):
     progress.seconds_per_iteration = float(m.group(4))
     progress.eta = m.group(5)
     progress.fraction = min(1.0, it / max(1, total))
+    if getattr(progress, "targets", False):
+        progress.fraction = TARGET_SHARE + (1.0 - TARGET_SHARE) * progress.fraction
     progress.text = "iteration %d/%d, loss %.5f, %.2f s/iter, ETA %s" % (it, total, progress.loss,
                                                                        progress.seconds_per_iteration, progress.eta)
     return True

@@ -49,11 +49,9 @@ def _redraw(context):
                 area.tag_redraw()
 
 
-class PTIR_OT_optimize(bpy.types.Operator):
-    """Recover materials and lighting from the photos with the PTIR optimiser (runs in a child process; Esc cancels)"""
-    bl_idname = "ptir.optimize"
-    bl_label = "Optimise Materials"
-    bl_options = {"REGISTER", "UNDO"}
+class _OptimizeRun:
+    """The run of an optimisation as an operator (a mixin: Blender registers each operator class on its
+    own, and a registered operator class cannot be subclassed)."""
 
     _timer = None
     _child = None
@@ -75,7 +73,7 @@ class PTIR_OT_optimize(bpy.types.Operator):
         out_dir = bpy.path.abspath(settings.output_dir) if settings.output_dir else None
         self._pack = out_dir is None and not render_engine.keep_files()
         exe = render_engine.cli_path()
-        self._prepared = optimize_job.prepare(context, settings, self._job_dir, exe, out_dir)
+        self._prepared = self._prepare_job(context, settings, exe, out_dir)
         for w in self._prepared.warnings:
             self.report({"WARNING"}, w)
         self._echo = echo
@@ -87,6 +85,9 @@ class PTIR_OT_optimize(bpy.types.Operator):
         settings.progress = 0.0
         settings.status = "starting"
         self._launch()
+
+    def _prepare_job(self, context, settings, exe, out_dir):
+        return optimize_job.prepare(context, settings, self._job_dir, exe, out_dir)
 
     def _launch(self):
         """Starts stage self._stage as the child job."""
@@ -235,6 +236,13 @@ class PTIR_OT_optimize(bpy.types.Operator):
         context.scene.ptir_optimize.running = False
 
 
+class PTIR_OT_optimize(_OptimizeRun, bpy.types.Operator):
+    """Recover materials and lighting from the photos with the PTIR optimiser (runs in a child process; Esc cancels)"""
+    bl_idname = "ptir.optimize"
+    bl_label = "Optimise Materials"
+    bl_options = {"REGISTER", "UNDO"}
+
+
 class PTIR_OT_optimize_cancel(bpy.types.Operator):
     """Stop the running optimisation (nothing is written back)"""
     bl_idname = "ptir.optimize_cancel"
@@ -273,4 +281,37 @@ class PTIR_OT_optimize_estimate(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (PTIR_OT_optimize, PTIR_OT_optimize_cancel, PTIR_OT_optimize_estimate)
+class PTIR_OT_make_relightable(_OptimizeRun, bpy.types.Operator):
+    """Make the splat object relightable: recover its materials and the light from the photos of the
+    panel's dataset folder when one is set, else from the splats' own captured radiance (no photos
+    needed; runs in a child process; Esc cancels)"""
+    bl_idname = "ptir.make_relightable"
+    bl_label = "Make Relightable"
+    bl_options = {"REGISTER", "UNDO"}
+
+    # Without photos: 0 keeps `ptir optimize`'s own default for that path (docs/relightable.md).
+    iterations: bpy.props.IntProperty(name="Iterations", default=0, min=0,
+                                      description="Iterations without photos (0: the engine's default, 400)")
+    samples: bpy.props.IntProperty(name="Samples", default=0, min=0,
+                                   description="Samples per pixel per iteration without photos (0: 16)")
+    views: bpy.props.IntProperty(name="Views", default=0, min=0,
+                                 description="Virtual views around the splats (0: from the splat count)")
+    size: bpy.props.IntProperty(name="View Size", default=0, min=0,
+                                description="Side of the virtual views in pixels (0: from the splat count)")
+
+    def _prepare_job(self, context, settings, exe, out_dir):
+        # Decision: the photos when the panel names a dataset folder that exists (the better answer:
+        # docs/relightable.md), else the splats' own radiance at the command's defaults for it.
+        photos = settings.source == "DATASET" and optimize_estimate.dataset_problem(settings) is None
+        job = optimize_job.prepare(context, settings, self._job_dir, exe, out_dir,
+                                   source=None if photos else "SPLATS", own_defaults=not photos)
+        if not photos:
+            for flag, value in (("--iters", self.iterations), ("--spp", self.samples), ("--orbit-views", self.views),
+                                ("--orbit-size", self.size)):
+                if value > 0:
+                    job.args += [flag, str(value)]
+            print("ptir make relightable: no dataset folder: materials from the splats' own radiance", flush=True)
+        return job
+
+
+classes = (PTIR_OT_optimize, PTIR_OT_optimize_cancel, PTIR_OT_optimize_estimate, PTIR_OT_make_relightable)

@@ -145,6 +145,8 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             if problem:
                 layout.label(text=problem, icon="ERROR")
             layout.operator("ptir.optimize", text="Optimise", icon="PLAY")
+            # One click, photos or not (the dataset folder when set, else the splats' own radiance).
+            layout.operator("ptir.make_relightable", icon="LIGHT_SUN")
             layout.prop(s, "preset")
             total = optimize_estimate.seconds(context, s)
             measured = bool(s.estimate_key) and s.estimate_key == optimize_estimate.key(context, s)

@@ -63,4 +63,18 @@ void light_balance_shift(Parameters& p, const std::array<float, 3>& delta) {
   }
 }
 
+std::array<float, 3> neutral_light_delta(const Parameters& p) {
+  // Mean log radiance per channel of each level (the coarse one adds in log space).
+  std::array<double, 3> mean = {0, 0, 0};
+  for (const ParameterGroup& grp : p.groups) {
+    if (grp.kind != ParamKind::Environment && grp.kind != ParamKind::EnvironmentCoarse) continue;
+    if (grp.raw.size() < 3) continue;
+    std::array<double, 3> sum = {0, 0, 0};
+    for (size_t i = 0; i < grp.raw.size(); ++i) sum[i % 3] += grp.raw[i];
+    for (int c = 0; c < 3; ++c) mean[c] += sum[c] / double(grp.raw.size() / 3);
+  }
+  const double grey = (mean[0] + mean[1] + mean[2]) / 3.0;
+  return {float(mean[0] - grey), float(mean[1] - grey), float(mean[2] - grey)};
+}
+
 }  // namespace ptir

@@ -50,4 +50,11 @@ std::array<double, 3> light_balance_derivative(const Parameters& p, const Scene&
 // environment's fine texels' log radiance minus delta.
 void light_balance_shift(Parameters& p, const std::array<float, 3>& delta);
 
+// The neutral-light constraint (`optimize` without --dataset, docs/relightable.md):
+// the shift that makes the learnt environment's per-channel geometric mean grey
+// (its mean log radiance equal in every channel), moving the colour difference
+// into the albedos. Baked radiance fixes only albedo x light per channel; this
+// picks the split a white-balanced capture implies. Zero without an environment.
+std::array<float, 3> neutral_light_delta(const Parameters& p);
+
 }  // namespace ptir

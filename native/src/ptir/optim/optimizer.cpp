@@ -225,6 +225,7 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
   }
   // The balance's step moves the albedos against the light (after their own steps).
   if (balance_step != std::array<float, 3>{0.0f, 0.0f, 0.0f}) light_balance_shift(params_, balance_step);
+  if (settings_.neutral_light) light_balance_shift(params_, neutral_light_delta(params_));
   apply();
   log.update_s = seconds_since(t0);
   log.seconds = seconds_since(t_start);

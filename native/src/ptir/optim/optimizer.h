@@ -129,6 +129,10 @@ struct OptimizerSettings {
   // interreflections and highlights that the per-parameter steps cannot resolve.
   // Measured (docs/inversion.md): see balance_start.
   bool light_balance = true;
+  // After every step, the environment's colour goes into the albedos so that the
+  // light stays neutral (light_balance.h: neutral_light_delta). On for `optimize`
+  // without --dataset, where nothing else splits the baked colour.
+  bool neutral_light = false;
   // The balance learns from balance_start x iterations on: before, the image's
   // overall misfit drives it (it brightens the highlights through the light,
   // which the albedo cannot), not the evidence of the level -- measured: from

@@ -108,6 +108,7 @@ Fingerprint Optimizer::fingerprint() const {
   };
   // Only then: checkpoints of path-traced bounce light (and from before) still resume.
   if (is.indirect_from_field) fp.push_back({"indirect", "field"});
+  if (settings_.neutral_light) fp.push_back({"light", "neutral"});
   return fp;
 }
 

@@ -39,7 +39,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.lr_env = o.lr_env;
   if (!(o.lr_albedo > 0.0f)) throw Error(names("lr_albedo") + " must be > 0");
   s.params.lr_albedo = o.lr_albedo;
-  if (!(o.lr_roughness > 0.0f)) throw Error(names("lr_roughness") + " must be > 0");
+  // 0 keeps roughness at its start (optimize without --dataset on SH degree 0: nothing constrains it).
+  if (!(o.lr_roughness >= 0.0f)) throw Error(names("lr_roughness") + " must be >= 0 (0: roughness fixed)");
   s.params.lr_roughness = o.lr_roughness;
   if (!(o.lr_metallic > 0.0f)) throw Error(names("lr_metallic") + " must be > 0");
   s.params.lr_metallic = o.lr_metallic;
@@ -50,6 +51,7 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.init_from_field = o.init_from_ply;
   if (!(o.lr_balance > 0.0f)) throw Error(names("lr_balance") + " must be > 0");
   s.light_balance = o.light_balance;
+  s.neutral_light = o.neutral_light;
   s.params.lr_balance = o.lr_balance;
   if (!(o.balance_start >= 0.0f && o.balance_start < 1.0f)) throw Error(names("balance_start") + " must be in [0, 1)");
   s.balance_start = o.balance_start;

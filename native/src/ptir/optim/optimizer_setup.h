@@ -46,6 +46,7 @@ struct OptimizeOptions {
   float init_albedo = ParameterSettings{}.init_albedo;
   bool init_from_ply = ParameterSettings{}.init_from_field;
   bool light_balance = OptimizerSettings{}.light_balance;
+  bool neutral_light = OptimizerSettings{}.neutral_light;
   float lr_balance = ParameterSettings{}.lr_balance;
   float balance_start = OptimizerSettings{}.balance_start;
   float lr_env = ParameterSettings{}.lr_env;  // the environment's Adam rate (both levels)

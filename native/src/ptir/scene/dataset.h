@@ -179,6 +179,11 @@ std::string detect_layout(const std::string& dir);
 // point_cloud/iteration_N/point_cloud.ply of the largest N; "" otherwise.
 std::string layout_gaussians(const std::string& dir);
 
+// Every camera of a 3DGS output folder's cameras.json (dataset_3dgs.cpp's
+// conventions), without the images: the poses of a capture for targets rendered
+// from the splats themselves (`optimize` without --dataset). Errors name the file.
+std::vector<Camera> load_3dgs_cameras(const std::string& cameras_json);
+
 // An optional map: `channels` = 3 (colour: sRGB-decoded when 8-bit) or 1 (data,
 // first channel), `normal` = 3 data channels mapped to [-1, 1] when 8-bit.
 Image read_map(const std::string& path, int channels, bool colour, bool normal = false);

@@ -85,6 +85,35 @@ double number(const nlohmann::json& e, const char* key, const std::string& path,
   return e[key].get<double>();
 }
 
+// The lens and pose of one cameras.json entry.
+void parse_3dgs_pose(const nlohmann::json& e, const std::string& cams_path, const std::string& where, CaptureView& v) {
+  const int w = int(number(e, "width", cams_path, where)), h = int(number(e, "height", cams_path, where));
+  v.lens.model = "PINHOLE";
+  v.lens.width = w;
+  v.lens.height = h;
+  v.lens.fx = number(e, "fx", cams_path, where);
+  v.lens.fy = number(e, "fy", cams_path, where);
+  // Centred, as INRIA's 3DGS renders; forks that fit an off-centre principal point write cx, cy.
+  v.lens.cx = e.contains("cx") && e["cx"].is_number() ? e["cx"].get<double>() : 0.5 * w;
+  v.lens.cy = e.contains("cy") && e["cy"].is_number() ? e["cy"].get<double>() : 0.5 * h;
+  if (!(w > 0 && h > 0 && v.lens.fx > 0 && v.lens.fy > 0)) throw Error(cams_path, where + " has a non-positive size or focal length");
+  const auto& pos = e.value("position", nlohmann::json());
+  const auto& rot = e.value("rotation", nlohmann::json());
+  if (!pos.is_array() || pos.size() != 3 || !rot.is_array() || rot.size() != 3)
+    throw Error(cams_path, where + " needs 'position' [3] and 'rotation' [3][3]");
+  for (int r = 0; r < 3; ++r) {
+    if (!rot[r].is_array() || rot[r].size() != 3 || !pos[r].is_number())
+      throw Error(cams_path, where + " needs 'position' [3] and 'rotation' [3][3] of numbers");
+    for (int k = 0; k < 3; ++k)
+      if (!rot[r][k].is_number()) throw Error(cams_path, where + ".rotation has a non-number");
+    // Columns of the rotation are the camera's +x (right), +y (down), +z (forward).
+    v.cam_to_world[size_t(r) * 4 + 0] = rot[r][0].get<double>();
+    v.cam_to_world[size_t(r) * 4 + 1] = -rot[r][1].get<double>();
+    v.cam_to_world[size_t(r) * 4 + 2] = -rot[r][2].get<double>();
+    v.cam_to_world[size_t(r) * 4 + 3] = pos[r].get<double>();
+  }
+}
+
 }  // namespace
 
 std::string layout_gaussians(const std::string& dir) {
@@ -128,34 +157,30 @@ Capture read_3dgs_capture(const std::string& root, const DatasetOptions& o) {
     if (f == by_stem.end()) throw Error(cams_path, where + ": no image '" + v.name + ".*' in " + images_dir.string());
     v.image = f->second;
     v.mask = find_mask(masks, fs::path(v.image).filename().string(), v.image);
-    const int w = int(number(e, "width", cams_path, where)), h = int(number(e, "height", cams_path, where));
-    v.lens.model = "PINHOLE";
-    v.lens.width = w;
-    v.lens.height = h;
-    v.lens.fx = number(e, "fx", cams_path, where);
-    v.lens.fy = number(e, "fy", cams_path, where);
-    // Centred, as INRIA's 3DGS renders; forks that fit an off-centre principal point write cx, cy.
-    v.lens.cx = e.contains("cx") && e["cx"].is_number() ? e["cx"].get<double>() : 0.5 * w;
-    v.lens.cy = e.contains("cy") && e["cy"].is_number() ? e["cy"].get<double>() : 0.5 * h;
-    if (!(w > 0 && h > 0 && v.lens.fx > 0 && v.lens.fy > 0)) throw Error(cams_path, where + " has a non-positive size or focal length");
-    const auto& pos = e.value("position", nlohmann::json());
-    const auto& rot = e.value("rotation", nlohmann::json());
-    if (!pos.is_array() || pos.size() != 3 || !rot.is_array() || rot.size() != 3)
-      throw Error(cams_path, where + " needs 'position' [3] and 'rotation' [3][3]");
-    for (int r = 0; r < 3; ++r) {
-      if (!rot[r].is_array() || rot[r].size() != 3 || !pos[r].is_number())
-        throw Error(cams_path, where + " needs 'position' [3] and 'rotation' [3][3] of numbers");
-      for (int k = 0; k < 3; ++k)
-        if (!rot[r][k].is_number()) throw Error(cams_path, where + ".rotation has a non-number");
-      // Columns of the rotation are the camera's +x (right), +y (down), +z (forward).
-      v.cam_to_world[size_t(r) * 4 + 0] = rot[r][0].get<double>();
-      v.cam_to_world[size_t(r) * 4 + 1] = -rot[r][1].get<double>();
-      v.cam_to_world[size_t(r) * 4 + 2] = -rot[r][2].get<double>();
-      v.cam_to_world[size_t(r) * 4 + 3] = pos[r].get<double>();
-    }
+    parse_3dgs_pose(e, cams_path, where, v);
     c.views.push_back(std::move(v));
   }
   return c;
+}
+
+std::vector<Camera> load_3dgs_cameras(const std::string& cams_path) {
+  const nlohmann::json j = load_json_file(cams_path, "3DGS cameras.json");
+  if (!j.is_array() || j.empty()) throw Error(cams_path, "expected a non-empty array of cameras");
+  std::vector<Camera> cams;
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string where = "camera [" + std::to_string(i) + "]";
+    if (!j[i].is_object()) throw Error(cams_path, where + " is not an object");
+    CaptureView v;
+    v.name = j[i].contains("img_name") && j[i]["img_name"].is_string() ? j[i]["img_name"].get<std::string>()
+                                                                         : "camera_" + std::to_string(i);
+    parse_3dgs_pose(j[i], cams_path, where, v);
+    float m[16] = {0};
+    for (int k = 0; k < 12; ++k) m[k] = float(v.cam_to_world[size_t(k)]);
+    m[15] = 1;
+    cams.push_back(make_pinhole_camera(m, float(v.lens.fx), float(v.lens.fy), float(v.lens.cx), float(v.lens.cy),
+                                       v.lens.width, v.lens.height, v.name));
+  }
+  return cams;
 }
 
 }  // namespace ptir

@@ -1,0 +1,150 @@
+// The radiance-target stage of `ptir optimize` without --dataset (radiance_stage.h).
+#include "radiance_stage.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "ptir/accel/scene_accel.h"
+#include "ptir/core/error.h"
+#include "ptir/core/fnv1a.h"
+#include "ptir/io/atomic_file.h"
+#include "ptir/render/radiance_targets.h"
+#include "ptir/scene/dataset.h"
+#include "ptir/scene/gaussian_ply.h"
+#include "run_control.h"
+
+namespace ptir::cli {
+
+namespace fs = std::filesystem;
+
+void add_radiance_flags(CLI::App* cmd, RadianceStage* r) {
+  const char* group = "Without --dataset: targets from the splats' own radiance (docs/relightable.md)";
+  cmd->add_option("--cameras", r->cameras,
+                  "a 3DGS output's cameras.json (or its folder): render the targets from these poses instead of an orbit "
+                  "(scenes, not only objects)")
+      ->group(group);
+  cmd->add_option("--orbit-views", r->orbit.views, "virtual views around the splats (0: from the splat count, 24..96)")
+      ->group(group);
+  cmd->add_option("--orbit-size", r->orbit.size,
+                  "side of the square virtual views in pixels (0: from the splat count, 256..640); with --cameras the "
+                  "targets' long side (0: 800)")
+      ->group(group);
+  cmd->add_option("--orbit-elevation", r->orbit.elevation_min, "lowest camera elevation in degrees (default -30, 10 for flat extents)")
+      ->group(group);
+  cmd->add_option("--orbit-elevation-max", r->orbit.elevation_max, "highest camera elevation in degrees (default 75)")
+      ->group(group);
+  cmd->add_option("--orbit-fov", r->orbit.fov_deg, "the virtual cameras' field of view in degrees")
+      ->capture_default_str()
+      ->group(group);
+  cmd->add_option("--orbit-distance", r->orbit.distance_scale,
+                  "scale of the orbit's distance (1: the bounding sphere fills the view with a margin; a scale that "
+                  "brings the cameras inside the bounds is refused by nothing but warned about)")
+      ->capture_default_str()
+      ->group(group);
+  cmd->add_option("--target-spp", r->target_spp, "filter-jittered samples per pixel of each radiance target")
+      ->capture_default_str()
+      ->group(group);
+}
+
+namespace {
+
+// The PLY's identity for the cache key: path, size and modification time.
+std::string file_identity(const std::string& path) {
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
+  return fs::absolute(path, ec).string() + " " + std::to_string(size) + " " + std::to_string(time);
+}
+
+// --cameras: every pose of the cameras.json, at one size whose long side is max_side.
+std::vector<Camera> capture_cameras(const std::string& given, int max_side) {
+  const fs::path p = fs::is_directory(given) ? fs::path(given) / "cameras.json" : fs::path(given);
+  std::vector<Camera> cams = load_3dgs_cameras(p.string());
+  const int side = max_side > 0 ? max_side : 800;
+  const float s = std::min(1.0f, float(side) / float(std::max(cams[0].width, cams[0].height)));
+  const int w = std::max(16, int(std::lround(cams[0].width * s))), h = std::max(16, int(std::lround(cams[0].height * s)));
+  for (Camera& c : cams) c = c.resized(w, h);
+  return cams;
+}
+
+}  // namespace
+
+int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s) {
+  if (r.target_spp < 1) throw Error("--target-spp must be at least 1");
+  const auto t0 = std::chrono::steady_clock::now();
+  GaussianField field = load_gaussians(r.gaussians);
+  *sh_degree = field.sh_degree;
+  std::vector<Camera> cameras;
+  std::string plan_text;
+  if (!r.cameras.empty()) {
+    cameras = capture_cameras(r.cameras, r.orbit.size);
+    plan_text = "{\"cameras_from\": \"" + r.cameras + "\", \"views\": " + std::to_string(cameras.size()) +
+                ", \"width\": " + std::to_string(cameras[0].width) + ", \"height\": " + std::to_string(cameras[0].height) + "}";
+    if (!r.quiet)
+      std::fprintf(stderr, "optimize: no --dataset: %zu views from %s at %dx%d, radiance from the splats\n", cameras.size(),
+                   r.cameras.c_str(), cameras[0].width, cameras[0].height);
+  } else {
+    const OrbitPlan plan = plan_orbit(field, r.orbit);
+    cameras = plan.cameras;
+    plan_text = orbit_plan_json(plan, r.gaussians);
+    if (!r.quiet) {
+      std::fprintf(stderr,
+                   "optimize: no --dataset: %d orbit views %dx%d around the splats (radius %.3g about (%.3g, %.3g, %.3g), "
+                   "distance %.3g, elevation %.0f..%.0f deg), radiance from the splats (SH degree %d)\n",
+                   plan.views, plan.size, plan.size, plan.bounds.radius, plan.bounds.centre.x, plan.bounds.centre.y,
+                   plan.bounds.centre.z, plan.distance, plan.elevation_min, plan.elevation_max, field.sh_degree);
+      if (plan.distance <= plan.bounds.radius)
+        std::fprintf(stderr, "warning: --orbit-distance %.3g puts the cameras inside the splats' bounds: the targets "
+                             "see the object from inside\n", r.orbit.distance_scale);
+    }
+  }
+  std::error_code ec;
+  fs::create_directories(r.out, ec);
+  if (ec) throw Error(r.out, "cannot create the output folder: " + ec.message());
+  io::write_text_atomic((fs::path(r.out) / "views.json").string(), plan_text);
+
+  RadianceTargetSettings s;
+  s.spp = r.target_spp;
+  s.key = "ptir radiance targets v1\n" + file_identity(r.gaussians) + "\nspp " + std::to_string(r.target_spp) + "\n" +
+          std::to_string(fnv1a(plan_text)) + "\n";
+  s.cancel = &g_interrupted;
+  s.progress = [&](int done, int total, bool rendered) {
+    if (!r.quiet && rendered) {
+      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::fprintf(stderr, "radiance: view %d/%d rendered  %s elapsed\n", done, total, duration_text(el).c_str());
+    }
+    return !g_interrupted.load();
+  };
+  fs::path dir = fs::path(r.out) / "radiance";
+  const size_t all_views = cameras.size();
+  if (r.estimate) {  // the probe's view alone, in a folder of its own (the run's cache stays whole)
+    cameras.resize(1);
+    dir = fs::path(r.out) / "radiance_estimate";
+  }
+  const auto t_render = std::chrono::steady_clock::now();
+  RadianceTargetReport rep;
+  {
+    SceneAccel accel(field, {});
+    const SignalHandler previous = install_sigint();
+    rep = with_sigint_restored(previous, [&] { return render_radiance_targets(accel, cameras, dir.string(), s); });
+  }
+  if (rep.cancelled) {
+    std::fprintf(stderr, "ptir: interrupted while rendering the radiance targets; %d views are cached in %s (run the same "
+                 "command again to continue)\n", rep.rendered + rep.reused, dir.string().c_str());
+    return 130;
+  }
+  if (remaining_s)
+    *remaining_s = r.estimate ? std::chrono::duration<double>(std::chrono::steady_clock::now() - t_render).count() *
+                                    double(all_views - 1)
+                              : 0.0;
+  if (!r.quiet)
+    std::fprintf(stderr, "radiance: %d views rendered, %d reused from %s (%s)\n", rep.rendered, rep.reused,
+                 dir.string().c_str(),
+                 duration_text(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()).c_str());
+  *dataset = dir.string();
+  return 0;
+}
+
+}  // namespace ptir::cli

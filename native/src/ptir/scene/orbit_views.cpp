@@ -1,0 +1,147 @@
+// Virtual cameras around a splat object (orbit_views.h).
+#include "ptir/scene/orbit_views.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <numeric>
+
+#include "ptir/core/error.h"
+
+namespace ptir {
+
+namespace {
+
+constexpr float kDeg = 3.14159265358979f / 180.0f;
+constexpr float kMinOpacity = 0.05f;  // fainter splats (haze, floaters' fringes) do not bound the object
+
+// The value below which `fraction` of the total weight lies.
+float weighted_quantile(std::vector<std::pair<float, float>> vw, float fraction) {
+  std::sort(vw.begin(), vw.end());
+  double total = 0;
+  for (const auto& p : vw) total += p.second;
+  double acc = 0;
+  for (const auto& p : vw) {
+    acc += p.second;
+    if (acc >= fraction * total) return p.first;
+  }
+  return vw.back().first;
+}
+
+}  // namespace
+
+SplatBounds robust_splat_bounds(const GaussianField& field) {
+  std::vector<size_t> kept;
+  for (size_t i = 0; i < field.size(); ++i)
+    if (field.opacity[i] >= kMinOpacity && is_finite(field.position[i])) kept.push_back(i);
+  if (kept.empty())
+    throw Error(field.source_path.empty() ? "gaussians" : field.source_path,
+                "no splat has opacity >= 0.05: nothing to place cameras around");
+  SplatBounds b;
+  b.counted = kept.size();
+  // Per axis: the 1st and 99th opacity-weighted percentiles (floaters trimmed).
+  for (int a = 0; a < 3; ++a) {
+    std::vector<std::pair<float, float>> vw;
+    vw.reserve(kept.size());
+    for (size_t i : kept) vw.emplace_back(field.position[i][a], field.opacity[i]);
+    b.lo[a] = weighted_quantile(vw, 0.01f);
+    b.hi[a] = weighted_quantile(vw, 0.99f);
+  }
+  b.centre = 0.5f * (b.lo + b.hi);
+  // The sphere: 99th weighted percentile of the in-box splats' distances, plus
+  // 3 sigma of their median largest scale.
+  std::vector<std::pair<float, float>> dist, size;
+  for (size_t i : kept) {
+    const Vec3 p = field.position[i];
+    if (p.x < b.lo.x || p.y < b.lo.y || p.z < b.lo.z || p.x > b.hi.x || p.y > b.hi.y || p.z > b.hi.z) continue;
+    dist.emplace_back(length(p - b.centre), field.opacity[i]);
+    size.emplace_back(max_component(field.scale[i]), 1.0f);
+  }
+  if (dist.empty()) {  // every splat on a box face of zero extent: a single point
+    dist.emplace_back(0.0f, 1.0f);
+    size.emplace_back(max_component(field.scale[kept[0]]), 1.0f);
+  }
+  b.radius = weighted_quantile(dist, 0.99f) + 3.0f * weighted_quantile(size, 0.5f);
+  if (!(b.radius > 0) || !std::isfinite(b.radius))
+    throw Error(field.source_path.empty() ? "gaussians" : field.source_path, "the splats have no extent to orbit");
+  return b;
+}
+
+Affine look_at(Vec3 eye, Vec3 target) {
+  const Vec3 back = normalize(eye - target);
+  Vec3 right = cross(Vec3(0, 0, 1), back);
+  if (length(right) < 1e-6f) right = Vec3(1, 0, 0);  // straight above or below
+  right = normalize(right);
+  const Vec3 up = cross(back, right);
+  Affine a;
+  a.linear = Mat3::from_cols(right, up, back);
+  a.translation = eye;
+  return a;
+}
+
+OrbitPlan plan_orbit(const GaussianField& field, const OrbitOptions& o) {
+  OrbitPlan plan;
+  plan.bounds = robust_splat_bounds(field);
+  const double n = double(std::max<size_t>(field.size(), 1));
+  plan.size = o.size > 0 ? o.size : std::clamp(16 * int(std::lround(std::sqrt(n) / 20.0)), 256, 640);
+  plan.views = o.views > 0 ? o.views : std::clamp(int(std::lround(24.0 + 8.0 * std::log2(n / 1e4))), 24, 96);
+  const Vec3 ext = plan.bounds.hi - plan.bounds.lo;
+  const bool flat = ext.z < 0.25f * std::max(ext.x, ext.y);
+  plan.elevation_min = o.elevation_min > -999 ? o.elevation_min : (flat ? 10.0f : -30.0f);
+  plan.elevation_max = o.elevation_max > -999 ? o.elevation_max : 75.0f;
+  if (!(plan.elevation_min <= plan.elevation_max) || plan.elevation_min < -90 || plan.elevation_max > 90)
+    throw Error("the orbit's elevation range must be MIN <= MAX within [-90, 90] degrees");
+  if (!(o.fov_deg > 1 && o.fov_deg < 170)) throw Error("the orbit's field of view must be in (1, 170) degrees");
+  if (plan.size < 16 || plan.size > 8192) throw Error("the orbit's image size must be 16..8192 pixels");
+  if (plan.views < 1 || plan.views > 10000) throw Error("the orbit's view count must be 1..10000");
+  plan.fov_deg = o.fov_deg;
+  const float half = 0.5f * o.fov_deg * kDeg;
+  plan.distance = plan.bounds.radius / std::sin(half) * 1.15f * o.distance_scale;
+  // Golden-angle spiral, uniform in sin(elevation) over the range.
+  const float s0 = std::sin(plan.elevation_min * kDeg), s1 = std::sin(plan.elevation_max * kDeg);
+  const float golden = 180.0f * kDeg * (3.0f - std::sqrt(5.0f));
+  for (int k = 0; k < plan.views; ++k) {
+    const float s = s0 + (s1 - s0) * (float(k) + 0.5f) / float(plan.views);
+    const float c = std::sqrt(std::max(0.0f, 1.0f - s * s)), phi = golden * float(k);
+    const Vec3 eye = plan.bounds.centre + plan.distance * Vec3(c * std::cos(phi), c * std::sin(phi), s);
+    const Affine a = look_at(eye, plan.bounds.centre);
+    float m[16] = {0};
+    for (int r = 0; r < 3; ++r) {
+      for (int col = 0; col < 3; ++col) m[r * 4 + col] = a.linear.m[r][col];
+      m[r * 4 + 3] = a.translation[r];
+    }
+    m[15] = 1;
+    char name[32];
+    std::snprintf(name, sizeof name, "orbit_%03d", k);
+    plan.cameras.push_back(make_camera(m, 2 * half, plan.size, plan.size, name));
+  }
+  return plan;
+}
+
+std::string orbit_plan_json(const OrbitPlan& plan, const std::string& source) {
+  nlohmann::json j;
+  j["source"] = source;
+  const auto v3 = [](Vec3 v) { return nlohmann::json::array({v.x, v.y, v.z}); };
+  j["bounds"] = {{"lo", v3(plan.bounds.lo)}, {"hi", v3(plan.bounds.hi)}, {"centre", v3(plan.bounds.centre)},
+                 {"radius", plan.bounds.radius}, {"splats_counted", plan.bounds.counted}};
+  j["views"] = plan.views;
+  j["size"] = plan.size;
+  j["elevation_deg"] = {plan.elevation_min, plan.elevation_max};
+  j["fov_deg"] = plan.fov_deg;
+  j["distance"] = plan.distance;
+  nlohmann::json frames = nlohmann::json::array();
+  for (const Camera& c : plan.cameras) {
+    nlohmann::json m = nlohmann::json::array();
+    for (int r = 0; r < 3; ++r)
+      m.push_back({c.cam_to_world.linear.m[r][0], c.cam_to_world.linear.m[r][1], c.cam_to_world.linear.m[r][2],
+                   c.cam_to_world.translation[r]});
+    m.push_back({0, 0, 0, 1});
+    frames.push_back({{"name", c.name}, {"transform_matrix", m}, {"fl_x", c.fx}, {"fl_y", c.fy}, {"cx", c.cx},
+                      {"cy", c.cy}, {"w", c.width}, {"h", c.height}});
+  }
+  j["cameras"] = frames;
+  return j.dump(1);
+}
+
+}  // namespace ptir
