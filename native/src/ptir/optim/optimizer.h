@@ -138,6 +138,13 @@ struct OptimizerSettings {
   // +0.5 / +0.6 and -0.6 / +0.8 (the sample's per-channel levels go astray),
   // and a 60-iteration add-on run ended with a darker albedo level.
   float balance_start = 0.5f;
+  // Weight of the grey-world prior on the albedos' colour along the balance
+  // (light_balance.h, albedo_chroma_prior): pulls the learnt albedos' mean colour
+  // toward grey in the one direction the direct diffuse images cannot see (the
+  // light takes the opposite colour), so the data's evidence there (highlights,
+  // interreflections) can override it. 0: off. Measured on the family
+  // (docs/family.md).
+  float lambda_albedo_grey = 0.0f;
   // Decorrelated adjoint: with gradients, the spp are rendered as two independent
   // halves and each half's replay is weighted by dL/dimage of the other half. With
   // one set of samples for both, the noise of a pixel's estimate and of its
