@@ -56,7 +56,7 @@ def eval_cmd(data, result, spp, threads):
 def oracle_metrics(data, spp, threads, log):
     """The oracle's scores (true materials and light on the same splats), cached in the set's oracle/eval."""
     m = data / "oracle" / "eval" / "metrics.json"
-    if not m.exists() or json.load(open(m))["settings"]["spp"] != spp:
+    if not m.exists() or json.load(open(m))["settings"]["spp"] != spp or (relight_args(data) and not json.load(open(m))["relight"]):
         run(eval_cmd(data, data / "oracle", spp, threads), log)
     return json.load(open(m))
 

@@ -249,6 +249,8 @@ def _capsules(m):
         bm.from_mesh(cap.data)
         for v in bm.verts:  # stretch the sphere's halves apart: a capsule of length 1.1
             v.co.z += 0.4 if v.co.z > 0 else -0.4
+        long = [e for e in bm.edges if abs(e.verts[0].co.z - e.verts[1].co.z) > 0.3]
+        bmesh.ops.subdivide_edges(bm, edges=long, cuts=7, use_grid_fill=True)  # the stretched band in 8 rings
         bm.to_mesh(cap.data)
         bm.free()
         for p in cap.data.polygons:

@@ -9,14 +9,13 @@ splats as they are: --fit-iters 0), and `ptir eval` reports the per-channel scal
 ours_c) that aligns our albedo to the truth.
 
 A neutral albedo recovered means the three scales agree: |s_c / mean(s) - 1| <= NEUTRAL_TOL in every
-channel. Measured at this setting (docs/family.md, "The colour test"): with the grey-world prior along
-the light-albedo balance (the default, --lambda-albedo-grey 0.01) the scales are 1.138 / 1.134 / 1.143,
-a spread of 0.4 %; without it (--lambda-albedo-grey 0, the model of before) 1.126 / 1.044 / 1.228, i.e.
-0.994 / 0.922 / 1.084 of their mean: the light's orange-magenta partly kept in the albedo (seeds 2 and 3:
-largest deviation 0.090 and 0.116 without the prior, 0.005 and 0.006 with it). The issue's
-bar is 10 %, which the run of before passes at this small budget by 1.6 points; the bound here is 5 %,
-halfway between the two, so that the test fails on the model of before and has ten times the measured
-spread of the model of now as margin.
+channel. Measured at this setting, seeds 1 / 2 / 3 (docs/family.md, "The colour test"): the largest
+deviation is 0.040 / 0.036 / 0.050 with the grey-world prior along the light-albedo balance at its
+default weight (--lambda-albedo-grey 0.001), 0.084 / 0.090 / 0.116 without it (0, the model of before:
+seed 1's scales 1.126 / 1.044 / 1.228, the light's orange-magenta partly kept in the albedo), and
+0.004-0.006 at 0.01. The issue's bar is 10 %, which the model of before passes on two seeds of three at
+this small budget; the bound here is 7 %, between the two models' measured ranges with 2 points of margin
+on each side, so that the test fails on the model of before.
 """
 
 import json
@@ -36,7 +35,7 @@ import make_family  # noqa: E402
 
 BUILD = Path(os.environ.get("PTIR_BUILD_DIR", REPO / "build")).resolve()
 CLI = BUILD / "bin" / "ptir"
-NEUTRAL_TOL = 0.05  # measured <= 0.006 with the prior, 0.084-0.116 without (seeds 1-3, docstring)
+NEUTRAL_TOL = 0.07  # measured <= 0.050 with the default prior, >= 0.084 without (seeds 1-3, docstring)
 
 pytestmark = pytest.mark.skipif(not blenders.available("3.4"), reason=blenders.why_missing("3.4"))
 
