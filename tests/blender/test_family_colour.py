@@ -10,7 +10,7 @@ ours_c) that aligns our albedo to the truth.
 
 A neutral albedo recovered means the three scales agree: |s_c / mean(s) - 1| <= NEUTRAL_TOL in every
 channel. Measured at this setting, seeds 1 / 2 / 3 (docs/family.md, "The colour test"): the largest
-deviation is 0.040 / 0.036 / 0.050 with the grey-world prior along the light-albedo balance at its
+deviation is 0.035 / 0.036 / 0.050 with the grey-world prior along the light-albedo balance at its
 default weight (--lambda-albedo-grey 0.001), 0.084 / 0.090 / 0.116 without it (0, the model of before:
 seed 1's scales 1.126 / 1.044 / 1.228, the light's orange-magenta partly kept in the albedo), and
 0.004-0.006 at 0.01. The issue's bar is 10 %, which the model of before passes on two seeds of three at

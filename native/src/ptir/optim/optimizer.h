@@ -144,7 +144,7 @@ struct OptimizerSettings {
   // light takes the opposite colour), so the data's evidence there (highlights,
   // interreflections) can override it. 0: off. Measured on the family
   // (docs/family.md): 0.001 narrows the channels' spread on the coloured-light
-  // test (8-12 % -> 4-5 %) and on the tuning half at an unchanged albedo PSNR,
+  // test (8-12 % -> 3.5-5 %) and on the tuning half at an unchanged albedo PSNR,
   // and costs the demo 0.17 dB; 0.01 makes the spread < 1 % there but costs the
   // demo's orange-red object 1.0 dB (grey world is wrong for it).
   float lambda_albedo_grey = 0.001f;
