@@ -8,7 +8,8 @@ Run inside Blender 3.4 (headless), or in PyPI's bpy 4.5 / 5.0 (tests/blender/bpy
         --out DIR [--blend FILE] [--res 100] [--train 16] [--test 8] [--spp 64] [--bounces 4]
         [--subdiv 2] [--train-env studio] [--relight-envs sunset,sky] [--env-size 128x64]
         [--threads N] [--save-blend FILE] [--textured] [--metal-fraction F] [--texture-seed N]
-        [--capture-layouts]
+        [--capture-layouts] [--shape NAME] [--texture-kind smooth|edges|hifreq|perface]
+        [--roughness-range LO,HI] [--neutral]
 
 The object: with --blend, the mesh objects of the file's collection "PTIR_Object"
 (else every renderable mesh); without, the bundled sample built in code
@@ -51,6 +52,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
 from dataset import capture, envmaps, exr, png, scene as dscene, splat, textures  # noqa: E402
+from dataset import shapes as dscene_shapes  # noqa: E402
 from ptir_blender.blender import compat  # noqa: E402
 
 
@@ -73,11 +75,24 @@ def parse_args():
     p.add_argument("--textured", action="store_true", help="noise-textured base colour and roughness per polygon")
     p.add_argument("--metal-fraction", type=float, default=0.0, help="with --textured: fraction of metallic polygons")
     p.add_argument("--texture-seed", type=int, default=1, help="with --textured: the pattern's seed")
+    p.add_argument("--texture-kind", default="smooth", choices=textures.KINDS,
+                   help="with --textured: smooth noise, sharp-edged two tones, high-frequency noise or per-face cells")
+    p.add_argument("--roughness-range", default="0.1,0.9", help="with --textured: the roughness pattern's LO,HI")
+    p.add_argument("--neutral", action="store_true", help="with --textured: grey albedos (each colour's mean)")
+    p.add_argument("--shape", choices=sorted(dscene_shapes.SHAPES),
+                   help="a family object built in code (scripts/dataset/shapes.py) instead of the sample")
     p.add_argument("--capture-layouts", action="store_true",
                    help="also write the views as a capture in every layout (DIR/capture/: NeRF, COLMAP bin and txt "
                         "with an OPENCV lens, nerfstudio)")
     a = p.parse_args(argv)
     a.relight_envs = [e for e in a.relight_envs.split(",") if e]
+    try:
+        a.roughness_range = tuple(float(v) for v in a.roughness_range.split(","))
+        assert len(a.roughness_range) == 2 and 0.0 <= a.roughness_range[0] <= a.roughness_range[1] <= 1.0
+    except (ValueError, AssertionError):
+        p.error("--roughness-range must be LO,HI with 0 <= LO <= HI <= 1")
+    if a.shape and a.blend:
+        p.error("--shape and --blend are exclusive")
     for name in [a.train_env] + a.relight_envs:
         if name not in envmaps.PRESETS:
             p.error("unknown environment '%s' (choose from %s)" % (name, ", ".join(envmaps.PRESETS)))
@@ -236,6 +251,10 @@ def main():
             log("object moved by %s and scaled by %.4g into the radius-1.25 sphere at the origin"
                 % (np.round(-centre, 4).tolist(), scale))
         source = os.path.abspath(a.blend)
+    elif a.shape:
+        dscene.clear_scene()
+        objs = dscene_shapes.build_shape(a.shape)
+        source = "family shape '%s' (scripts/dataset/shapes.py)" % a.shape
     else:
         dscene.clear_scene()
         objs = dscene.build_sample_object(subdiv=a.subdiv)
@@ -243,9 +262,11 @@ def main():
     if not objs:
         raise RuntimeError("no mesh objects to capture")
     if a.textured:
-        textures.texture_objects(objs, dscene.material_values, seed=a.texture_seed, metal_fraction=a.metal_fraction)
-        log("textured: per-polygon noise in base colour and roughness%s" %
-            (", metallic patches on %.0f%%" % (100 * a.metal_fraction) if a.metal_fraction > 0 else ""))
+        textures.texture_objects(objs, dscene.material_values, seed=a.texture_seed, metal_fraction=a.metal_fraction,
+                                 kind=a.texture_kind, roughness_range=a.roughness_range, neutral=a.neutral)
+        log("textured (%s%s): per-polygon pattern in base colour and roughness %g..%g%s" %
+            (a.texture_kind, ", neutral" if a.neutral else "", a.roughness_range[0], a.roughness_range[1],
+             ", metallic patches on %.0f%%" % (100 * a.metal_fraction) if a.metal_fraction > 0 else ""))
     if a.save_blend:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(a.save_blend), compress=True, copy=True)
         log("saved %s" % a.save_blend)
@@ -340,7 +361,8 @@ def main():
         "splat": "gaussians.ply",
         "oracle": "oracle",
         "materials": parts,
-        "textured": {"seed": a.texture_seed, "metal_fraction": a.metal_fraction} if a.textured else None,
+        "textured": {"seed": a.texture_seed, "metal_fraction": a.metal_fraction, "kind": a.texture_kind,
+                     "roughness_range": list(a.roughness_range), "neutral": a.neutral} if a.textured else None,
         "encodings": {"rgba": "sRGB 8-bit, straight alpha = coverage",
                       "albedo": "sRGB 8-bit (AOV: base colour x (1 - metallic)), alpha = coverage",
                       "roughness": "linear 8-bit grey, alpha = coverage",

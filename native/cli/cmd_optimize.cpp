@@ -556,6 +556,9 @@ Runner add_optimize_command(CLI::App& app) {
                   "with --loss-blur: blur the target image the same way (the optimum is then the unblurred match)")
       ->capture_default_str();
   cmd->add_option("--lr-balance", o->opt.lr_balance, "the light-albedo balance's Adam learning rate")->capture_default_str();
+  cmd->add_option("--lambda-albedo-grey", o->opt.lambda_albedo_grey,
+                  "grey-world prior on the albedos' mean colour, along the light-albedo balance only (0: off)")
+      ->capture_default_str();
   cmd->add_option("--balance-start", o->opt.balance_start, "fraction of the iterations before the light-albedo balance learns")
       ->capture_default_str();
   cmd->add_option("--lr-env", o->opt.lr_env, "the environment's Adam learning rate (its log radiance per step)")

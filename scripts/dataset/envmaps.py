@@ -57,6 +57,24 @@ PRESETS = {
     # patch where the sun hides, warm grey ground.
     "overcast": ((0.62, 0.64, 0.68), (0.52, 0.52, 0.53), (0.16, 0.14, 0.12),
                  [((1.6, 1.6, 1.7), 30.0, 45.0, 3.0)]),
+    # The family's training lights (docs/family.md). Sun and sky: a small bright warm-white sun high up
+    # over a blue sky (hard shadows, a blue fill).
+    "sunsky": ((0.12, 0.25, 0.60), (0.45, 0.55, 0.70), (0.10, 0.09, 0.08),
+               [((30.0, 27.0, 22.0), 60.0, 50.0, 250.0)]),
+    # Strongly coloured: an orange room, an orange key and a magenta fill (the light's colour is far
+    # from white: what an albedo must not take for its own).
+    "coloured": ((0.30, 0.14, 0.05), (0.36, 0.18, 0.07), (0.08, 0.04, 0.02),
+                 [((4.5, 2.0, 0.6), 35.0, 40.0, 12.0),
+                  ((1.3, 0.3, 1.0), 215.0, 25.0, 5.0)]),
+    # Coloured the other way: a teal room with a cyan key.
+    "tinted": ((0.06, 0.22, 0.30), (0.08, 0.25, 0.30), (0.03, 0.06, 0.07),
+               [((1.0, 3.2, 3.8), 300.0, 45.0, 10.0),
+                ((0.8, 1.2, 0.6), 120.0, 20.0, 5.0)]),
+    # Dim: the studio at a fifth of its radiance (darker 8-bit images, more of them in the low codes).
+    "dim": ((0.06, 0.06, 0.064), (0.068, 0.066, 0.064), (0.02, 0.02, 0.02),
+            [((0.8, 0.74, 0.66), 35.0, 40.0, 12.0),
+             ((0.18, 0.22, 0.30), 215.0, 25.0, 5.0),
+             ((0.24, 0.24, 0.24), 300.0, 70.0, 8.0)]),
 }
 
 

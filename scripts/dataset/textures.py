@@ -59,21 +59,64 @@ def polygon_centres(obj):
     return c.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
 
 
-def texture_objects(objs, material_values, seed=1, metal_fraction=0.0):
-    """Bakes the pattern into face attributes of every object (modifiers applied first)
-    and rewires every material to read them. material_values(mat) -> (colour, ...)."""
+KINDS = ("smooth", "edges", "hifreq", "perface")
+
+
+CELLS = 24
+
+
+def _voronoi_cells(points, seed, cells=CELLS):
+    """The index of the nearest of `cells` random sites (in the points' bounding box) of every point."""
+    rng = np.random.default_rng(seed)
+    lo, hi = points.min(0), points.max(0)
+    sites = lo + (hi - lo) * rng.uniform(size=(cells, 3))
+    return np.argmin(((points[:, None, :] - sites[None]) ** 2).sum(-1), axis=1)
+
+
+def pattern(pts, kind, seed):
+    """(n1, n2, n3) in [0, 1] per polygon centre for a texture kind (docs/family.md):
+    smooth   the smooth noise (three low frequencies)
+    edges    the smooth noise thresholded: two tones with sharp boundaries
+    hifreq   noise at four times the frequencies (a few polygons per period)
+    perface  piecewise constant on 24 random Voronoi cells (random values per cell, sharp boundaries)"""
+    if kind == "perface":
+        rng = np.random.default_rng(seed + 5)
+        cell = _voronoi_cells(pts, seed)
+        vals = rng.uniform(size=(3, CELLS))
+        return (cell / (CELLS - 1.0),) + tuple(v[cell] for v in vals[1:])
+    freq = (5.3, 11.9, 23.7) if kind == "hifreq" else (1.3, 2.9, 6.1)
+    n = [noise3(pts, seed + 17 * k, freq) for k in range(3)]
+    if kind == "edges":
+        n[0] = (n[0] > np.median(n[0])).astype(np.float64)
+        n[1] = 0.25 + 0.5 * (n[1] > np.median(n[1]))
+    return tuple(n)
+
+
+def texture_objects(objs, material_values, seed=1, metal_fraction=0.0, kind="smooth", roughness_range=(0.1, 0.9),
+                    neutral=False):
+    """Bakes the pattern (`kind`, KINDS) into face attributes of every object (modifiers applied first)
+    and rewires every material to read them. material_values(mat) -> (colour, ...). Roughness spans
+    roughness_range; with neutral, every albedo is grey (its colour's mean)."""
+    if kind not in KINDS:
+        raise ValueError("unknown texture kind '%s' (one of %s)" % (kind, ", ".join(KINDS)))
+    lo, hi = roughness_range
     for i, obj in enumerate(objs):
         apply_modifiers(obj)
         me = obj.data
         pts = polygon_centres(obj)
-        n1, n2, n3 = (noise3(pts, seed * 1000 + 17 * k + i) for k in range(3))
+        n1, n2, n3 = pattern(pts, kind, seed * 1000 + i)  # (the smooth kind: the seeds of before)
         mat_idx = np.empty(len(me.polygons), np.int64)
         me.polygons.foreach_get("material_index", mat_idx)
         mats = [s.material for s in obj.material_slots] or [None]
         base = np.array([material_values(m)[0] for m in mats], np.float64)[np.clip(mat_idx, 0, len(mats) - 1)]
         second = np.array([_second_colour(material_values(m)[0]) for m in mats])[np.clip(mat_idx, 0, len(mats) - 1)]
+        if kind == "perface":  # a random colour per cell, its own palette
+            palette = np.random.default_rng(seed * 1000 + i + 9).uniform(0.05, 0.85, size=(CELLS, 3))
+            base = second = palette[np.rint(n1 * (CELLS - 1)).astype(int)]
         albedo = np.clip(base + (second - base) * n1[:, None], 0.03, 0.95)
-        rough = 0.1 + 0.8 * n2
+        if neutral:
+            albedo = np.repeat(albedo.mean(1, keepdims=True), 3, axis=1)
+        rough = lo + (hi - lo) * n2
         # The top metal_fraction of the third pattern: patches of the asked share of polygons.
         metal = (n3 > np.quantile(n3, 1.0 - metal_fraction)).astype(np.float64) if metal_fraction > 0 else np.zeros(len(n3))
         for name in (ALBEDO, ROUGHNESS, METALLIC):

@@ -250,6 +250,29 @@ TEST(Gradients, LightBalanceIsTheDerivativeAlongItsMove) {
   EXPECT_NEAR(moved.environment.as<Environment>()->texels()[5], e0 * std::exp(-0.05f), 1e-5f);  // texel 1, blue
 }
 
+TEST(Gradients, AlbedoGreyPriorIsItsDerivativeAlongTheBalance) {
+  // light_balance.h albedo_chroma_prior: dP/d delta_c of P = 1/2 sum_c (nu_c - mean nu)^2,
+  // nu_c = log mean albedo_c, against central differences of the balance's move on the
+  // albedos (the light does not enter P); zero for grey albedos.
+  GradientScene gs = make_scene(false);
+  for (size_t i = 0; i < gs.scene.gaussians->albedo.size(); ++i)
+    gs.scene.gaussians->albedo[i] = Vec3(0.6f + 0.01f * float(i % 7), 0.3f, 0.1f + 0.02f * float(i % 3));
+  Parameters p = make_parameters(gs.scene, ParameterSettings{});
+  const std::array<double, 3> d = albedo_chroma_prior(p, gs.scene);
+  auto prior = [&](int c, double h) {
+    std::array<double, 3> nu = {0.0, 0.0, 0.0};
+    const auto& a = gs.scene.gaussians->albedo;
+    for (const Vec3& v : a)
+      for (int k = 0; k < 3; ++k) nu[k] += double(v[k]) * (k == c ? std::exp(h) : 1.0);
+    for (double& n : nu) n = std::log(n / double(a.size()));
+    const double m = (nu[0] + nu[1] + nu[2]) / 3.0;
+    return 0.5 * ((nu[0] - m) * (nu[0] - m) + (nu[1] - m) * (nu[1] - m) + (nu[2] - m) * (nu[2] - m));
+  };
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(d[c], (prior(c, 1e-4) - prior(c, -1e-4)) / 2e-4, 1e-5) << "channel " << c;
+  for (Vec3& a : gs.scene.gaussians->albedo) a = Vec3(0.4f, 0.4f, 0.4f);
+  for (double v : albedo_chroma_prior(p, gs.scene)) EXPECT_NEAR(v, 0.0, 1e-9);
+}
+
 TEST(Gradients, LightBalanceCountsOnlyTheRiseAnAlbedoCanTake) {
   // An albedo pinned at the top of its range cannot rise with the balance's step, so
   // only the light's side of the move counts for it (else the balance runs away:

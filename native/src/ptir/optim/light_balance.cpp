@@ -54,6 +54,28 @@ std::array<double, 3> light_balance_derivative(const Parameters& p, const Scene&
   return d;
 }
 
+std::array<double, 3> albedo_chroma_prior(const Parameters& p, const Scene& scene) {
+  std::array<double, 3> sum = {0.0, 0.0, 0.0};
+  size_t n = 0;
+  if (p.find(ParamKind::GaussianAlbedo) && scene.gaussians) {
+    const GaussianField& f = *scene.gaussians;
+    for (size_t i = 0; i < f.size(); ++i, ++n)
+      for (int c = 0; c < 3; ++c) sum[c] += double(f.albedo[i][c]);
+  }
+  if (p.find(ParamKind::MeshColour))
+    for (const auto& m : scene.meshes) {
+      for (int c = 0; c < 3; ++c) sum[c] += double(m.material.base_colour[c]);
+      ++n;
+    }
+  std::array<double, 3> d = {0.0, 0.0, 0.0};
+  if (n == 0) return d;
+  std::array<double, 3> nu;
+  for (int c = 0; c < 3; ++c) nu[c] = std::log(std::max(sum[c] / double(n), 1e-8));
+  const double mean = (nu[0] + nu[1] + nu[2]) / 3.0;
+  for (int c = 0; c < 3; ++c) d[c] = nu[c] - mean;
+  return d;
+}
+
 void light_balance_shift(Parameters& p, const std::array<float, 3>& delta) {
   for (ParameterGroup& grp : p.groups) {
     if (grp.kind == ParamKind::GaussianAlbedo || grp.kind == ParamKind::MeshColour)

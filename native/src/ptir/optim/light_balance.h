@@ -57,4 +57,12 @@ void light_balance_shift(Parameters& p, const std::array<float, 3>& delta);
 // picks the split a white-balanced capture implies. Zero without an environment.
 std::array<float, 3> neutral_light_delta(const Parameters& p);
 
+// The grey-world prior along the balance: P = 1/2 sum_c (nu_c - mean nu)^2 with
+// nu_c the log of the learnt albedos' mean in channel c (Gaussians and, when
+// learnt, mesh colours). The balance moves nu_c by delta_c, so dP/d delta_c =
+// nu_c - mean nu: returned, to be added (times its weight) to the balance's
+// gradient. It sees only the albedos' overall colour, never their pattern or
+// level, and only where the image term leaves the balance free.
+std::array<double, 3> albedo_chroma_prior(const Parameters& p, const Scene& scene);
+
 }  // namespace ptir

@@ -481,6 +481,10 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
   if (with_gradients) {
     allreduce_gradients(*comm_, grads_);  // data-parallel: the ranks' bands summed in rank order
     comm_->allreduce_sum(balance_grad_.data(), balance_grad_.size());
+    if (settings_.lambda_albedo_grey > 0.0f && params_.find(ParamKind::LightBalance)) {  // after the sum: once
+      const auto prior = albedo_chroma_prior(params_, *scene_);
+      for (int c = 0; c < 3; ++c) balance_grad_[c] += double(settings_.lambda_albedo_grey) * prior[c];
+    }
   }
   log.loss = log.image + log.tv + log.prior;
   log.seconds = seconds_since(t_start);

@@ -142,6 +142,16 @@ struct OptimizerSettings {
   // +0.5 / +0.6 and -0.6 / +0.8 (the sample's per-channel levels go astray),
   // and a 60-iteration add-on run ended with a darker albedo level.
   float balance_start = 0.5f;
+  // Weight of the grey-world prior on the albedos' colour along the balance
+  // (light_balance.h, albedo_chroma_prior): pulls the learnt albedos' mean colour
+  // toward grey in the one direction the direct diffuse images cannot see (the
+  // light takes the opposite colour), so the data's evidence there (highlights,
+  // interreflections) can override it. 0: off. Measured on the family
+  // (docs/family.md): 0.001 narrows the channels' spread on the coloured-light
+  // test (8-12 % -> 3.5-5 %) and on the tuning half at an unchanged albedo PSNR,
+  // and costs the demo 0.17 dB; 0.01 makes the spread < 1 % there but costs the
+  // demo's orange-red object 1.0 dB (grey world is wrong for it).
+  float lambda_albedo_grey = 0.001f;
   // Decorrelated adjoint: with gradients, the spp are rendered as two independent
   // halves and each half's replay is weighted by dL/dimage of the other half. With
   // one set of samples for both, the noise of a pixel's estimate and of its

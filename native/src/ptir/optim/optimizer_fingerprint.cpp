@@ -101,7 +101,8 @@ Fingerprint Optimizer::fingerprint() const {
       {"lr_schedule", num(settings_.lr_final) + " from " + num(settings_.lr_decay_start)},
       {"env_coarse", std::to_string(ps.env_coarse_width)},
       {"warmup", num(settings_.albedo_warmup) + " tv " + num(settings_.tv_warmup)},
-      {"light balance", settings_.light_balance ? "on " + num(ps.lr_balance) + " from " + num(settings_.balance_start) : std::string("off")},
+      {"light balance", settings_.light_balance ? "on " + num(ps.lr_balance) + " from " + num(settings_.balance_start) +
+                                                (settings_.lambda_albedo_grey > 0.0f ? ", grey prior " + num(settings_.lambda_albedo_grey) : std::string()) : std::string("off")},
       {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},
       {"adjoint", settings_.decorrelate_adjoint ? "decorrelated" : "same samples"},
       {"orient_normals", settings_.orient_normals ? "1" : "0"},
