@@ -26,6 +26,7 @@ Blender:
                                         add-on's surface-splat builder (io/surface_splats.py)
 """
 
+import argparse
 import os
 import sys
 import time
@@ -60,6 +61,23 @@ def look_at(eye, target=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0)):
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
     return m
+
+
+def scene_script_args(samples=256, seeds=None, extra=None):
+    """The arguments after `--` of a comparison-scene script: --out-dir, --res (128), --samples,
+    --bounces (2), --threads (2), --seeds when given a default list; extra(parser) adds the script's own."""
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out-dir", required=True)
+    ap.add_argument("--res", type=int, default=128)
+    ap.add_argument("--samples", type=int, default=samples)
+    if seeds is not None:
+        ap.add_argument("--seeds", type=int, nargs="+", default=list(seeds))
+    ap.add_argument("--bounces", type=int, default=2)
+    ap.add_argument("--threads", type=int, default=2)
+    if extra:
+        extra(ap)
+    return ap.parse_args(argv)
 
 
 def run_main(main, prog=None):

@@ -275,6 +275,28 @@ _PASS_CHANNELS = {"rgba": (("Combined",), "RGBA"), "albedo": ((ALBEDO_AOV,), "RG
                   "normal": (("Normal",), "XYZ"), "roughness": ((ROUGHNESS_AOV,), None)}
 
 
+
+def render_reference(scene, out_dir, res, samples, bounces, threads):
+    """A comparison scene's Cycles reference: setup_cycles on an opaque film, a 32-bit EXR
+    OUT_DIR/cycles.exr, its pixels as OUT_DIR/cycles.npy (linear RGB, row 0 = top). Returns the
+    render's seconds."""
+    import time
+    setup_cycles(scene, res, samples, bounces, threads)
+    scene.render.film_transparent = False
+    scene.render.use_compositing = False
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    path = os.path.join(out_dir, "cycles.exr")
+    scene.render.filepath = path
+    t0 = time.time()
+    bpy.ops.render.render(write_still=True)
+    seconds = time.time() - t0
+    img = bpy.data.images.load(path, check_existing=False)
+    px = np.array(img.pixels[:], np.float32).reshape(res, res, 4)[::-1, :, :3]
+    bpy.data.images.remove(img)
+    np.save(os.path.join(out_dir, "cycles.npy"), np.ascontiguousarray(px))
+    return seconds
+
 def setup_passes(scene, out_dir):
     """The Normal pass and the roughness and albedo AOVs, written by every render (no compositor:
     its Python API changed in 5.0) as one multilayer EXR, 32-bit float, uncompressed, in out_dir."""

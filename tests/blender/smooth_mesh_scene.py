@@ -16,12 +16,10 @@ Principled materials, the dataset maker's "studio" environment. Writes
 and prints one line "PTIR_SMOOTH_MESH_JSON: {...}".
 """
 
-import argparse
 import json
 import math
 import os
 import sys
-import time
 
 import bpy
 import numpy as np
@@ -37,14 +35,7 @@ from ptir_blender.blender import scene_export  # noqa: E402
 
 
 def parse_args():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--out-dir", required=True)
-    ap.add_argument("--res", type=int, default=128)
-    ap.add_argument("--samples", type=int, default=256)
-    ap.add_argument("--bounces", type=int, default=2)
-    ap.add_argument("--threads", type=int, default=2)
-    return ap.parse_args(argv)
+    return kit.scene_script_args()
 
 
 def smooth(obj, auto_smooth_deg=None):
@@ -91,20 +82,7 @@ def main():
     kit.set_environment(scene, env_path)
     cam = dscene.camera_object(scene)
     cam.matrix_world = kit_matrix(kit.look_at(np.array([0.9, -3.6, 2.0]), np.array([0.0, 0.1, 0.35])))
-    dscene.setup_cycles(scene, a.res, a.samples, a.bounces, a.threads)
-    scene.render.film_transparent = False
-    scene.render.use_compositing = False
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    path = os.path.join(a.out_dir, "cycles.exr")
-    scene.render.filepath = path
-    t0 = time.time()
-    bpy.ops.render.render(write_still=True)
-    seconds = time.time() - t0
-    img = bpy.data.images.load(path, check_existing=False)
-    px = np.array(img.pixels[:], np.float32).reshape(a.res, a.res, 4)[::-1, :, :3]
-    bpy.data.images.remove(img)
-    np.save(os.path.join(a.out_dir, "cycles.npy"), np.ascontiguousarray(px))
+    seconds = dscene.render_reference(scene, a.out_dir, a.res, a.samples, a.bounces, a.threads)
     scene_path = scene_export.export_scene(scene, os.path.join(a.out_dir, "export"),
                                            integrator={"bounces": a.bounces})
     print("PTIR_SMOOTH_MESH_JSON: " + json.dumps({"scene": scene_path, "cycles_seconds": seconds,

@@ -20,7 +20,6 @@ Writes
 and prints one line "PTIR_SPLAT_FLECK_JSON: {...}".
 """
 
-import argparse
 import json
 import math
 import os
@@ -43,18 +42,11 @@ from ptir_blender.io import surface_splats  # noqa: E402
 
 
 def parse_args():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--out-dir", required=True)
-    ap.add_argument("--res", type=int, default=128)
-    ap.add_argument("--samples", type=int, default=256)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1])
-    ap.add_argument("--bounces", type=int, default=2)
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--addon-f12", action="store_true",
-                    help="then import gaussians.ply with the add-on, hide the meshes and render F12 with the "
-                         "PTIR engine at --samples: DIR/addon_f12.npy")
-    return ap.parse_args(argv)
+    def addon_f12(ap):
+        ap.add_argument("--addon-f12", action="store_true",
+                        help="then import gaussians.ply with the add-on, hide the meshes and render F12 with the "
+                             "PTIR engine at --samples: DIR/addon_f12.npy")
+    return kit.scene_script_args(seeds=[1], extra=addon_f12)
 
 
 def addon_f12(scene, out_dir, samples, bounces):

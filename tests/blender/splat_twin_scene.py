@@ -19,7 +19,6 @@ scripts/make_dataset.py, and writes
 and prints one line "PTIR_SPLAT_TWIN_JSON: {...}".
 """
 
-import argparse
 import json
 import os
 import sys
@@ -40,16 +39,8 @@ from ptir_blender.blender import scene_export  # noqa: E402
 
 
 def parse_args():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--out-dir", required=True)
-    ap.add_argument("--res", type=int, default=128)
-    ap.add_argument("--samples", type=int, default=64)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4])
-    ap.add_argument("--bounces", type=int, default=2)
-    ap.add_argument("--subdiv", type=int, default=2)
-    ap.add_argument("--threads", type=int, default=2)
-    return ap.parse_args(argv)
+    return kit.scene_script_args(samples=64, seeds=[1, 2, 3, 4],
+                                 extra=lambda ap: ap.add_argument("--subdiv", type=int, default=2))
 
 
 def main():

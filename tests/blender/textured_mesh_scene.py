@@ -21,12 +21,10 @@ node setups the engine cannot render (a ColorRamp between an image and Roughness
 Normal), which must be reported, not dropped.
 """
 
-import argparse
 import json
 import math
 import os
 import sys
-import time
 
 import bpy
 import numpy as np
@@ -42,14 +40,7 @@ from ptir_blender.blender import compat, material_export, scene_export  # noqa: 
 
 
 def parse_args():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--out-dir", required=True)
-    ap.add_argument("--res", type=int, default=128)
-    ap.add_argument("--samples", type=int, default=256)
-    ap.add_argument("--bounces", type=int, default=2)
-    ap.add_argument("--threads", type=int, default=2)
-    return ap.parse_args(argv)
+    return kit.scene_script_args()
 
 
 # ---------------------------------------------------------------- images (rows bottom-up, as Blender's)
@@ -191,20 +182,7 @@ def main():
     cam = dscene.camera_object(scene)
     from mathutils import Matrix
     cam.matrix_world = Matrix(np.asarray(kit.look_at(np.array([0.4, -2.9, 1.6]), np.array([0.0, 0.0, 0.35]))).tolist())
-    dscene.setup_cycles(scene, a.res, a.samples, a.bounces, a.threads)
-    scene.render.film_transparent = False
-    scene.render.use_compositing = False
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    path = os.path.join(a.out_dir, "cycles.exr")
-    scene.render.filepath = path
-    t0 = time.time()
-    bpy.ops.render.render(write_still=True)
-    seconds = time.time() - t0
-    img = bpy.data.images.load(path, check_existing=False)
-    px = np.array(img.pixels[:], np.float32).reshape(a.res, a.res, 4)[::-1, :, :3]
-    bpy.data.images.remove(img)
-    np.save(os.path.join(a.out_dir, "cycles.npy"), np.ascontiguousarray(px))
+    seconds = dscene.render_reference(scene, a.out_dir, a.res, a.samples, a.bounces, a.threads)
     warnings = []
     scene_path = scene_export.export_scene(scene, os.path.join(a.out_dir, "export"),
                                            integrator={"bounces": a.bounces}, warnings=warnings)
