@@ -158,7 +158,8 @@ def test_textured_dataset_has_exact_per_polygon_truth(ptir, tmp_path, blender):
     make_dataset(out, "--res", "40", "--train", "2", "--test", "2", "--spp", "8", "--subdiv", "1", "--textured",
                  "--metal-fraction", "0.2", "--relight-envs", "sunset,sky,overcast", "--threads", "2", blender=blender)
     meta = json.loads((out / "dataset.json").read_text())
-    assert meta["textured"] == {"seed": 1, "metal_fraction": 0.2}
+    assert meta["textured"] == {"seed": 1, "metal_fraction": 0.2, "kind": "smooth", "neutral": False,
+                                "roughness_range": [0.1, 0.9]}  # the defaults of the family's switches
     assert sorted(meta["relight_envs"]) == ["overcast", "sky", "sunset"]
     g = ptir.load_gaussians(str(out / "oracle" / "gaussians.ply"))
     metal = np.asarray(g.metallic) > 0.5

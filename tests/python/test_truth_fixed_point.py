@@ -52,7 +52,12 @@ def test_the_truth_is_a_fixed_point(cli, tmp_path):
         out = tmp_path / name
         run([cli, "optimize", "--dataset", twin, "--gaussians", data / "oracle" / "gaussians.ply", "--init-from-ply",
              "--env-init", env, "--spp", spp, "--seed", "0", "-q", "--fit-iters", "0", "--iters", "150",
-             "--bounces", bounces, "--out", out, *extra], timeout=900)
+             "--bounces", bounces, "--out", out,
+             # The question is whether the images and the transport keep the truth where it is; the
+             # albedo grey prior (a choice along the light-albedo ambiguity the images leave free,
+             # docs/family.md) pulls this set's non-grey mean albedo toward grey on purpose (measured
+             # with it on: per-channel scale 1.07 / 1.05 / 0.92 after 150 iterations), so it is off here.
+             "--lambda-albedo-grey", "0", *extra], timeout=900)
         return score(cli, twin, out)
 
     kept = from_truth("bounces2", 2)
