@@ -32,7 +32,10 @@ TEST(Interaction, AggregateMatchesHandComputation) {
   EXPECT_NEAR(si.opacity, O, 1e-6);
   EXPECT_NEAR(si.transmittance, 0.06, 1e-6);
   EXPECT_TRUE(si.valid);
-  EXPECT_NEAR(si.depth, (w[0] * 1.0 + w[1] * 1.1 + w[2] * 1.2) / O, 1e-6);
+  // Depth: the hit at which O first reaches 1/2 (the first: O = 0.5), not the
+  // w-weighted mean (1.092), which the hits behind drag below the surface.
+  EXPECT_NEAR(si.depth, 1.0, 1e-6);
+  EXPECT_GT((w[0] * 1.0 + w[1] * 1.1 + w[2] * 1.2) / O, 1.05);
   EXPECT_NEAR(si.albedo.x, w[0] / O, 1e-6);
   EXPECT_NEAR(si.albedo.y, w[1] / O, 1e-6);
   EXPECT_NEAR(si.albedo.z, w[2] / O, 1e-6);
@@ -45,6 +48,24 @@ TEST(Interaction, AggregateMatchesHandComputation) {
   EXPECT_NEAR(si.n.y, n.y, 1e-5);
   EXPECT_NEAR(si.n.z, n.z, 1e-5);
   EXPECT_NEAR(si.p.z, 1.0 - si.depth, 1e-6);
+}
+
+TEST(Interaction, DepthIsTheMedianOrTheMeanBelowOneHalf) {
+  GaussianField f = three_gaussians();
+  Ray ray{Vec3(0, 0, 1), Vec3(0, 0, -1)};
+  // T: 1, 0.8, 0.56 -> O: 0.2, 0.44, 0.888: the third hit reaches 1/2.
+  InteractionBuilder b(f, InteractionSettings{}, 0.001f, ray.d);
+  GaussianHit hits[3] = {{1.0f, 0.2f, 0}, {1.1f, 0.3f, 1}, {1.2f, 0.8f, 2}};
+  for (auto& h : hits) b.add(h);
+  EXPECT_NEAR(b.finish(ray).depth, 1.2, 1e-6);
+  // Never reaching 1/2 (an invalid interaction): the w-weighted mean.
+  InteractionBuilder thin(f, InteractionSettings{}, 0.001f, ray.d);
+  thin.add({1.0f, 0.2f, 0});
+  thin.add({1.1f, 0.2f, 1});
+  const double w0 = 0.2, w1 = 0.8 * 0.2;
+  SurfaceInteraction si = thin.finish(ray);
+  EXPECT_FALSE(si.valid);
+  EXPECT_NEAR(si.depth, (w0 * 1.0 + w1 * 1.1) / (w0 + w1), 1e-6);
 }
 
 TEST(Interaction, SignedNormalsFromTheFileKeepTheirSign) {

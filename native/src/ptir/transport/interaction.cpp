@@ -9,8 +9,10 @@ bool InteractionBuilder::add(const GaussianHit& hit) {
   hits_++;
   if (record_) record_->push_back({hit.id, w});
   if (settings_.mode == InteractionMode::Aggregate) {
-    // Running weighted sums; normalised by O in finish().
+    // Running weighted sums; normalised by O in finish(). The depth: where O
+    // first reaches 1/2 (the mean only as a fallback).
     sum_t_ += w * hit.t;
+    if (median_t_ < 0.0f && O_ >= 0.5f) median_t_ = hit.t;
     // Normals without a sign from the file (a trainer's PLY: the shortest axis) are
     // two-sided: each on the side of the interaction so far, seen from the ray (ref =
     // sum w_j n_j - O d / 2; the first hit: -d), so that neighbours whose guessed
@@ -55,7 +57,7 @@ SurfaceInteraction InteractionBuilder::finish(const Ray& ray) const {
   Vec3 n;
   if (settings_.mode == InteractionMode::Aggregate) {
     float inv = 1.0f / O_;
-    si.depth = sum_t_ * inv;
+    si.depth = median_t_ >= 0.0f ? median_t_ : sum_t_ * inv;
     n = sum_n_;
     si.albedo = sum_a_ * inv;
     si.roughness = sum_r_ * inv;
