@@ -102,12 +102,14 @@ def _pack_rotation(quat):
 def write_supersplat_compressed(path, pos, log_scale, quat, f_dc, opacity_logit, f_rest=None, colour_bounds=True,
                                 morton=True):
     """SuperSplat's compressed PLY of the splats (f_rest (n, 9 | 24 | 45) channel-major, or None)."""
-    pos, log_scale, quat, f_dc = (np.asarray(a, np.float64) for a in (pos, log_scale, quat, f_dc))
-    opacity_logit = np.asarray(opacity_logit, np.float64)
+    pos = np.asarray(pos, np.float64)
     order = _morton_order(pos) if morton else np.arange(len(pos))
-    pos, log_scale, quat, f_dc, opacity_logit = pos[order], log_scale[order], quat[order], f_dc[order], opacity_logit[order]
+    pos, log_scale, quat, f_dc, opacity_logit = (np.asarray(a, np.float64)[order]
+                                                 for a in (pos, log_scale, quat, f_dc, opacity_logit))
     n = len(pos)
-    colour = np.clip(f_dc * SH_C0 + 0.5, 0.0, 1.0)
+    colour = f_dc * SH_C0 + 0.5  # in the chunk's colour bounds; clamped to [0, 1] in files without them
+    if not colour_bounds:
+        colour = np.clip(colour, 0.0, 1.0)
     chunk = np.arange(n) // 256
     bounds = []
     for c in range((n + 255) // 256):
@@ -133,7 +135,7 @@ def write_supersplat_compressed(path, pos, log_scale, quat, f_dc, opacity_logit,
     header += "".join("property uint %s\n" % nm for nm in ("packed_position", "packed_rotation", "packed_scale",
                                                            "packed_color"))
     body = np.ascontiguousarray(cb, "<f4").tobytes() + \
-        np.stack([ppos, _pack_rotation(quat[:, :4]), pscl, pcol], 1).astype("<u4").tobytes()
+        np.stack([ppos, _pack_rotation(quat), pscl, pcol], 1).astype("<u4").tobytes()
     if f_rest is not None:
         f_rest = np.asarray(f_rest, np.float64)[order]
         header += "element sh %d\n" % n + "".join("property uchar f_rest_%d\n" % i for i in range(f_rest.shape[1]))
