@@ -10,12 +10,12 @@ that fitted PLY is what a capture app exports. Then the PLY alone goes through t
 The test that can fail: the same PLY with a wrong SH basis sign (the odd bands negated: the colour
 seen from d is the one the capture saw from -d), or with the virtual cameras inside the object, must
 score worse than the right run (bounds from measured values, at the asserts; fixture + 3 runs + 3
-evaluations: about 90 s on 2 cores).
+evaluations: 72 s of the file's 87 s on 2 cores at load 12).
 
 The PLY layouts other tools write (INRIA SH degree 3, Mip-Splatting's DC only with its 3D filter,
 SuperSplat compressed; tests/python/splat_layouts.py), made from the same fitted splats, go through
 the command at a quick setting and give finite albedos in [0, 1] that follow the sphere's two
-colours (about 10 s each).
+colours (about 4 s each; the whole file 87 s on 2 cores at load 12).
 """
 
 import json
