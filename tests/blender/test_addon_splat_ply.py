@@ -7,6 +7,7 @@ the engine uses is not correctly rounded, so the engine may differ by 1 ulp.
 """
 
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -14,6 +15,9 @@ import pytest
 import addon_common as ac
 from ptir_blender.io import splat_ply as sp
 from ptir_blender.io import splat_transform as st
+
+sys.path.insert(0, str(ac.REPO / "tests" / "python"))
+import splat_layouts  # noqa: E402
 
 
 def _check_against_native(d, g, exact_fields=("position", "albedo", "roughness", "metallic")):
@@ -73,57 +77,15 @@ def test_encodings_read_the_same_values(tmp_path, ptir, fmt, types):
 
 
 def _encode_compressed(path, raw, n, colour_bounds=True, sh=True):
-    """A SuperSplat compressed PLY of the first n splats of raw (positions/scales quantised per chunk)."""
+    """A SuperSplat compressed PLY of the first n splats of raw's positions and scales, with random rotations,
+    colours, opacities and (sh) degree-1 SH."""
     rng = np.random.default_rng(5)
-    chunks = (n + 255) // 256
     pos = np.stack([raw[c][:n] for c in "xyz"], 1)
     lsc = np.stack([raw["scale_%d" % k][:n] for k in range(3)], 1)
-    cb = []
-    for c in range(chunks):
-        sl = slice(256 * c, min(n, 256 * (c + 1)))
-        cb.append(np.concatenate([pos[sl].min(0), pos[sl].max(0), lsc[sl].min(0), lsc[sl].max(0),
-                                  [0.0, 0.0, 0.0, 1.0, 1.0, 1.0]]))
-    cb = np.array(cb, np.float32)
-
-    def q(values, lo, hi, bits):
-        t = (values - lo) / np.maximum(hi - lo, 1e-12)
-        return np.clip(np.round(t * ((1 << bits) - 1)), 0, (1 << bits) - 1).astype(np.uint32)
-
-    ci = np.arange(n) // 256
-    ppos = (q(pos[:, 0], cb[ci, 0], cb[ci, 3], 11) << 21) | (q(pos[:, 1], cb[ci, 1], cb[ci, 4], 10) << 11) | \
-        q(pos[:, 2], cb[ci, 2], cb[ci, 5], 11)
-    pscl = (q(lsc[:, 0], cb[ci, 6], cb[ci, 9], 11) << 21) | (q(lsc[:, 1], cb[ci, 7], cb[ci, 10], 10) << 11) | \
-        q(lsc[:, 2], cb[ci, 8], cb[ci, 11], 11)
-    quat = rng.normal(size=(n, 4))
-    quat /= np.linalg.norm(quat, axis=1, keepdims=True)
-    big = np.argmax(np.abs(quat), axis=1)
-    quat *= np.where(quat[np.arange(n), big] < 0, -1.0, 1.0)[:, None]
-    rest = np.stack([np.delete(quat[i], big[i]) for i in range(n)])
-    qr = np.clip(np.round((rest / math.sqrt(2) + 0.5) * 1023), 0, 1023).astype(np.uint32)
-    prot = (big.astype(np.uint32) << 30) | (qr[:, 0] << 20) | (qr[:, 1] << 10) | qr[:, 2]
-    col = rng.integers(0, 256, size=(n, 4)).astype(np.uint32)
-    pcol = (col[:, 0] << 24) | (col[:, 1] << 16) | (col[:, 2] << 8) | col[:, 3]
-    names = ["min_x", "min_y", "min_z", "max_x", "max_y", "max_z", "min_scale_x", "min_scale_y", "min_scale_z",
-             "max_scale_x", "max_scale_y", "max_scale_z", "min_r", "min_g", "min_b", "max_r", "max_g", "max_b"]
-    if not colour_bounds:
-        names, cb = names[:12], cb[:, :12]
-    header = "ply\nformat binary_little_endian 1.0\nelement chunk %d\n" % chunks
-    header += "".join("property float %s\n" % nm for nm in names)
-    header += "element vertex %d\n" % n
-    header += "".join("property uint %s\n" % nm for nm in ("packed_position", "packed_rotation", "packed_scale",
-                                                           "packed_color"))
-    shv = None
-    if sh:
-        header += "element sh %d\n" % n + "".join("property uchar f_rest_%d\n" % i for i in range(9))
-        shv = rng.integers(0, 256, size=(n, 9)).astype(np.uint8)
-    header += "end_header\n"
-    with open(path, "wb") as f:
-        f.write(header.encode("ascii"))
-        f.write(np.ascontiguousarray(cb, "<f4").tobytes())
-        f.write(np.stack([ppos, prot, pscl, pcol], 1).astype("<u4").tobytes())
-        if sh:
-            f.write(shv.tobytes())
-    return path
+    f_rest = rng.uniform(-3.9, 3.9, size=(n, 9)) if sh else None
+    return splat_layouts.write_supersplat_compressed(
+        path, pos, lsc, rng.normal(size=(n, 4)), rng.uniform(-1.7, 1.7, size=(n, 3)), rng.uniform(-4, 4, size=n),
+        f_rest, colour_bounds=colour_bounds, morton=False)
 
 
 @pytest.mark.parametrize("colour_bounds,sh", [(True, True), (False, False)])

@@ -9,8 +9,13 @@ that fitted PLY is what a capture app exports. Then the PLY alone goes through t
 
 The test that can fail: the same PLY with a wrong SH basis sign (the odd bands negated: the colour
 seen from d is the one the capture saw from -d), or with the virtual cameras inside the object, must
-score lower albedo than the right run (bounds from measured values, at the asserts; fixture + 3 runs
-+ 3 evaluations: about 50 s on 2 loaded cores).
+score worse than the right run (bounds from measured values, at the asserts; fixture + 3 runs + 3
+evaluations: 72 s of the file's 87 s on 2 cores at load 12).
+
+The PLY layouts other tools write (INRIA SH degree 3, Mip-Splatting's DC only with its 3D filter,
+SuperSplat compressed; tests/python/splat_layouts.py), made from the same fitted splats, go through
+the command at a quick setting and give finite albedos in [0, 1] that follow the sphere's two
+colours (about 4 s each; the whole file 87 s on 2 cores at load 12).
 """
 
 import json
@@ -23,6 +28,7 @@ import pytest
 
 from blender_kit import look_at
 from ptir_testing import quat_z_to, sphere_scene, write_splat_ply
+import splat_layouts
 
 SIZE = 40
 ROUGHNESS = 0.1  # glossy: the view-dependent SH carries highlights worth a sign
@@ -60,26 +66,30 @@ def capture(ptir, cli, tmp_path_factory):
             ptir.write_image(str(folder / "rgba.png"), scene.render(i, spp=32, bounces=2))
             if split == "test":
                 ptir.write_image(str(folder / "albedo.png"), scene.render_aov(scene.cameras[i], "albedo", spp=8))
+                ptir.write_image(str(folder / "roughness.exr"), scene.render_aov(scene.cameras[i], "roughness", spp=8))
     # The PLY to fit: the sphere's splats with SH degree 3 (zero rest) to learn into.
     pos = np.array(p, np.float64)
     g = root / "input.ply"
     spacing = math.sqrt(4 * math.pi / len(pos))
     write_splat_ply(g, pos, (0.7 * spacing, 0.7 * spacing, 1e-3 * spacing), quat=quat_z_to(pos),
                     colour=(0.5, 0.5, 0.5), sh_rest=45)
-    run([cli, "fit", "--dataset", data, "--gaussians", g, "--out", root / "fit", "--iters", "300", "-q",
+    # 2000 iterations: at 300 the SH had hardly left the grey start (DC colour (0.61, 0.59, 0.54) on the warm
+    # top, whose photos show (0.89, 0.68, 0.58) at 2000), so the PLY carried almost nothing to recover.
+    run([cli, "fit", "--dataset", data, "--gaussians", g, "--out", root / "fit", "--iters", "2000", "-q",
          "--threads", "2"])
     return {"root": root, "data": data, "fitted": root / "fit" / "gaussians.ply"}
 
 
 def relightable(cli, ply, out, *extra):
-    return run([cli, "optimize", "--gaussians", ply, "--out", out, "--iters", "60", "--spp", "4", "--crop", "0",
+    return run([cli, "optimize", "--gaussians", ply, "--out", out, "--iters", "300", "--spp", "4", "--crop", "0",
                 "--orbit-views", "16", "--orbit-size", "40", "--env-size", "16x8", "--threads", "2", *extra])
 
 
-def albedo_psnr(cli, data, out):
+def scores(cli, data, out):
     run([cli, "eval", "--dataset", data, "--result", out, "--spp", "8", "--aov-spp", "4", "--sheet-views", "0",
          "--bounces", "2", "-q"])
-    return json.loads((out / "eval" / "metrics.json").read_text())["albedo_psnr"]
+    m = json.loads((out / "eval" / "metrics.json").read_text())
+    return {k: m[k] for k in ("albedo_psnr", "nvs_psnr", "roughness_mse")}
 
 
 def negate_odd_bands(src, dst):
@@ -105,14 +115,56 @@ def test_wrong_sh_sign_or_inner_cameras_lose_albedo(cli, capture, tmp_path):
     relightable(cli, wrong, tmp_path / "sign")
     inside = relightable(cli, fitted, tmp_path / "inside", "--orbit-distance", "0.2")
     assert "inside the splats' bounds" in inside.stderr
-    psnr = {k: albedo_psnr(cli, data, tmp_path / k) for k in ("good", "sign", "inside")}
-    print("albedo PSNR (dB):", psnr)
-    # Measured at 60 iterations (2 threads, deterministic): good 17.48, wrong sign 17.29 (-0.20 dB), inside
-    # 16.36 (-1.13 dB); at 200 iterations -0.13 and -0.71 dB. The photo-based inversion from the same
-    # fitted PLY and budget: 17.60. The issue's 2 dB is not reached here: the sphere's albedo lives in the
-    # DC term, the odd bands carry only its highlights (docs/relightable.md). Bounds: half the measured drop.
-    assert psnr["good"] - psnr["sign"] >= 0.1, psnr
-    assert psnr["good"] - psnr["inside"] >= 0.5, psnr
+    got = {k: scores(cli, data, tmp_path / k) for k in ("good", "sign", "inside")}
+    print("scores:", got)
+    good, sign, inside = got["good"], got["sign"], got["inside"]
+    # Measured (300 iterations, 2 threads): albedo PSNR good 19.46, wrong sign 18.83, inside 16.19 dB; NVS PSNR
+    # 25.38, 23.78, 22.15 dB; roughness MSE 0.048, 0.064, 0.072. The photo-based inversion from the same fitted
+    # PLY and budget: albedo 19.73 dB. Cameras inside see the walls' backs, lit by nothing (the closed sphere
+    # shuts the sky out): the albedo saturates and loses the top/bottom colours, -3.3 dB; the issue's 2 dB.
+    assert good["albedo_psnr"] - inside["albedo_psnr"] >= 2.0, got
+    # A wrong sign moves only the view-dependent part, which this capture's albedo hardly needs: with every
+    # f_rest zeroed (no view dependence at all) the albedo lost 0.45 dB, the sign 0.63 dB (docs/relightable.md),
+    # so 2 dB of albedo is out of a sign's reach. It costs what view dependence drives: the radiance under the
+    # capture's light from new views (NVS, -1.60 dB; zeroed f_rest -1.13) and the roughness (MSE x1.33; zeroed
+    # x1.29). Bounds: half the measured drops.
+    assert good["albedo_psnr"] - sign["albedo_psnr"] >= 0.3, got
+    assert good["nvs_psnr"] - sign["nvs_psnr"] >= 0.8, got
+    assert sign["roughness_mse"] >= 1.15 * good["roughness_mse"], got
+
+
+@pytest.mark.parametrize("layout", ["inria_sh3", "mip_splatting_sh0", "supersplat_compressed"])
+def test_other_tools_layouts_give_materials(cli, capture, tmp_path, layout):
+    """The fitted splats as other tools write them, through the command at a quick setting: finite albedos
+    in [0, 1], not constant, following the sphere's colours (warm top, cool bottom: the red-minus-blue
+    of the albedo correlates with the truth's across the splats)."""
+    rec = splat_layouts.read_vertices(capture["fitted"])
+    ply = tmp_path / (layout + ".ply")
+    if layout == "inria_sh3":
+        splat_layouts.write_inria(ply, rec)
+    elif layout == "mip_splatting_sh0":
+        # filter_3D: Mip-Splatting's 0.2 x distance / focal length (3.6 / 51 px at 40 px and 0.75 rad)
+        splat_layouts.write_mip_splatting_sh0(ply, rec, 0.2 * 3.6 / (20 / math.tan(0.375)))
+    else:
+        splat_layouts.write_supersplat_from(ply, rec)
+    out = tmp_path / "out"
+    r = run([cli, "optimize", "--gaussians", ply, "--out", out, "--iters", "150", "--spp", "4", "--crop", "0",
+             "--orbit-views", "12", "--orbit-size", "32", "--env-size", "16x8", "--threads", "2"])
+    assert ("roughness and metallic are unconstrained" in r.stderr) == (layout == "mip_splatting_sh0")
+    res = splat_layouts.read_vertices(out / "gaussians.ply")
+    albedo = np.stack([res["albedo_%d" % c] for c in range(3)], 1)
+    pos = np.stack([res[c] for c in "xyz"], 1)
+    assert np.all(np.isfinite(albedo)) and np.all(np.isfinite(res["roughness"]))
+    assert albedo.min() >= 0 and albedo.max() <= 1
+    keep = (1 / (1 + np.exp(-res["opacity"])) > 0.5) & (np.abs(pos[:, 2]) > 0.2)  # opaque, off the colour seam
+    truth = np.where(pos[keep, 2:3] > 0, [[0.7, 0.3, 0.2]], [[0.2, 0.5, 0.7]])
+    warmth = albedo[keep, 0] - albedo[keep, 2]
+    corr = np.corrcoef(warmth, truth[:, 0] - truth[:, 2])[0, 1]
+    print(layout, "albedo mean", albedo[keep].mean(0), "std", albedo[keep].std(0), "correlation", corr)
+    # Measured: red std 0.134, 0.135, 0.134 and correlation 0.944, 0.926, 0.943 (INRIA, Mip-Splatting,
+    # SuperSplat); a grey or constant albedo gives std ~0 and no correlation. Bounds: about half the margin.
+    assert albedo[keep].std(0).max() > 0.06, albedo[keep].std(0)
+    assert corr > 0.7, corr
 
 
 def test_targets_are_cached_and_resumed(cli, capture, tmp_path):
