@@ -61,6 +61,7 @@ def floor_and_sphere(bounds, path, right):
     z0, s = lo[2], 4.0 * radius
     verts = [(centre[0] - s, centre[1] - s, z0), (centre[0] + s, centre[1] - s, z0),
              (centre[0] + s, centre[1] + s, z0), (centre[0] - s, centre[1] + s, z0)]
+    normals = [(0.0, 0.0, 1.0)] * 4  # vertex normals: the sphere shades smooth
     faces = [(0, 1, 2), (0, 2, 3)]
     r = 0.35 * radius
     c = np.array([centre[0] + 1.25 * radius * right[0], centre[1] + 1.25 * radius * right[1], z0 + r])
@@ -70,14 +71,18 @@ def floor_and_sphere(bounds, path, right):
         th = math.pi * j / nv
         for i in range(nu):
             ph = 2.0 * math.pi * i / nu
-            verts.append(tuple(c + r * np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])))
+            n = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])
+            verts.append(tuple(c + r * n))
+            normals.append(tuple(n))
     for j in range(nv):
         for i in range(nu):
             a, b = base + j * nu + i, base + j * nu + (i + 1) % nu
             faces += [(a, a + nu, b + nu), (a, b + nu, b)]
     lines = ["ply", "format ascii 1.0", "element vertex %d" % len(verts), "property float x", "property float y",
-             "property float z", "element face %d" % len(faces), "property list uchar int vertex_indices", "end_header"]
-    lines += ["%.6f %.6f %.6f" % v for v in verts] + ["3 %d %d %d" % f for f in faces]
+             "property float z", "property float nx", "property float ny", "property float nz",
+             "element face %d" % len(faces), "property list uchar int vertex_indices", "end_header"]
+    lines += ["%.6f %.6f %.6f %.6f %.6f %.6f" % (v + n) for v, n in zip(verts, normals)]
+    lines += ["3 %d %d %d" % f for f in faces]
     path.write_text("\n".join(lines) + "\n")
 
 
