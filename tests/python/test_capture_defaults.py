@@ -82,7 +82,11 @@ def test_both_layouts_reach_the_same_albedo(pair):
     print("albedo PSNR nerf %.3f colmap %.3f dB, NVS %.3f / %.3f dB" % (
         m["nerf"]["albedo_psnr"], m["colmap"]["albedo_psnr"], m["nerf"]["nvs_psnr"], m["colmap"]["nvs_psnr"]))
     assert math.isfinite(m["nerf"]["albedo_psnr"]) and m["nerf"]["albedo_psnr"] > 15.0
-    # Same pixels, masks, cameras (to ~2e-7) and settings: the runs differ only by those float
-    # round-offs growing through the Monte Carlo run. Measured: BOUND_NOTE.
-    assert abs(m["nerf"]["albedo_psnr"] - m["colmap"]["albedo_psnr"]) < 0.3, m
-    assert abs(m["nerf"]["nvs_psnr"] - m["colmap"]["nvs_psnr"]) < 0.3, m
+    # Same pixels, masks, cameras (to 2.4e-7: the set's 7-digit matrices against COLMAP's exact
+    # rotations) and settings: the runs differ only by those round-offs growing through the Monte
+    # Carlo run. Measured (seeds 0 / 1 / 2, COLMAP minus NeRF): albedo +0.031 / +0.001 / -0.005 dB,
+    # NVS +0.008 / -0.077 / +0.028 dB, where the seeds themselves spread 0.36 dB (24.25-24.60) in
+    # albedo. The capture inverted with principled-v2 (before issue 38: the record read for NeRF
+    # sets only) measured -0.124 dB albedo at seed 0; 24 SGs would cost ~3 dB (docs/captures.md).
+    assert abs(m["nerf"]["albedo_psnr"] - m["colmap"]["albedo_psnr"]) < 0.08, m
+    assert abs(m["nerf"]["nvs_psnr"] - m["colmap"]["nvs_psnr"]) < 0.2, m
