@@ -88,7 +88,9 @@ def main():
         m = json.loads((res / "eval" / "metrics.json").read_text())
         s = json.loads((res / "settings.json").read_text()) if (res / "settings.json").exists() else None
         ref = ref or s
-        if s is None:
+        if i == 0:
+            differ = "(the reference)"
+        elif s is None:
             differ = "(no settings.json: a binary from before it)"
         else:
             keys = sorted(k for k in set(s) | set(ref) if k not in INPUT_ENTRIES and s.get(k) != ref.get(k))
