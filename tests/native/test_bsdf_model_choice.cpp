@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "expect_error.h"
+#include "ptir/io/image.h"
 #include "ptir/material/bsdf.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/scene/scene_json.h"
@@ -88,4 +89,24 @@ TEST(BsdfModelChoice, DatasetRecordAndPrecedence) {
   EXPECT_EQ(resolve_bsdf_model(true, BsdfModel::DisneySimplified, BsdfModel::PrincipledV1), BsdfModel::DisneySimplified);
   EXPECT_EQ(resolve_bsdf_model(false, BsdfModel::DisneySimplified, BsdfModel::PrincipledV1), BsdfModel::PrincipledV1);
   EXPECT_EQ(resolve_bsdf_model(false, BsdfModel::PrincipledV1, std::nullopt), BsdfModel::PrincipledV2);
+}
+
+// A capture's DIR/dataset.json names the model too (issue 38: a set converted to COLMAP by
+// scripts/nerf_to_colmap.py keeps its record, so both layouts render with the same model).
+TEST(BsdfModelChoice, CaptureRecordInEveryLayout) {
+  const fs::path dir = fs::path(PTIR_TEST_TMP) / "bsdf_model_choice_colmap";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "sparse" / "0");
+  fs::create_directories(dir / "images");
+  std::ofstream(dir / "sparse" / "0" / "cameras.txt") << "1 PINHOLE 8 8 10 10 4 4\n";
+  std::ofstream(dir / "sparse" / "0" / "images.txt") << "1 1 0 0 0 0 0 4 1 a.png\n\n2 1 0 0 0 0 0 5 1 b.png\n\n";
+  write_image((dir / "images" / "a.png").string(), Image(8, 8, {"R", "G", "B"}));
+  write_image((dir / "images" / "b.png").string(), Image(8, 8, {"R", "G", "B"}));
+  DatasetOptions all;
+  all.split = "all";
+  EXPECT_FALSE(load_dataset(dir.string(), all)->brdf);  // a photographed capture records nothing: the default
+  std::ofstream(dir / "dataset.json") << R"J({"generator": "scripts/make_dataset.py (Blender 3.4.1, Cycles)"})J";
+  EXPECT_EQ(load_dataset(dir.string(), all)->brdf, BsdfModel::PrincipledV1);
+  std::ofstream(dir / "dataset.json") << R"J({"ptir_brdf": "principled-v2"})J";
+  EXPECT_EQ(load_dataset(dir.string(), all)->brdf, BsdfModel::PrincipledV2);
 }

@@ -1,4 +1,4 @@
-// The optimiser's outputs (OUT/gaussians.ply, env.exr, log.csv, and the
+// The optimiser's outputs (OUT/gaussians.ply, env.exr, log.csv, settings.json, and the
 // environment's or mesh materials' JSON side files), each written atomically.
 #include <filesystem>
 #include <sstream>
@@ -9,6 +9,7 @@
 #include "ptir/core/number_text.h"
 #include "ptir/io/atomic_file.h"
 #include "ptir/io/image.h"
+#include "ptir/math/pixel_filter.h"
 #include "ptir/optim/optimizer.h"
 #include "ptir/scene/gaussian_ply.h"
 
@@ -83,6 +84,16 @@ void Optimizer::write_outputs(const std::string& dir) const {
   }
   if (result.find(ParamKind::MeshColour))
     io::write_text_atomic((out / "mesh_materials.json").string(), mesh_materials_json(scene->meshes));
+  // OUT/settings.json: what the run resolved (the checkpoint's fingerprint, the dataset's
+  // layout, the pixel filter, the iterations), so runs on the same data in two layouts can
+  // be compared setting by setting (issue 38: docs/captures.md).
+  ojson rec = ojson::object();
+  rec["layout"] = dataset_->layout;
+  rec["iterations"] = settings_.iterations;
+  rec["pixel_filter"] =
+      std::string(pixel_filter_name(settings_.integrator.filter.type)) + " " + num(settings_.integrator.filter.width);
+  for (const auto& kv : fingerprint()) rec[kv.first] = kv.second;
+  io::write_text_atomic((out / "settings.json").string(), rec.dump(1) + "\n");
 }
 
 }  // namespace ptir

@@ -333,7 +333,12 @@ std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptio
     throw Error(e.path1().empty() ? dir : e.path1().string(), std::string("cannot read the dataset: ") + e.code().message());
   }
   data->pixel_filter = read_dataset_filter(data->root);
-  if (data->layout == "nerf") data->brdf = read_recorded_bsdf_model(data->transforms_path);
+  // The surface model the images were rendered with: a NeRF set's camera file or the
+  // dataset.json beside it; a capture's DIR/dataset.json (a set converted to COLMAP or
+  // nerfstudio keeps its record, scripts/nerf_to_colmap.py), as the pixel filter above.
+  // The same record gives the same defaults in every layout (issue 38).
+  data->brdf = data->layout == "nerf" ? read_recorded_bsdf_model(data->transforms_path)
+                                      : read_recorded_bsdf_model((fs::path(data->root) / "dataset.json").string());
   return data;
 }
 

@@ -115,7 +115,8 @@ class Dataset {
   std::optional<PixelFilter> pixel_filter;
   // The surface model its images were rendered with: "ptir_brdf" of its
   // transforms_<split>.json ("principled-v1" for Cycles 3.x, "principled-v2" for 4.x+,
-  // as scripts/make_dataset.py writes it); unset when the file does not say.
+  // as scripts/make_dataset.py writes it) or of DIR/dataset.json (every layout);
+  // unset when neither says.
   std::optional<BsdfModel> brdf;
 
   size_t size() const { return views.size(); }
