@@ -370,6 +370,9 @@ def main():
     }
     with open(os.path.join(out, "dataset.json"), "w") as f:
         json.dump(meta, f, indent=1)
+    if a.capture_layouts:  # each capture carries the set's record (surface model, pixel filter), as a converted set does
+        for folder in made.values():
+            shutil.copyfile(os.path.join(out, "dataset.json"), os.path.join(folder, "dataset.json"))
     log("%d Gaussians, %d train + %d test views (%dx%d, %d spp, %d bounces), envs %s; %d renders in %.1f s, total %.1f s -> %s"
         % (len(g["position"]), a.train, a.test, a.res, a.res, a.spp, a.bounces, ",".join(env_files), n_renders,
            render_s, time.time() - t_start, out))
