@@ -556,12 +556,6 @@ Runner add_optimize_command(CLI::App& app) {
                   "with --loss-blur: blur the target image the same way (the optimum is then the unblurred match)")
       ->capture_default_str();
   cmd->add_option("--lr-balance", o->opt.lr_balance, "the light-albedo balance's Adam learning rate")->capture_default_str();
-  cmd->add_option("--init-metallic", o->opt.init_metallic, "with --optimize-metallic: the Gaussians' starting metallic");
-  cmd->add_option("--metallic-start", o->opt.metallic_start,
-                  "with --optimize-metallic: fraction of the iterations before metallic learns");
-  cmd->add_option("--metallic-evidence", o->opt.metallic_evidence,
-                  "with --optimize-metallic: per-step push of every metallic logit toward 0, in Adam steps (a "
-                  "Gaussian turns metal only where its gradient is steadier than this)");
   cmd->add_option("--lambda-albedo-grey", o->opt.lambda_albedo_grey,
                   "grey-world prior on the albedos' mean colour, along the light-albedo balance only (0: off)")
       ->capture_default_str();

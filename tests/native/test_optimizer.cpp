@@ -549,23 +549,3 @@ TEST(Optimizer, SchedulesFollowTheirDefinitions) {
   EXPECT_NEAR(opt.tv_weight(50), s.lambda_tv, 1e-6);
   EXPECT_NEAR(opt.tv_weight(90), s.lambda_tv, 1e-6);
 }
-
-TEST(Optimizer, MetallicWaitsForItsStartAndThePushLowersIt) {
-  // --metallic-start: the logits stay exactly at their start for the first half; then
-  // --metallic-evidence pushes them down by W x the rate per step, floored at m = 1e-4:
-  // at W = 1000 no Adam step (a few rates at most) holds any logit off the floor.
-  const test::OptimizerFixture& fx = fixture();
-  OptimizerSettings s = small_settings();
-  s.iterations = 8;
-  s.params.optimize_metallic = true;
-  s.metallic_start = 0.5f;
-  s.metallic_evidence = 1000.0f;
-  Optimizer opt(input_scene(fx.n), fx.data, s);
-  auto metallic = [&] { return opt.parameters().find(ParamKind::GaussianMetallic)->raw; };
-  const std::vector<float> start = metallic();
-  for (int i = 0; i < 4; ++i) opt.step();
-  EXPECT_EQ(metallic(), start);
-  opt.step();
-  for (float r : metallic()) ASSERT_FLOAT_EQ(r, -9.21f);
-  for (float m : opt.scene().gaussians->metallic) ASSERT_LT(m, 2e-4f);
-}

@@ -216,15 +216,9 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
     const ParamKind kind = params_.groups[i].kind;
     const bool albedo = kind == ParamKind::GaussianAlbedo || kind == ParamKind::MeshColour;
     if (kind == ParamKind::LightBalance && double(iteration_) < double(settings_.balance_start) * settings_.iterations) continue;
-    const bool metallic = kind == ParamKind::GaussianMetallic || kind == ParamKind::MeshMetallic;
-    if (metallic && double(iteration_) < double(settings_.metallic_start) * settings_.iterations) continue;
     adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0));
     const std::vector<float> before = kind == ParamKind::LightBalance ? params_.groups[i].raw : std::vector<float>();
     adam_[i].step(params_.groups[i].raw, raw[i]);
-    if (metallic && settings_.metallic_evidence > 0.0f) {  // the evidence push (optimizer.h), floored at m = 1e-4
-      const float push = adam_[i].lr * settings_.metallic_evidence, floor = -9.21f;
-      for (float& r : params_.groups[i].raw) r = std::max(floor, r - push);
-    }
     if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);
     if (kind == ParamKind::LightBalance) balance_step = {params_.groups[i].raw[0] - before[0], params_.groups[i].raw[1] - before[1],
                                                          params_.groups[i].raw[2] - before[2]};

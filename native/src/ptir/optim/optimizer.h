@@ -152,15 +152,6 @@ struct OptimizerSettings {
   // and costs the demo 0.17 dB; 0.01 makes the spread < 1 % there but costs the
   // demo's orange-red object 1.0 dB (grey world is wrong for it).
   float lambda_albedo_grey = 0.001f;
-  // With optimise_metallic (docs/family.md, "Metals"): the metallic logits learn from
-  // metallic_start x iterations on (held at their start before, while the light and
-  // the albedos settle), and every step pushes each logit down by metallic_evidence x
-  // its Adam rate. Adam's step is the gradient's mean over its RMS (at most 1 per rate,
-  // about 0.2 for pure noise at beta1 0.9), so a Gaussian turns metal only where the
-  // images ask for it more steadily than metallic_evidence: an evidence test per
-  // Gaussian. 0 / 0: metallic learnt from the start, unpushed (before).
-  float metallic_start = 0.0f;
-  float metallic_evidence = 0.0f;
   // Decorrelated adjoint: with gradients, the spp are rendered as two independent
   // halves and each half's replay is weighted by dL/dimage of the other half. With
   // one set of samples for both, the noise of a pixel's estimate and of its

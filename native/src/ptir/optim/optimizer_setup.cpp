@@ -48,8 +48,6 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.env_fine_lr_scale = o.env_fine_rate;
   if (!(o.init_albedo > 0.0f && o.init_albedo < 1.0f)) throw Error(names("init_albedo") + " must be in (0, 1)");
   s.params.init_albedo = o.init_albedo;
-  if (!(o.init_metallic > 0.0f && o.init_metallic < 1.0f)) throw Error(names("init_metallic") + " must be in (0, 1)");
-  s.params.init_metallic_optimised = o.init_metallic;
   s.params.init_from_field = o.init_from_ply;
   if (!(o.lr_balance > 0.0f)) throw Error(names("lr_balance") + " must be > 0");
   s.light_balance = o.light_balance;
@@ -59,10 +57,6 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.balance_start = o.balance_start;
   if (!(o.lambda_albedo_grey >= 0.0f)) throw Error(names("lambda_albedo_grey") + " must be >= 0");
   s.lambda_albedo_grey = o.lambda_albedo_grey;
-  if (!(o.metallic_start >= 0.0f && o.metallic_start < 1.0f)) throw Error(names("metallic_start") + " must be in [0, 1)");
-  if (!(o.metallic_evidence >= 0.0f)) throw Error(names("metallic_evidence") + " must be >= 0");
-  s.metallic_start = o.metallic_start;
-  s.metallic_evidence = o.metallic_evidence;
   if (o.env_coarse < -1) throw Error(names("env_coarse") + " must be >= 0 (0: no coarse level; -1: automatic)");
   s.params.env_coarse_width = o.env_coarse;
   if (!(o.albedo_warmup >= 0.0f && o.albedo_warmup < 1.0f)) throw Error(names("albedo_warmup") + " must be in [0, 1)");
