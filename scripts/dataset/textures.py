@@ -27,8 +27,9 @@ ROUGHNESS = "ptir_roughness"
 METALLIC = "ptir_metallic"
 
 
-def noise3(points, seed, frequencies=(1.3, 2.9, 6.1), waves=6):
-    """Smooth noise in [0, 1] at (N, 3) points: random-direction sinusoids, amplitude 1/f."""
+def noise3(points, seed, frequencies=(1.3, 2.9, 6.1), waves=6, clip=True):
+    """Smooth noise in [0, 1] at (N, 3) points: random-direction sinusoids, amplitude 1/f (clip=False:
+    not clipped, so without ties at 0 and 1 for a quantile to split)."""
     rng = np.random.default_rng(seed)
     total = np.zeros(len(points))
     norm = 0.0
@@ -39,7 +40,7 @@ def noise3(points, seed, frequencies=(1.3, 2.9, 6.1), waves=6):
             total += np.sin(f * np.pi * (points @ d) + rng.uniform(0, 2 * np.pi)) / f
             norm += 1.0 / f
     v = total / np.sqrt(norm * 0.5 * waves)  # roughly unit variance
-    return np.clip(0.5 + 0.4 * v, 0.0, 1.0)
+    return np.clip(0.5 + 0.4 * v, 0.0, 1.0) if clip else 0.5 + 0.4 * v
 
 
 def _second_colour(c):
@@ -125,7 +126,7 @@ def texture_objects(objs, material_values, seed=1, metal_fraction=0.0, kind="smo
         if metal_layout not in METAL_LAYOUTS:
             raise ValueError("unknown metal layout '%s' (one of %s)" % (metal_layout, ", ".join(METAL_LAYOUTS)))
         if metal_layout == "regions":  # one wave pair at a period about the object's size
-            n3 = noise3(pts, seed * 1000 + i + 31, frequencies=(0.6,), waves=2)
+            n3 = noise3(pts, seed * 1000 + i + 31, frequencies=(0.6,), waves=2, clip=False)  # (clipped: ties)
         metal = (n3 > np.quantile(n3, 1.0 - metal_fraction)).astype(np.float64) if metal_fraction > 0 else np.zeros(len(n3))
         for name in (ALBEDO, ROUGHNESS, METALLIC):
             if name in me.attributes:
