@@ -25,6 +25,12 @@ PAIRS = [
 ]
 
 
+# The metal pair's metal: a few large regions per object (parts, as an artist paints metal), not the
+# maker's small patches, whose borders the one-splat-per-polygon surface blurs (docs/family.md: the
+# oracle's albedo 18-20 dB on the patches).
+METAL_LAYOUT = "regions"
+
+
 def members():
     """[{name, pair, half, shape, train_env, kind, roughness_range, metal_fraction, res, blender, seed}]."""
     rng = random.Random(SPLIT_SEED)
@@ -35,7 +41,7 @@ def members():
             out.append({"name": "%02d_%s" % (2 * pair - 1 + k, shape), "pair": pair, "what": what,
                         "half": "tuning" if k == tuning else "heldout", "shape": shape, "train_env": env,
                         "kind": kind, "roughness_range": rough, "metal_fraction": metal, "res": res,
-                        "blender": blender, "seed": 10 * pair + k})
+                        "blender": blender, "seed": 10 * pair + k, "metal_layout": METAL_LAYOUT})
     return out
 
 
@@ -54,6 +60,8 @@ def dataset_args(m, out):
             "--metal-fraction", str(m["metal_fraction"]), "--train-env", m["train_env"], "--res", str(m["res"]),
             "--train", str(c["train"]), "--test", str(c["test"]), "--spp", str(c["spp"]),
             "--bounces", str(c["bounces"]), "--relight-envs", c["relight_envs"]]
+    if m["metal_fraction"] > 0:
+        args += ["--metal-layout", m.get("metal_layout", "patches")]
     if m.get("neutral"):
         args.append("--neutral")
     return args

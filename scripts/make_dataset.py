@@ -74,6 +74,9 @@ def parse_args():
     p.add_argument("--save-blend", help="also save the object scene (no cameras/world) to this .blend")
     p.add_argument("--textured", action="store_true", help="noise-textured base colour and roughness per polygon")
     p.add_argument("--metal-fraction", type=float, default=0.0, help="with --textured: fraction of metallic polygons")
+    p.add_argument("--metal-layout", default="patches", choices=textures.METAL_LAYOUTS,
+                   help="with --metal-fraction: small patches of a three-frequency noise, or a few large regions "
+                        "(parts, as an artist paints metal; docs/family.md)")
     p.add_argument("--texture-seed", type=int, default=1, help="with --textured: the pattern's seed")
     p.add_argument("--texture-kind", default="smooth", choices=textures.KINDS,
                    help="with --textured: smooth noise, sharp-edged two tones, high-frequency noise or per-face cells")
@@ -201,7 +204,9 @@ def object_splats(objs):
         per_polygon = textures.polygon_materials(o)
         if per_polygon is not None:  # textured: each Gaussian takes its polygon's values
             albedo, rough, metal = (v[keep] for v in per_polygon)
-            g["albedo"] = albedo * (1.0 - metal)[:, None]
+            # The oracle's albedo is the base colour (the engine's material reads it so: a metal's F0
+            # is its base colour); its Diffuse Color, base x (1 - metallic), is what the eval scores.
+            g["albedo"] = albedo
             g["roughness"], g["metallic"] = rough, metal
             g["display_colour"] = png.srgb_encode(albedo)
             pieces.append(g)
@@ -215,7 +220,7 @@ def object_splats(objs):
             vals.append((c, r, mt))
         idx = np.clip(mat_idx[keep], 0, len(vals) - 1)
         base = np.array([v[0] for v in vals])[idx]
-        g["albedo"] = base * (1.0 - np.array([v[2] for v in vals])[idx])[:, None]
+        g["albedo"] = base  # the base colour (as above)
         g["roughness"] = np.array([v[1] for v in vals])[idx]
         g["metallic"] = np.array([v[2] for v in vals])[idx]
         g["display_colour"] = png.srgb_encode(base)  # what a trainer's SH DC would roughly hold
@@ -263,7 +268,7 @@ def main():
         raise RuntimeError("no mesh objects to capture")
     if a.textured:
         textures.texture_objects(objs, dscene.material_values, seed=a.texture_seed, metal_fraction=a.metal_fraction,
-                                 kind=a.texture_kind, roughness_range=a.roughness_range, neutral=a.neutral)
+                                 metal_layout=a.metal_layout, kind=a.texture_kind, roughness_range=a.roughness_range, neutral=a.neutral)
         log("textured (%s%s): per-polygon pattern in base colour and roughness %g..%g%s" %
             (a.texture_kind, ", neutral" if a.neutral else "", a.roughness_range[0], a.roughness_range[1],
              ", metallic patches on %.0f%%" % (100 * a.metal_fraction) if a.metal_fraction > 0 else ""))
@@ -361,7 +366,8 @@ def main():
         "splat": "gaussians.ply",
         "oracle": "oracle",
         "materials": parts,
-        "textured": {"seed": a.texture_seed, "metal_fraction": a.metal_fraction, "kind": a.texture_kind,
+        "textured": {"seed": a.texture_seed, "metal_fraction": a.metal_fraction, "metal_layout": a.metal_layout,
+                     "kind": a.texture_kind,
                      "roughness_range": list(a.roughness_range), "neutral": a.neutral} if a.textured else None,
         "encodings": {"rgba": "sRGB 8-bit, straight alpha = coverage",
                       "albedo": "sRGB 8-bit (AOV: base colour x (1 - metallic)), alpha = coverage",

@@ -13,7 +13,10 @@ The pattern: smooth 3D noise (a sum of random-direction sinusoids at three
 frequencies, deterministic for a seed) at each polygon's centre in world space.
     base colour = lerp(material colour, its complement-ish second colour, n1), in [0.03, 0.95]
     roughness   = 0.1 + 0.8 n2                                  (linear, in [0.1, 0.9])
-    metallic    = 1 on the metal_fraction of polygons with the largest n3, else 0 (patches; none by default)
+    metallic    = 1 on the metal_fraction of polygons with the largest n3, else 0 (patches; none by default);
+                  metal_layout "regions": the largest values of one low-frequency noise instead (a few large
+                  parts per object with smooth borders; the patches are a few polygons, i.e. a few splats,
+                  across, so the splats' blur at their borders alone held the oracle to 18-20 dB albedo)
 """
 
 import bpy
@@ -24,8 +27,9 @@ ROUGHNESS = "ptir_roughness"
 METALLIC = "ptir_metallic"
 
 
-def noise3(points, seed, frequencies=(1.3, 2.9, 6.1), waves=6):
-    """Smooth noise in [0, 1] at (N, 3) points: random-direction sinusoids, amplitude 1/f."""
+def noise3(points, seed, frequencies=(1.3, 2.9, 6.1), waves=6, clip=True):
+    """Smooth noise in [0, 1] at (N, 3) points: random-direction sinusoids, amplitude 1/f (clip=False:
+    not clipped, so without ties at 0 and 1 for a quantile to split)."""
     rng = np.random.default_rng(seed)
     total = np.zeros(len(points))
     norm = 0.0
@@ -36,7 +40,7 @@ def noise3(points, seed, frequencies=(1.3, 2.9, 6.1), waves=6):
             total += np.sin(f * np.pi * (points @ d) + rng.uniform(0, 2 * np.pi)) / f
             norm += 1.0 / f
     v = total / np.sqrt(norm * 0.5 * waves)  # roughly unit variance
-    return np.clip(0.5 + 0.4 * v, 0.0, 1.0)
+    return np.clip(0.5 + 0.4 * v, 0.0, 1.0) if clip else 0.5 + 0.4 * v
 
 
 def _second_colour(c):
@@ -60,6 +64,7 @@ def polygon_centres(obj):
 
 
 KINDS = ("smooth", "edges", "hifreq", "perface")
+METAL_LAYOUTS = ("patches", "regions")
 
 
 CELLS = 24
@@ -93,7 +98,7 @@ def pattern(pts, kind, seed):
 
 
 def texture_objects(objs, material_values, seed=1, metal_fraction=0.0, kind="smooth", roughness_range=(0.1, 0.9),
-                    neutral=False):
+                    neutral=False, metal_layout="patches"):
     """Bakes the pattern (`kind`, KINDS) into face attributes of every object (modifiers applied first)
     and rewires every material to read them. material_values(mat) -> (colour, ...). Roughness spans
     roughness_range; with neutral, every albedo is grey (its colour's mean)."""
@@ -118,6 +123,10 @@ def texture_objects(objs, material_values, seed=1, metal_fraction=0.0, kind="smo
             albedo = np.repeat(albedo.mean(1, keepdims=True), 3, axis=1)
         rough = lo + (hi - lo) * n2
         # The top metal_fraction of the third pattern: patches of the asked share of polygons.
+        if metal_layout not in METAL_LAYOUTS:
+            raise ValueError("unknown metal layout '%s' (one of %s)" % (metal_layout, ", ".join(METAL_LAYOUTS)))
+        if metal_layout == "regions":  # one wave pair at a period about the object's size
+            n3 = noise3(pts, seed * 1000 + i + 31, frequencies=(0.6,), waves=2, clip=False)  # (clipped: ties)
         metal = (n3 > np.quantile(n3, 1.0 - metal_fraction)).astype(np.float64) if metal_fraction > 0 else np.zeros(len(n3))
         for name in (ALBEDO, ROUGHNESS, METALLIC):
             if name in me.attributes:

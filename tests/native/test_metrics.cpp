@@ -94,6 +94,33 @@ TEST(Metrics, AlbedoScaleIsPerChannelMedianOverAllViews) {
   EXPECT_EQ(one[0], 1.0);
 }
 
+TEST(Metrics, EvalAlbedoScaleIgnoresBlackTruth) {
+  // A metal member: a quarter of the pixels have a black diffuse colour in the truth, the prediction
+  // holds a little there (a splat's blur, or a grey guess); elsewhere it is the truth / 2 with a
+  // spread (ratios 1.5 .. 2.5, median 2). Counting the black pixels as ratio 0 would put the
+  // median at the dielectric ratios' 33rd percentile, 1.83: the test fails on that rule.
+  const int n = 400;
+  Image gt = filled(n, 1, 3, 0.0f), pred = filled(n, 1, 3, 0.0f), mask = filled(n, 1, 1, 1.0f);
+  int k = 0;
+  for (int x = 0; x < n; ++x)
+    for (int c = 0; c < 3; ++c) {
+      if (x % 4 == 0) {
+        pred.at(x, 0, c) = 0.05f;  // truth black
+        continue;
+      }
+      const float r = 1.5f + float(k++ % 300) / 299.0f;  // ratios spread evenly over [1.5, 2.5]
+      gt.at(x, 0, c) = 0.4f;
+      pred.at(x, 0, c) = 0.4f / r;
+    }
+  pred.at(1, 0, 0) = 0.0f;  // a black prediction under a coloured truth: skipped too
+  AlbedoRatios acc;
+  acc.add(gt, pred, mask);
+  const auto s = acc.scale();
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(s[c], 2.0, 0.01) << c;
+  AlbedoRatios none;
+  EXPECT_EQ(none.scale()[0], 1.0);
+}
+
 TEST(Metrics, NormalMeanAngularError) {
   Image gt = filled(4, 1, 3, 0.0f), pred = filled(4, 1, 3, 0.0f);
   for (int x = 0; x < 4; ++x) gt.at(x, 0, 2) = 1.0f;  // +z everywhere

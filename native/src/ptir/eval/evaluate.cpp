@@ -101,25 +101,6 @@ std::string relight_gt_path(const std::string& image, const std::string& name) {
   return "";
 }
 
-// Accumulates gt/pred ratios for the albedo scale without keeping images.
-struct RatioAccumulator {
-  std::array<std::vector<float>, 3> ratios;
-  void add(const Image& gt, const Image& pred, const Image& mask) {
-    for (int y = 0; y < gt.height; ++y)
-      for (int x = 0; x < gt.width; ++x) {
-        if (mask.at(x, y, 0) <= 0.5f) continue;
-        for (int c = 0; c < 3; ++c)  // a black prediction (a metal's diffuse colour) says nothing of the scale
-          if (pred.at(x, y, c) > 1e-4f) ratios[c].push_back(gt.at(x, y, c) / pred.at(x, y, c));
-      }
-  }
-  std::array<double, 3> scale() {
-    std::array<double, 3> s{1.0, 1.0, 1.0};
-    for (int c = 0; c < 3; ++c)
-      if (!ratios[c].empty()) s[c] = median(ratios[c]);
-    return s;
-  }
-};
-
 std::string fmt(const json& v, const char* f) {
   if (v.is_null()) return "n/a";
   char b[64];
@@ -186,7 +167,7 @@ struct EvalRun {
   std::map<std::string, std::vector<std::vector<Image>>> sheets;
   json per_view = json::array();
   std::vector<double> nvs_psnr, nvs_ssim, rough_mse, normal_mae, albedo_psnr, albedo_psnr_lin, relight_means;
-  RatioAccumulator ratios;
+  AlbedoRatios ratios;
   std::unique_ptr<TensoirAlbedoScore> tensoir;  // TensoIR's albedo protocol, beside ours
   bool have_albedo = false;
   std::array<double, 3> scale{1.0, 1.0, 1.0};
@@ -368,7 +349,7 @@ void evaluate_view(EvalRun& run, size_t i) {
 void score_albedo(EvalRun& run) {
   if (!run.have_albedo) return;
   run.scale = run.ratios.scale();
-  run.ratios = RatioAccumulator();
+  run.ratios = AlbedoRatios();
   run.albedo_scale_json = {run.scale[0], run.scale[1], run.scale[2]};
   const std::array<double, 3> tensoir_scale = run.tensoir->scale();
   for (size_t i = 0; i < run.n_views; ++i) {

@@ -110,6 +110,24 @@ std::array<double, 3> albedo_scale(const std::vector<const Image*>& gt, const st
   return s;
 }
 
+void AlbedoRatios::add(const Image& gt, const Image& pred, const Image& mask) {
+  check_same_size(gt, pred, "albedo scale");
+  for (int y = 0; y < gt.height; ++y)
+    for (int x = 0; x < gt.width; ++x) {
+      if (mask.at(x, y, 0) <= 0.5f) continue;
+      for (int c = 0; c < 3; ++c)
+        if (pred.at(x, y, c) > kAlbedoScaleBlack && gt.at(x, y, c) > kAlbedoScaleBlack)
+          ratios[c].push_back(gt.at(x, y, c) / pred.at(x, y, c));
+    }
+}
+
+std::array<double, 3> AlbedoRatios::scale() {
+  std::array<double, 3> s{1.0, 1.0, 1.0};
+  for (int c = 0; c < 3; ++c)
+    if (!ratios[c].empty()) s[c] = median(ratios[c]);
+  return s;
+}
+
 Image apply_scale(const Image& pred, const std::array<double, 3>& s) {
   check_channels(pred, 3, "apply_scale");
   Image out(pred.width, pred.height, {"R", "G", "B"});

@@ -33,6 +33,21 @@ double ssim(const Image& a, const Image& b);
 std::array<double, 3> albedo_scale(const std::vector<const Image*>& gt, const std::vector<const Image*>& pred,
                                    const std::vector<const Image*>& masks);
 
+// The eval's per-channel albedo scale, accumulated view by view without keeping
+// images: s_c = median of gt_c / pred_c over the masked pixels where both are above
+// kAlbedoScaleBlack. A black pixel on either side says nothing of the scale (no
+// scale turns a non-black prediction black, or a black one into a colour): a
+// metal's diffuse colour is black in the truth, and counting its pixels as ratio 0
+// (25 % of the family's metal members) pulled the median down to the dielectric
+// ratios' lower third. Those pixels still count in the PSNR. Channels with no
+// pixel get 1.
+constexpr float kAlbedoScaleBlack = 1e-4f;
+struct AlbedoRatios {
+  std::array<std::vector<float>, 3> ratios;
+  void add(const Image& gt, const Image& pred, const Image& mask);
+  std::array<double, 3> scale();
+};
+
 // Median of the values (mean of the two middle ones for an even count, as
 // numpy.median); throws Error when empty. Reorders `values`.
 double median(std::vector<float>& values);
