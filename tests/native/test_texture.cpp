@@ -165,7 +165,8 @@ TEST(Texture, BumpShadowingScalesTheDiffuseLobeOnly) {
   p.roughness = 0.4f;
   const Vec3 wo = normalize(Vec3(0.2f, 0.1f, 1.0f));
   const Vec3 ns = normalize(Vec3(std::sin(0.5236f), 0.0f, std::cos(0.5236f)));  // own normal, closure frame
-  for (BsdfKind kind : {BsdfKind::PrincipledGGX, BsdfKind::PrincipledV2GGX}) {
+  {
+    const BsdfKind kind = BsdfKind::PrincipledGGX;  // Blender 3.x's term (v2's: the next test)
     const Bsdf plain(kind, p, wo);
     Bsdf bumped(kind, p, wo);
     bumped.set_bump_shadowing(ns);
@@ -184,4 +185,29 @@ TEST(Texture, BumpShadowingScalesTheDiffuseLobeOnly) {
     ASSERT_LT(g, 1.0f);
     EXPECT_NEAR(Bsdf::bump_shadowing(ns, Vec3(0, 0, 1), mid), -g * g * g + g * g + g, 1e-6f);
   }
+}
+
+TEST(Texture, BumpShadowingUnderV2IsBlender4sMicrofacetTerm) {
+  // Blender 4.x: G1_GGX(wi about Ns) with alpha^2 = tan^2(30 deg) / 8, on every side Ns lights;
+  // 0 behind it. Closed form: G1 = 2 / (1 + sqrt(1 + alpha^2 tan^2 theta_i)).
+  MaterialParams p;
+  p.albedo = Vec3(0.6f, 0.5f, 0.4f);
+  p.roughness = 0.4f;
+  const Vec3 wo = normalize(Vec3(0.2f, 0.1f, 1.0f));
+  const Vec3 ns = normalize(Vec3(std::sin(0.5236f), 0.0f, std::cos(0.5236f)));
+  const Bsdf plain(BsdfKind::PrincipledV2GGX, p, wo);
+  Bsdf bumped(BsdfKind::PrincipledV2GGX, p, wo);
+  bumped.set_bump_shadowing(ns);
+  const double alpha2 = std::pow(std::tan(0.5236), 2) / 8.0;
+  for (const Vec3 wi : {normalize(Vec3(0.5f, 0.2f, 1.0f)), normalize(Vec3(-0.3f, 0.0f, 1.0f)),
+                        normalize(Vec3(-0.6f, 0.3f, 0.8f))}) {
+    const double ci = dot(ns, wi), t2 = 1.0 / (ci * ci) - 1.0;
+    const double g1 = 2.0 / (1.0 + std::sqrt(1.0 + alpha2 * t2));
+    EXPECT_NEAR(Bsdf::bump_shadowing_microfacet(ns, Vec3(0, 0, 1), wi), g1, 1e-5);
+    EXPECT_LT(g1, 1.0);  // unlike Blender 3.x's, it shades the lit side too
+  }
+  const Vec3 behind = normalize(Vec3(-0.9f, 0.0f, 0.3f));
+  EXPECT_EQ(Bsdf::bump_shadowing_microfacet(ns, Vec3(0, 0, 1), behind), 0.0f);
+  EXPECT_LT(max_component(bumped.eval(behind)), max_component(plain.eval(behind)));  // diffuse gone
+  EXPECT_GT(max_component(bumped.eval(behind)), 0.0f);                               // specular stays
 }

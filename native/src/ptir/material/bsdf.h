@@ -11,6 +11,8 @@
 //   DisneySimplified    METHOD §4's simplified Disney BRDF (paper parity, --brdf disney-simplified)
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 
@@ -103,10 +105,11 @@ class Bsdf {
     return bumped_ ? bump_shadowed(wi, f) : f;
   }
 
-  // Cycles' bump shadowing term (Chiang et al. 2019, "Taming the Shadow Terminator";
-  // bump_shadowing_term in its kernel, applied to diffuse closures): light arriving
-  // along wi on the side the surface's own normal Ns turns away from fades out
-  // smoothly instead of lighting the tilted closure normal N fully. 1 where N = Ns.
+  // Cycles' bump shadowing term, applied to diffuse closures where the closure's
+  // normal N differs from the surface's own Ns (a normal map): 0 for light on the
+  // side Ns turns away from (I, N on opposite sides of Ns), else a smooth fade.
+  // Blender 3.x (Chiang et al. 2019, "Taming the Shadow Terminator"): the smooth
+  // step -g^3 + g^2 + g of g = (Ns.wi) / ((N.wi)(Ns.N)), 1 on the unshadowed side.
   static float bump_shadowing(Vec3 Ns, Vec3 N, Vec3 wi) {
     const float denom = dot(N, wi) * dot(Ns, N);
     const float g = denom != 0.0f ? dot(Ns, wi) / denom : 0.0f;
@@ -114,6 +117,20 @@ class Bsdf {
     if (g < 0.0f) return 0.0f;   // light from behind the surface
     const float g2 = g * g;
     return -g2 * g + g2 + g;  // a smooth step at the terminator
+  }
+  // Blender 4.x (Conty Estevez et al. 2019, "A Microfacet-Based Shadowing Function to
+  // Solve the Bump Terminator Problem"; Cycles 4.5 kernel/closure/bsdf.h with the
+  // material's Bump Map Correction on, its default): the GGX G1 of wi about Ns for a
+  // roughness alpha^2 = min(tan^2(Ns, N) / 8, 1) that grows with the tilt.
+  static float bump_shadowing_microfacet(Vec3 Ns, Vec3 N, Vec3 wi) {
+    const float cos_nsi = dot(Ns, wi), cos_nsn = dot(Ns, N);
+    if (cos_nsi * cos_nsn * dot(N, wi) < 0.0f) return 0.0f;  // light from behind the surface
+    const float cos_i = std::fabs(cos_nsi), cos_d = std::fabs(cos_nsn);
+    if (cos_d >= 1.0f || cos_i >= 1.0f) return 1.0f;
+    if (cos_i < 1e-6f) return 0.0f;
+    const float alpha2 = std::min(0.125f * (1.0f / (cos_d * cos_d) - 1.0f), 1.0f);
+    const float lambda = 0.5f * (std::sqrt(1.0f + alpha2 * std::max(1.0f / (cos_i * cos_i) - 1.0f, 0.0f)) - 1.0f);
+    return 1.0f / (1.0f + lambda);
   }
 
  private:
@@ -153,14 +170,18 @@ class Bsdf {
     if (eon_) return eon_->eval_grad(wi, d_f, g);
     return disney_eval_grad(p_, wo_, wi, d_f, g);
   }
+  // The term of the model's Blender: 4.x for Principled v2 and its Diffuse BSDF node.
+  float shadowing(Vec3 Ns, Vec3 N, Vec3 wi) const {
+    return v2_ || eon_ ? bump_shadowing_microfacet(Ns, N, wi) : bump_shadowing(Ns, N, wi);
+  }
   // f (the model's value at wi) with its diffuse part about its own normal and scaled
   // by the bump shadowing term.
   Vec3 bump_shadowed(Vec3 wi, Vec3 f) const {
     if (!split_diffuse_) {
-      const float b = bump_shadowing(ns_, Vec3(0.0f, 0.0f, 1.0f), wi);
+      const float b = shadowing(ns_, Vec3(0.0f, 0.0f, 1.0f), wi);
       return b < 1.0f ? f - (1.0f - b) * model_eval_diffuse(wi) : f;
     }
-    const float b = bump_shadowing(ns_, diffuse_frame_.n, wi);
+    const float b = shadowing(ns_, diffuse_frame_.n, wi);
     const Vec3 d = b > 0.0f ? v2_->eval_diffuse_at(diffuse_frame_.to_local(wo_), diffuse_frame_.to_local(wi)) : Vec3(0.0f);
     return f - model_eval_diffuse(wi) + b * d;
   }
