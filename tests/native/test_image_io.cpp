@@ -107,6 +107,39 @@ TEST(ImageIo, ExrHeaderAttributesMustFitTheFile) {
   }
 }
 
+// A type OpenEXR reads field by field declaring another size (what fuzz_image found
+// next: a chlist read past its declared size, OpenEXR then took bytes inside it for a
+// 1.98 GB string's size) is refused by name; so is a chlist that does not end where
+// it declares.
+TEST(ImageIo, ExrHeaderFixedTypesMustDeclareTheirSize) {
+  const fs::path whole = image_tmp("header_sizes.exr");
+  write_image(whole.string(), test_pattern());
+  const std::string bytes = get_file(whole);
+  const auto with_size = [&](const std::string& attr, int32_t size) {
+    std::string b = bytes;
+    const size_t at = b.find(attr);
+    EXPECT_NE(at, std::string::npos) << attr;
+    for (int k = 0; k < 4; ++k) b[at + attr.size() + k] = char((uint32_t(size) >> (8 * k)) & 0xff);
+    return b;
+  };
+  const std::string box = std::string("dataWindow\0box2i\0", 17);
+  const std::string chl = std::string("channels\0chlist\0", 16);
+  const size_t chl_size_at = bytes.find(chl) + chl.size();
+  const int32_t chl_size = int32_t(uint8_t(bytes[chl_size_at])) | int32_t(uint8_t(bytes[chl_size_at + 1])) << 8;
+  const struct { std::string file; std::string says; } cases[] = {
+      {with_size(box, 15), "its type has 16"}, {with_size(chl, chl_size - 1), "does not fill"}};
+  for (const auto& c : cases) {
+    const fs::path bad = image_tmp("header_size_bad.exr");
+    put_file(bad, c.file);
+    try {
+      read_image(bad.string());
+      ADD_FAILURE() << "an EXR attribute of the wrong size was read";
+    } catch (const ptir::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.says), std::string::npos) << e.what();
+    }
+  }
+}
+
 // 8-bit round trip: colour goes through the sRGB curve and back, alpha is stored
 // as is. Opaque linear 0.5 is byte 188; alpha 0.5 is byte 128 (OIIO stores PNG
 // colour unassociated, dividing by alpha on write and multiplying on read).

@@ -15,6 +15,43 @@ constexpr size_t kMaxNameBytes = 256;      // long names (flag 0x400) allow 255 
 constexpr int kMaxAttributes = 1 << 16;    // per header: far past any real file
 
 uint32_t le32(const unsigned char* b) { return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24; }
+
+// The value sizes of the attribute types OpenEXR 3.1 reads field by field, whatever
+// size the header declares (Imf*Attribute::readValueFrom): a declared size that
+// differs puts OpenEXR's reading out of step with the header, and it then takes
+// bytes inside a value for the next attribute (fuzz_image: a chlist read past its
+// declared 55 bytes, then a "string" of 1.98 GB allocated). -1: any size.
+int fixed_value_size(const std::string& type) {
+  static const struct { const char* type; int size; } kSizes[] = {
+      {"box2i", 16}, {"box2f", 16}, {"compression", 1}, {"lineOrder", 1}, {"envmap", 1}, {"deepImageState", 1},
+      {"float", 4},  {"int", 4},    {"double", 8},      {"v2i", 8},       {"v2f", 8},    {"v2d", 16},
+      {"v3i", 12},   {"v3f", 12},   {"v3d", 24},        {"m33f", 36},     {"m33d", 72},  {"m44f", 64},
+      {"m44d", 128}, {"rational", 8}, {"timecode", 8},  {"keycode", 28},  {"tiledesc", 9}, {"chromaticities", 32}};
+  for (const auto& t : kSizes)
+    if (type == t.type) return t.size;
+  return -1;
+}
+
+// A chlist value: entries (a null-terminated name of 1..255 bytes, then 16 bytes)
+// up to an empty name, which must be the value's last byte.
+bool chlist_fits(const std::vector<unsigned char>& v) {
+  size_t i = 0;
+  while (i < v.size()) {
+    const size_t start = i;
+    while (i < v.size() && v[i] != 0) ++i;
+    if (i >= v.size()) return false;  // a name runs past the value
+    if (i == start) return i + 1 == v.size();  // the empty name ends the list
+    if (i - start > kMaxNameBytes - 1) return false;
+    i += 1 + 16;
+  }
+  return false;
+}
+
+// A preview value: width and height, then 4 bytes per pixel.
+bool preview_fits(const std::vector<unsigned char>& v) {
+  if (v.size() < 8) return false;
+  return 8 + 4 * uint64_t(le32(v.data())) * uint64_t(le32(v.data() + 4)) == v.size();
+}
 }  // namespace
 
 void check_exr_header(const std::string& path, uint64_t file_size) {
@@ -51,7 +88,20 @@ void check_exr_header(const std::string& path, uint64_t file_size) {
       if (size < 0 || uint64_t(size) > file_size - pos)
         throw Error(path, "OpenEXR header: attribute '" + name + "' (" + type + ") declares " + std::to_string(size) +
                               " bytes, more than the file's remaining " + std::to_string(file_size - pos));
-      in.seekg(std::streamoff(size), std::ios::cur);
+      const int fixed = fixed_value_size(type);
+      if (fixed >= 0 && size != fixed)
+        throw Error(path, "OpenEXR header: attribute '" + name + "' (" + type + ") declares " + std::to_string(size) +
+                              " bytes, its type has " + std::to_string(fixed));
+      if (type == "chlist" || type == "preview") {
+        std::vector<unsigned char> value(static_cast<size_t>(size));
+        if (!in.read(reinterpret_cast<char*>(value.data()), size))
+          throw Error(path, "OpenEXR header: the file ends inside attribute '" + name + "'");
+        if (!(type == "chlist" ? chlist_fits(value) : preview_fits(value)))
+          throw Error(path, "OpenEXR header: attribute '" + name + "' (" + type + ") does not fill its declared " +
+                                std::to_string(size) + " bytes exactly");
+      } else {
+        in.seekg(std::streamoff(size), std::ios::cur);
+      }
       pos += uint64_t(size);
     }
     if (!multipart) return;

@@ -1,7 +1,10 @@
 // OpenEXR headers checked before OpenEXR reads them: OpenEXR 3.1 allocates each
 // attribute's declared size before reading it, so an 86-byte file declaring a
 // 1.7 GB string attribute made the reader allocate it (found by tests/fuzz
-// fuzz_image). Here every attribute of every part's header must fit in the file.
+// fuzz_image). Here every attribute of every part's header must fit in the file,
+// and the types OpenEXR reads field by field (box2i, chlist, float, ...) must
+// declare the size it reads: otherwise its reading falls out of step with the
+// header and takes bytes inside a value for another attribute's size.
 #pragma once
 
 #include <cstdint>
