@@ -513,6 +513,13 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--prior", o->prior, "folder of prior albedo/roughness maps in the dataset's layout");
   cmd->add_option("--views-per-iter", o->opt.views_per_iter, "training views per iteration")->capture_default_str();
   cmd->add_option("--crop", o->opt.crop, "random square crops of this side (0: whole images)")->capture_default_str();
+  cmd->add_option("--coarse-pixels", o->opt.coarse_pixels,
+                  "resolution pyramid: views larger than this many pixels are rendered reduced by a power of two to "
+                  "at most that many, until the last --fine-fraction of the iterations (0: always full resolution)")
+      ->capture_default_str();
+  cmd->add_option("--fine-fraction", o->opt.fine_fraction,
+                  "resolution pyramid: the last fraction of the iterations, at the photos' full resolution")
+      ->capture_default_str();
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "iterations between checkpoints (0: only at the end)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all); resumed runs are bit-identical on the same count");

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <ctime>
+#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -15,6 +16,7 @@
 #include "ptir/optim/light_balance.h"
 #include "ptir/optim/loss_space.h"
 #include "ptir/optim/patch_batch.h"
+#include "ptir/optim/view_pyramid.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/aov_backward.h"
 #include "ptir/render/material_maps.h"
@@ -71,6 +73,9 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   // Automatic batch (views 0, crop -1): patches across the views (patch_batch.h).
   if (settings_.views_per_iteration < 0) throw Error("views per iteration must be at least 1 (0: automatic)");
   if (settings_.crop_size < -1) throw Error("crop size must be >= 0 (-1: automatic)");
+  if (settings_.coarse_pixels < 0) throw Error("coarse pixels must be >= 0 (0: no resolution pyramid)");
+  if (!(settings_.fine_fraction >= 0.0f && settings_.fine_fraction <= 1.0f)) throw Error("the fine fraction must be in [0, 1]");
+  auto_batch_ = settings_.views_per_iteration == 0 || settings_.crop_size < 0;
   resolve_patch_batch(dataset_->width, dataset_->height, int(dataset_->size()), &settings_.views_per_iteration,
                       &settings_.crop_size);
   if (!(settings_.lr_final > 0.0f && settings_.lr_final <= 1.0f)) throw Error("the final learning-rate factor must be in (0, 1]");
@@ -152,9 +157,41 @@ const std::array<int, 4>& Optimizer::mask_box(size_t view) const {
   return b;
 }
 
+int Optimizer::pyramid_level_factor(int it) const {
+  if (settings_.coarse_pixels <= 0) return 1;
+  if (double(it) >= (1.0 - double(settings_.fine_fraction)) * double(settings_.iterations)) return 1;
+  return pyramid_factor(dataset_->width, dataset_->height, settings_.coarse_pixels);
+}
+
+std::pair<int, int> Optimizer::batch_at(int f) const {
+  if (f == 1 || !auto_batch_) return {settings_.views_per_iteration, settings_.crop_size};
+  const PatchBatch b = default_patch_batch(dataset_->width / f, dataset_->height / f, int(dataset_->size()));
+  return {b.views, b.side};
+}
+
+std::array<int, 4> Optimizer::mask_box(size_t view, int f) const {
+  const auto& b = mask_box(view);
+  if (f == 1) return b;
+  const int W = dataset_->width / f - 1, H = dataset_->height / f - 1;
+  return {std::min(b[0] / f, W), std::min(b[1] / f, H), std::min(b[2] / f, W), std::min(b[3] / f, H)};
+}
+
+std::shared_ptr<const TrainingImage> Optimizer::reduced_target(size_t view, int f) const {
+  if (f == 1) return dataset_->target(view);
+  if (reduced_factor_ != f) {
+    reduced_.assign(dataset_->size(), nullptr);
+    reduced_factor_ = f;
+  }
+  if (reduced_.size() != dataset_->size()) reduced_.assign(dataset_->size(), nullptr);
+  if (!reduced_[view]) reduced_[view] = std::make_shared<const TrainingImage>(reduce_training_image(*dataset_->target(view), f));
+  return reduced_[view];
+}
+
 std::vector<Optimizer::ViewPick> Optimizer::pick_views(int it) const {
   const size_t N = dataset_->size();
-  const int k = settings_.views_per_iteration;
+  const int f = pyramid_level_factor(it);
+  const auto [k, cs] = batch_at(f);
+  const int W = dataset_->width / f, H = dataset_->height / f;
   std::vector<ViewPick> picks;
   for (int v = 0; v < k; ++v) {
     const uint64_t slot = uint64_t(it) * uint64_t(k) + uint64_t(v);
@@ -167,17 +204,16 @@ std::vector<Optimizer::ViewPick> Optimizer::pick_views(int it) const {
       size_t j = std::min(i - 1, size_t(rng.at(i) * float(i)));
       std::swap(perm[i - 1], perm[j]);
     }
-    ViewPick p{perm[pos], 0, 0, dataset_->width, dataset_->height};
-    const int cs = settings_.crop_size;
-    if (cs > 0 && (cs < dataset_->width || cs < dataset_->height)) {
-      p.w = std::min(cs, dataset_->width);
-      p.h = std::min(cs, dataset_->height);
-      const auto& b = mask_box(p.view);
+    ViewPick p{perm[pos], 0, 0, W, H, f};
+    if (cs > 0 && (cs < W || cs < H)) {
+      p.w = std::min(cs, W);
+      p.h = std::min(cs, H);
+      const auto b = mask_box(p.view, f);
       Rng r(hash_combine(settings_.seed, kTagCrop), uint64_t(it), uint64_t(v));
       int cx = b[0] + std::min(b[2] - b[0], int(r.at(0) * float(b[2] - b[0] + 1)));
       int cy = b[1] + std::min(b[3] - b[1], int(r.at(1) * float(b[3] - b[1] + 1)));
-      p.x0 = std::clamp(cx - p.w / 2, 0, dataset_->width - p.w);
-      p.y0 = std::clamp(cy - p.h / 2, 0, dataset_->height - p.h);
+      p.x0 = std::clamp(cx - p.w / 2, 0, W - p.w);
+      p.y0 = std::clamp(cy - p.h / 2, 0, H - p.h);
     }
     picks.push_back(p);
   }
@@ -251,9 +287,9 @@ Optimizer::ViewWork Optimizer::view_work(int it, size_t v, const ViewPick& pk) c
   ViewWork w;
   w.pick = pk;
   w.view = &dataset_->views[pk.view];
-  w.cam = w.view->camera;
+  w.cam = reduce_camera(w.view->camera, pk.factor);
   if (pk.w != w.cam.width || pk.h != w.cam.height) w.cam = w.cam.crop(pk.x0, pk.y0, pk.w, pk.h);
-  w.full = dataset_->target(pk.view);
+  w.full = reduced_target(pk.view, pk.factor);
   w.target_rgb = crop_image(w.full->rgb, pk.x0, pk.y0, pk.w, pk.h);
   w.target_alpha = crop_image(w.full->alpha, pk.x0, pk.y0, pk.w, pk.h);
   w.px = size_t(pk.w) * pk.h;
@@ -396,9 +432,10 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
   Image prior_a, prior_r;
   const double wp = log.prior_weight;
   if (wp > 0.0) {
-    if (!w.view->files.prior_albedo.empty()) prior_a = crop_image(dataset_->prior_albedo(pk.view), pk.x0, pk.y0, pk.w, pk.h);
+    if (!w.view->files.prior_albedo.empty())
+      prior_a = crop_image(reduce_image(dataset_->prior_albedo(pk.view), pk.factor), pk.x0, pk.y0, pk.w, pk.h);
     if (!w.view->files.prior_roughness.empty())
-      prior_r = crop_image(dataset_->prior_roughness(pk.view), pk.x0, pk.y0, pk.w, pk.h);
+      prior_r = crop_image(reduce_image(dataset_->prior_roughness(pk.view), pk.factor), pk.x0, pk.y0, pk.w, pk.h);
   }
   const float lambda_tv = float(tv_weight(log.iteration - 1));
   if (!(lambda_tv > 0.0f || prior_a.width > 0 || prior_r.width > 0)) return;

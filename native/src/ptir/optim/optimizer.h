@@ -94,6 +94,13 @@ struct OptimizerSettings {
   uint64_t seed = 0;
   int views_per_iteration = 1;
   int crop_size = 0;              // 0: whole images; else square crops of this side
+  // The resolution pyramid (view_pyramid.h): for the first (1 - fine_fraction) x
+  // iterations, views with more than coarse_pixels pixels are rendered reduced by a
+  // power of two to at most that many (with the automatic batch: whole reduced views
+  // where they are small enough, default_patch_batch); the rest at full resolution.
+  // 0: off.
+  int coarse_pixels = 0;
+  float fine_fraction = 0.25f;
   ImageLossSettings loss;         // lambda_s 0.2, binomial filter on
   bool srgb_loss = true;          // compare in sRGB space (false: linear)
   // With srgb_loss and the loss's blur: blur the linear render, then take the curve ("srgb-blur-first").
@@ -246,9 +253,14 @@ class Optimizer {
   // The views and crop windows iteration `it` (0-based) uses: (view index, x0, y0, w, h).
   struct ViewPick {
     size_t view;
-    int x0, y0, w, h;
+    int x0, y0, w, h;  // window of the (reduced) view
+    int factor = 1;    // the view reduced by this factor (view_pyramid.h)
   };
   std::vector<ViewPick> pick_views(int it) const;
+  // The pyramid's reduction factor of iteration `it` (1: full resolution).
+  int pyramid_level_factor(int it) const;
+  // Views and crop side of an iteration at reduction factor f (the batch resolved for that level).
+  std::pair<int, int> batch_at(int f) const;
 
  private:
   struct ViewWork;  // one view of an iteration (optimizer.cpp)
@@ -258,6 +270,9 @@ class Optimizer {
                 const RenderControl& control, IterationLog& log) const;
   void apply();
   const std::array<int, 4>& mask_box(size_t view) const;
+  std::array<int, 4> mask_box(size_t view, int f) const;  // of the view reduced by f
+  // The training image of view `view` reduced by f (cached for the current factor).
+  std::shared_ptr<const TrainingImage> reduced_target(size_t view, int f) const;
   ViewWork view_work(int it, size_t v, const ViewPick& pick) const;
   float loss_encode(float c) const;             // linear -> loss space
   float loss_encode_derivative(float c) const;
@@ -280,6 +295,9 @@ class Optimizer {
   std::array<double, 3> balance_grad_{};  // dL/d balance of the image terms (light_balance.h)
   ExposureGradients exposure_grads_;  // --learn-exposure (exposure.h)
   mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
+  bool auto_batch_ = false;  // the batch was automatic (resolved per pyramid level)
+  mutable int reduced_factor_ = 1;
+  mutable std::vector<std::shared_ptr<const TrainingImage>> reduced_;  // per view, at reduced_factor_
   // The primal renders' kept walks, per part and row band (memory reused from one
   // iteration to the next; walk_store.h).
   mutable std::array<std::vector<std::unique_ptr<WalkStore>>, 2> walk_stores_;

@@ -110,6 +110,8 @@ Fingerprint Optimizer::fingerprint() const {
   // Only then: checkpoints of path-traced bounce light (and from before) still resume.
   if (is.indirect_from_field) fp.push_back({"indirect", "field"});
   if (settings_.neutral_light) fp.push_back({"light", "neutral"});
+  if (settings_.coarse_pixels > 0)
+    fp.push_back({"pyramid", std::to_string(settings_.coarse_pixels) + " until " + num(1.0f - settings_.fine_fraction)});
   return fp;
 }
 

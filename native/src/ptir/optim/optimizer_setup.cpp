@@ -28,6 +28,10 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.seed = o.seed;
   s.views_per_iteration = o.views_per_iter;
   s.crop_size = o.crop;
+  if (o.coarse_pixels < 0) throw Error(names("coarse_pixels") + " must be >= 0 (0: no resolution pyramid)");
+  if (!(o.fine_fraction >= 0.0f && o.fine_fraction <= 1.0f)) throw Error(names("fine_fraction") + " must be in [0, 1]");
+  s.coarse_pixels = o.coarse_pixels;
+  s.fine_fraction = o.fine_fraction;
   s.lambda_tv = o.lambda_tv;
   if (!(o.lr_final > 0.0f && o.lr_final <= 1.0f)) throw Error(names("lr_final") + " must be in (0, 1]");
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");

@@ -34,6 +34,8 @@ struct OptimizeOptions {
   uint64_t seed = 0;
   int views_per_iter = 1;
   int crop = 0;
+  int coarse_pixels = OptimizerSettings{}.coarse_pixels;    // resolution pyramid (view_pyramid.h; 0: off)
+  float fine_fraction = OptimizerSettings{}.fine_fraction;  // its last share at full resolution
   std::string loss_space = "srgb-blur-first";  // srgb-blur-first, srgb or linear (optimizer.h)
   float lambda_tv = 0.095f;
   float lr_final = OptimizerSettings{}.lr_final;
