@@ -432,12 +432,19 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     set_job_stop_message(stop_message(ckpt, start_it, saved));
   }
   const BudgetPacer pacer(budget.budget_s - budget.spent_s - kOutputReserve);
+  PhaseClock phases;  // the resolution pyramid's two phases, timed apart
+  auto last = t0;
   ro.on_iteration = [&](const IterationLog& l) {
     if (budget.budget_s > 0.0) {  // re-plan the count from the measured rate; OUT/budget.json for --resume
       const auto now = std::chrono::steady_clock::now();
       const double since_start = std::chrono::duration<double>(now - t_start).count();
-      const int total = pacer.replan(opt.iteration(), opt.iteration() - start_it,
-                                     std::chrono::duration<double>(now - t0).count(), since_start, opt.settings().iterations);
+      phases.add(l.level, std::chrono::duration<double>(now - last).count());
+      last = now;
+      const int total = opt.pyramid_coarse_share() > 0.0
+                            ? pacer.replan(opt.iteration(), since_start, opt.settings().iterations, phases.costs(opt, budget))
+                            : pacer.replan(opt.iteration(), opt.iteration() - start_it,
+                                           std::chrono::duration<double>(now - t0).count(), since_start,
+                                           opt.settings().iterations);
       if (total != opt.settings().iterations) opt.set_iterations(total);
       BudgetState b = budget;
       b.spent_s += since_start;

@@ -53,6 +53,9 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
   const double left = b.budget_s - b.spent_s - since_start - kOutputReserve;
   if (b.spp > 0 && b.spp != opt.settings().integrator.spp) opt.set_spp(b.spp);  // a resumed budget keeps its spp
   const IterationEstimate est = estimate_iteration(opt);
+  // The phases' estimates at the estimate's spp; their ratio is what the pacer uses.
+  b.est_coarse_s = est.coarse_seconds;
+  b.est_fine_s = est.fine_seconds;
   int spp = opt.settings().integrator.spp;
   int iterations = 0;
   if (b.spp > 0) {
@@ -70,6 +73,23 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
                  b.budget_s, std::max(0.0, left), iterations, spp, opt.settings().views_per_iteration,
                  opt.settings().crop_size > 0 ? (std::to_string(opt.settings().crop_size) + "^2").c_str() : "whole views");
   return b;
+}
+
+void PhaseClock::add(int level, double wall_s) {
+  const int p = level > 1 ? 0 : 1;
+  if (++seen_[p] <= 2) return;
+  seconds_[p] += wall_s;
+  ++count_[p];
+}
+
+PhaseCosts PhaseClock::costs(const Optimizer& opt, const BudgetState& b) const {
+  PhaseCosts c;
+  c.coarse_share = opt.pyramid_coarse_share();
+  const double ratio = b.est_fine_s > 0.0 && b.est_coarse_s > 0.0 ? b.est_fine_s / b.est_coarse_s : 1.0;
+  const bool coarse = count_[0] >= 3, fine = count_[1] >= 3;
+  c.coarse_s = coarse ? seconds_[0] / count_[0] : fine ? seconds_[1] / count_[1] / ratio : 0.0;
+  c.fine_s = fine ? seconds_[1] / count_[1] : coarse ? c.coarse_s * ratio : 0.0;
+  return c;
 }
 
 }  // namespace ptir::cli

@@ -13,6 +13,8 @@
 #include <chrono>
 #include <string>
 
+#include "ptir/optim/budget_plan.h"
+
 namespace ptir {
 class Optimizer;
 }
@@ -27,6 +29,25 @@ struct BudgetState {
   double budget_s = 0.0;  // 0: no budget
   double spent_s = 0.0;   // by earlier runs of this output folder (resumed)
   int spp = 0;            // planned (0: not planned yet)
+  // Not kept in budget.json: the probe's estimate of a coarse and a full-resolution
+  // iteration (the resolution pyramid's phases), until the run measures its own.
+  double est_coarse_s = 0.0, est_fine_s = 0.0;
+};
+
+// The pacer's view of a run's own iterations: seconds and count per pyramid phase,
+// each phase's first two left out (caches warm up).
+class PhaseClock {
+ public:
+  // One iteration at the pyramid's reduction factor `level`, `wall_s` since the one before
+  // (its checkpoint and progress included).
+  void add(int level, double wall_s);
+  // The phases' costs for the pacer: each phase's measured seconds per iteration once it
+  // has three, else the other phase's measured one times the estimate's ratio, else the estimate.
+  PhaseCosts costs(const Optimizer& opt, const BudgetState& b) const;
+
+ private:
+  double seconds_[2] = {0.0, 0.0};
+  int count_[2] = {0, 0}, seen_[2] = {0, 0};
 };
 
 // OUT/budget.json, or a zero state when there is none.

@@ -65,6 +65,29 @@ TEST(BudgetPlan, PacerLandsOnTheEndTime) {
   EXPECT_EQ(pacer.replan(2, 2, 5.0, 10.0, 50), 50);      // too early to tell
 }
 
+// The resolution pyramid's two phases: the first coarse_share of a run's iterations cost
+// coarse_s each, the rest fine_s; the boundary moves with the total.
+TEST(BudgetPlan, TwoPhasePacerCountsEachPhaseAtItsCost) {
+  PhaseCosts c;
+  c.coarse_share = 0.75;
+  c.coarse_s = 1.0;
+  c.fine_s = 4.0;
+  EXPECT_DOUBLE_EQ(c.seconds_left(0, 100), 75 * 1.0 + 25 * 4.0);
+  EXPECT_DOUBLE_EQ(c.seconds_left(80, 100), 20 * 4.0);     // in the fine phase
+  EXPECT_DOUBLE_EQ(c.seconds_left(70, 100), 5 * 1.0 + 25 * 4.0);
+  EXPECT_DOUBLE_EQ(c.seconds_left(100, 100), 0.0);
+  const BudgetPacer pacer(200.0);
+  // 175 s of a 100-iteration run; 200 s left at the start: the largest total that fits.
+  const int n = pacer.replan(0, 0.0, 10, c);
+  EXPECT_LE(c.seconds_left(0, n), 200.0);
+  EXPECT_GT(c.seconds_left(0, n + 1), 200.0);
+  EXPECT_EQ(n, 115);  // 87 coarse (87 s) + 28 fine (112 s) = 199 s; 116 would be 87 + 29 x 4 = 203 s
+  EXPECT_EQ(pacer.replan(20, 250.0, 115, c), 20);  // past the end: stop now
+  PhaseCosts unknown;
+  unknown.coarse_share = 0.75;
+  EXPECT_EQ(pacer.replan(1, 1.0, 50, unknown), 50);  // nothing measured yet
+}
+
 TEST(PatchBatch, PatchesOnlyWhereAViewIsMuchLargerThanTheBatch) {
   PatchBatch b = default_patch_batch(64, 64, 24);  // 4096 pixels: whole views
   EXPECT_EQ(b.side, 0);

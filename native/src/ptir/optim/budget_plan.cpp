@@ -53,4 +53,29 @@ int BudgetPacer::replan(int done, int done_here, double elapsed_s, double now_s,
   return std::max(done, want);
 }
 
+double PhaseCosts::seconds_left(int done, int total) const {
+  if (total <= done) return 0.0;
+  // Coarse iterations are those with it < coarse_share x total (Optimizer::pyramid_level_factor).
+  const int boundary = std::clamp(int(std::ceil(coarse_share * double(total))), 0, total);
+  const int coarse = std::max(0, boundary - done), fine = total - std::max(boundary, done);
+  return double(coarse) * coarse_s + double(fine) * fine_s;
+}
+
+int BudgetPacer::replan(int done, double now_s, int total, const PhaseCosts& costs) const {
+  if (!(costs.coarse_s > 0.0 && costs.fine_s > 0.0)) return total;  // nothing measured yet
+  const double left = end_s_ - now_s;
+  const double cheapest = std::max(1e-9, std::min(costs.coarse_s, costs.fine_s));
+  if (!(left > 0.0)) return done;
+  // Binary search on the total: the seconds left grow with it (each added iteration costs
+  // at least a coarse one, whatever the boundary's move).
+  int lo = done, hi = done + int(std::min(1e7, left / cheapest)) + 1;
+  while (lo < hi) {
+    const int mid = lo + (hi - lo + 1) / 2;
+    if (costs.seconds_left(done, mid) <= left) lo = mid;
+    else hi = mid - 1;
+  }
+  if (std::abs(lo - total) <= std::max(1, total / 100) && total >= done) return total;
+  return lo;
+}
+
 }  // namespace ptir

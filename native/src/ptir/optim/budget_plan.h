@@ -39,6 +39,16 @@ BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const Optimiz
 // Seconds per iteration at `spp`, from the estimate's per-sample and per-pixel costs.
 double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp);
 
+// A run in two phases of different cost (the resolution pyramid, view_pyramid.h):
+// iteration it of a total-iteration run is coarse while it < coarse_share x total.
+struct PhaseCosts {
+  double coarse_share = 0.0;  // 0: one phase (every iteration fine)
+  double coarse_s = 0.0;      // seconds per coarse iteration
+  double fine_s = 0.0;        // seconds per fine iteration
+  // Seconds of iterations [done, total) of a total-iteration run.
+  double seconds_left(int done, int total) const;
+};
+
 // Re-plans the iteration count during a run that must end `end_s` seconds
 // after the pacer's clock started (the caller's seconds).
 class BudgetPacer {
@@ -47,6 +57,10 @@ class BudgetPacer {
   // After `done` iterations, `done_here` of them in this process over `elapsed_s` of
   // iterating, at `now_s`: the total to run (>= done; `total` when within 1 %).
   int replan(int done, int done_here, double elapsed_s, double now_s, int total) const;
+  // Two phases: the largest total whose remaining iterations fit in what is left at
+  // `now_s` at the phases' costs (measured by the caller per phase); >= done,
+  // `total` when within 1 %.
+  int replan(int done, double now_s, int total, const PhaseCosts& costs) const;
 
  private:
   double end_s_;

@@ -33,6 +33,7 @@ struct IterationLog {
   // passes: a measure of the work that a busy, shared machine does not inflate.
   double cpu_s = 0, primal_cpu_s = 0, backward_cpu_s = 0;
   std::string views;         // names of the views used, '+'-separated
+  int level = 1;             // the resolution pyramid's reduction factor of its views (not in checkpoints)
 };
 
 using Fingerprint = std::vector<std::pair<std::string, std::string>>;

@@ -75,13 +75,16 @@ IterationEstimate estimate_iteration(const Optimizer& opt) {
   e.replay_fixed = r1;
   const double ratio = pc > 0.0 ? std::max(0.5, (rc - r1) / pc) : 1.0;  // replay is never cheaper than half a primal
   e.replay_per_sample = ratio * e.primal_per_sample;
-  // The crop size (when cropping) sets the pixels of a view in an iteration.
-  int w = data.width, h = data.height;
-  if (s.crop_size > 0) {
-    w = std::min(w, s.crop_size);
-    h = std::min(h, s.crop_size);
-  }
-  const double pixels = double(w) * h * s.views_per_iteration;
+  // The batch of an iteration at reduction factor f: its views and their pixels (a crop when cropping).
+  auto batch = [&](int f) {
+    const auto [views, crop] = opt.batch_at(f);
+    int w = data.width / f, h = data.height / f;
+    if (crop > 0) {
+      w = std::min(w, crop);
+      h = std::min(h, crop);
+    }
+    return std::make_pair(double(w) * h * views, double(views));
+  };
   // The material-map regulariser (when on): its maps and their adjoint from the kept walks, as the
   // optimiser runs them, timed on the central window.
   if (s.lambda_tv > 0.0f || data.has_priors()) {
@@ -100,8 +103,16 @@ IterationEstimate estimate_iteration(const Optimizer& opt) {
     render_aov_backward(opt.tracer().accel(), cam, as, &d_alb, &d_rough, grads, &walks);
     e.regulariser_per_pixel = seconds_of(t0) / (double(cam.width) * cam.height);
   }
-  e.fixed_seconds = pixels * e.regulariser_per_pixel + s.views_per_iteration * e.replay_fixed;
-  e.seconds = pixels * double(s.integrator.spp) * (e.primal_per_sample + e.replay_per_sample) + e.fixed_seconds;
+  auto fixed = [&](int f) { return batch(f).first * e.regulariser_per_pixel + batch(f).second * e.replay_fixed; };
+  auto seconds = [&](int f) {
+    return batch(f).first * double(s.integrator.spp) * (e.primal_per_sample + e.replay_per_sample) + fixed(f);
+  };
+  e.coarse_share = opt.pyramid_coarse_share();
+  const int fc = opt.pyramid_coarse_factor();
+  e.fine_seconds = seconds(1);
+  e.coarse_seconds = e.coarse_share > 0.0 ? seconds(fc) : e.fine_seconds;
+  e.fixed_seconds = e.coarse_share * fixed(fc) + (1.0 - e.coarse_share) * fixed(1);
+  e.seconds = e.coarse_share * e.coarse_seconds + (1.0 - e.coarse_share) * e.fine_seconds;
   return e;
 }
 

@@ -27,6 +27,10 @@ struct IterationEstimate {
   double replay_fixed = 0.0;       // seconds per replay call, whatever its size
   double regulariser_per_pixel = 0.0;  // seconds per view pixel, material maps + adjoint (0 when off)
   int probe_pixels = 0, probe_spp = 0;
+  // With the resolution pyramid (view_pyramid.h) `seconds` is the mean over its phases:
+  // a coarse iteration (the first coarse_share of the run) and a full-resolution one.
+  double coarse_share = 0.0;
+  double coarse_seconds = 0.0, fine_seconds = 0.0;
 };
 
 IterationEstimate estimate_iteration(const Optimizer& opt);

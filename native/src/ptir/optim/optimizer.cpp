@@ -157,10 +157,13 @@ const std::array<int, 4>& Optimizer::mask_box(size_t view) const {
   return b;
 }
 
-int Optimizer::pyramid_level_factor(int it) const {
-  if (settings_.coarse_pixels <= 0) return 1;
-  if (double(it) >= (1.0 - double(settings_.fine_fraction)) * double(settings_.iterations)) return 1;
+int Optimizer::pyramid_coarse_factor() const {
   return pyramid_factor(dataset_->width, dataset_->height, settings_.coarse_pixels);
+}
+
+int Optimizer::pyramid_level_factor(int it) const {
+  if (double(it) >= pyramid_coarse_share() * double(settings_.iterations)) return 1;
+  return pyramid_coarse_factor();
 }
 
 std::pair<int, int> Optimizer::batch_at(int f) const {
@@ -497,6 +500,7 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
   RenderControl control;
   control.cancel = cancel;
   const auto picks = pick_views(it);
+  log.level = picks.empty() ? 1 : picks.front().factor;
   const float inv_k = 1.0f / float(picks.size());
   for (size_t v = 0; v < picks.size(); ++v) {
     const ViewWork w = view_work(it, v, picks[v]);

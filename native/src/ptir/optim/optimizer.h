@@ -257,8 +257,11 @@ class Optimizer {
     int factor = 1;    // the view reduced by this factor (view_pyramid.h)
   };
   std::vector<ViewPick> pick_views(int it) const;
-  // The pyramid's reduction factor of iteration `it` (1: full resolution).
+  // The pyramid's reduction factor of iteration `it` (1: full resolution); its coarse
+  // factor (1: these views are not reduced) and the share of the iterations at it.
   int pyramid_level_factor(int it) const;
+  int pyramid_coarse_factor() const;
+  double pyramid_coarse_share() const { return pyramid_coarse_factor() > 1 ? 1.0 - double(settings_.fine_fraction) : 0.0; }
   // Views and crop side of an iteration at reduction factor f (the batch resolved for that level).
   std::pair<int, int> batch_at(int f) const;
 
