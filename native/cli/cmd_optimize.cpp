@@ -269,6 +269,8 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm, double fit_seco
   f.seconds = fit_seconds;
   f.s.iterations = o.fit_iters;
   f.s.seed = o.opt.seed;
+  f.s.coarse_pixels = o.opt.coarse_pixels;  // the command's resolution pyramid, for both stages
+  f.s.fine_fraction = o.opt.fine_fraction;
   f.capture = o.capture;
   remove_stale_outputs({f.out}, o.quiet);
   const int rc = run_fit_stage(f, "ptir optimize ... --resume");
@@ -441,7 +443,9 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
       phases.add(l.level, std::chrono::duration<double>(now - last).count());
       last = now;
       const int total = opt.pyramid_coarse_share() > 0.0
-                            ? pacer.replan(opt.iteration(), since_start, opt.settings().iterations, phases.costs(opt, budget))
+                            ? pacer.replan(opt.iteration(), since_start, opt.settings().iterations,
+                                           phases.costs(opt.pyramid_coarse_share(),
+                                                        budget.est_coarse_s > 0.0 ? budget.est_fine_s / budget.est_coarse_s : 1.0))
                             : pacer.replan(opt.iteration(), opt.iteration() - start_it,
                                            std::chrono::duration<double>(now - t0).count(), since_start,
                                            opt.settings().iterations);

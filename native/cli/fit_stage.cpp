@@ -18,6 +18,8 @@ void check_fit_stage(const FitStage& f) {
   if (f.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
   if (f.s.iterations < 0) throw Error("--iters must be >= 0");
   if (f.s.densify_every < 1) throw Error("--densify-every must be >= 1");
+  if (f.s.coarse_pixels < 0) throw Error("--coarse-pixels must be >= 0 (0: no resolution pyramid)");
+  if (!(f.s.fine_fraction >= 0.0f && f.s.fine_fraction <= 1.0f)) throw Error("--fine-fraction must be in [0, 1]");
   if (f.s.accel.k < 1 || f.s.accel.k > SceneAccel::kMaxK) throw Error("--k must be in 1..64");
 }
 
@@ -51,11 +53,21 @@ int run_fit_stage(const FitStage& f, const std::string& continue_hint) {
   ro.checkpoint_every = f.checkpoint_every;
   ro.cancel = &g_interrupted;
   const BudgetPacer pacer(f.seconds);
+  PhaseClock phases;  // the resolution pyramid's phases, timed apart
+  double last = 0.0;
   ro.on_iteration = [&](const FitLog& l) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    phases.add(l.level, elapsed - last);
+    last = elapsed;
     if (f.seconds > 0.0) {  // a time limit (ptir optimize --budget): never more than the iterations asked for
-      const int total = std::min(s.iterations, pacer.replan(fit.iteration(), fit.iteration() - start_it, elapsed, elapsed,
-                                                            fit.settings().iterations));
+      // With the pyramid: a full-resolution view costs about its pixels' ratio to a coarse one.
+      const double ratio = double(fit.coarse_factor()) * fit.coarse_factor();
+      const int replanned = fit.coarse_share() > 0.0
+                                ? pacer.replan(fit.iteration(), elapsed, fit.settings().iterations,
+                                               phases.costs(fit.coarse_share(), ratio))
+                                : pacer.replan(fit.iteration(), fit.iteration() - start_it, elapsed, elapsed,
+                                               fit.settings().iterations);
+      const int total = std::min(s.iterations, replanned);
       if (total != fit.settings().iterations) fit.set_iterations(total);
     }
     if (f.quiet) return true;

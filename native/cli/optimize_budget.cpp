@@ -75,21 +75,4 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
   return b;
 }
 
-void PhaseClock::add(int level, double wall_s) {
-  const int p = level > 1 ? 0 : 1;
-  if (++seen_[p] <= 2) return;
-  seconds_[p] += wall_s;
-  ++count_[p];
-}
-
-PhaseCosts PhaseClock::costs(const Optimizer& opt, const BudgetState& b) const {
-  PhaseCosts c;
-  c.coarse_share = opt.pyramid_coarse_share();
-  const double ratio = b.est_fine_s > 0.0 && b.est_coarse_s > 0.0 ? b.est_fine_s / b.est_coarse_s : 1.0;
-  const bool coarse = count_[0] >= 3, fine = count_[1] >= 3;
-  c.coarse_s = coarse ? seconds_[0] / count_[0] : fine ? seconds_[1] / count_[1] / ratio : 0.0;
-  c.fine_s = fine ? seconds_[1] / count_[1] : coarse ? c.coarse_s * ratio : 0.0;
-  return c;
-}
-
 }  // namespace ptir::cli

@@ -34,22 +34,6 @@ struct BudgetState {
   double est_coarse_s = 0.0, est_fine_s = 0.0;
 };
 
-// The pacer's view of a run's own iterations: seconds and count per pyramid phase,
-// each phase's first two left out (caches warm up).
-class PhaseClock {
- public:
-  // One iteration at the pyramid's reduction factor `level`, `wall_s` since the one before
-  // (its checkpoint and progress included).
-  void add(int level, double wall_s);
-  // The phases' costs for the pacer: each phase's measured seconds per iteration once it
-  // has three, else the other phase's measured one times the estimate's ratio, else the estimate.
-  PhaseCosts costs(const Optimizer& opt, const BudgetState& b) const;
-
- private:
-  double seconds_[2] = {0.0, 0.0};
-  int count_[2] = {0, 0}, seen_[2] = {0, 0};
-};
-
 // OUT/budget.json, or a zero state when there is none.
 BudgetState read_budget_state(const std::string& out_dir);
 void write_budget_state(const std::string& out_dir, const BudgetState& b);

@@ -78,4 +78,21 @@ int BudgetPacer::replan(int done, double now_s, int total, const PhaseCosts& cos
   return lo;
 }
 
+void PhaseClock::add(int level, double wall_s) {
+  const int p = level > 1 ? 0 : 1;
+  if (++seen_[p] <= 2) return;
+  seconds_[p] += wall_s;
+  ++count_[p];
+}
+
+PhaseCosts PhaseClock::costs(double coarse_share, double fine_over_coarse) const {
+  PhaseCosts c;
+  c.coarse_share = coarse_share;
+  const double ratio = fine_over_coarse > 0.0 ? fine_over_coarse : 1.0;
+  const bool coarse = count_[0] >= 3, fine = count_[1] >= 3;
+  c.coarse_s = coarse ? seconds_[0] / count_[0] : fine ? seconds_[1] / count_[1] / ratio : 0.0;
+  c.fine_s = fine ? seconds_[1] / count_[1] : coarse ? c.coarse_s * ratio : 0.0;
+  return c;
+}
+
 }  // namespace ptir

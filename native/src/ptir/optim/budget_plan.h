@@ -49,6 +49,21 @@ struct PhaseCosts {
   double seconds_left(int done, int total) const;
 };
 
+// A run's own iterations per pyramid phase, timed by the caller: seconds and count,
+// each phase's first two left out (caches warm up).
+class PhaseClock {
+ public:
+  // One iteration at reduction factor `level` (> 1: coarse), `wall_s` since the one before.
+  void add(int level, double wall_s);
+  // The phases' costs: each phase's measured seconds per iteration once it has three,
+  // else the other's times fine_over_coarse (the estimate's ratio), else 0 (unknown).
+  PhaseCosts costs(double coarse_share, double fine_over_coarse) const;
+
+ private:
+  double seconds_[2] = {0.0, 0.0};
+  int count_[2] = {0, 0}, seen_[2] = {0, 0};
+};
+
 // Re-plans the iteration count during a run that must end `end_s` seconds
 // after the pacer's clock started (the caller's seconds).
 class BudgetPacer {

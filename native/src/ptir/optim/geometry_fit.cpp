@@ -13,6 +13,7 @@
 #include "ptir/math/rng.h"
 #include "ptir/optim/geometry_fit_groups.h"
 #include "ptir/optim/pseudo_normals.h"
+#include "ptir/optim/view_pyramid.h"
 #include "ptir/render/splat_composite.h"
 #include "ptir/transport/orient_normals.h"
 
@@ -66,6 +67,24 @@ size_t GeometryFit::view_of(int it) const {
   return order[size_t(it) % n];
 }
 
+int GeometryFit::coarse_factor() const {
+  return pyramid_factor(dataset_->width, dataset_->height, settings_.coarse_pixels);
+}
+
+int GeometryFit::level_factor(int it) const {
+  return double(it) < coarse_share() * double(settings_.iterations) ? coarse_factor() : 1;
+}
+
+std::shared_ptr<const TrainingImage> GeometryFit::target_at(size_t view, int f) const {
+  if (f == 1) return dataset_->target(view);
+  if (reduced_factor_ != f || reduced_.size() != dataset_->size()) {
+    reduced_.assign(dataset_->size(), nullptr);
+    reduced_factor_ = f;
+  }
+  if (!reduced_[view]) reduced_[view] = std::make_shared<const TrainingImage>(reduce_training_image(*dataset_->target(view), f));
+  return reduced_[view];
+}
+
 namespace {
 
 // alpha * srgb(rgb): the target composited on black in display space.
@@ -105,8 +124,9 @@ FitLog GeometryFit::step(const std::atomic<bool>* cancel) {
   FitLog log;
   log.iteration = it + 1;
   log.view = view_of(it);
-  const Camera& cam = dataset_->views[log.view].camera;
-  const auto target = dataset_->target(log.view);
+  log.level = level_factor(it);
+  const Camera cam = reduce_camera(dataset_->views[log.view].camera, log.level);
+  const auto target = target_at(log.view, log.level);
   RenderControl control;
   control.cancel = cancel;
 

@@ -94,6 +94,11 @@ struct GeometryFitSettings {
   // surface would otherwise keep a normal facing into it and cancel its neighbours' in every
   // blend. (The output's pass works on a copy: a resumed run stays bit-identical.)
   int reorient_every = 100;
+  // The resolution pyramid (view_pyramid.h), as the inversion's: views larger than
+  // coarse_pixels are fitted reduced by a power of two until the last fine_fraction of
+  // the iterations (0: off).
+  int coarse_pixels = 0;
+  float fine_fraction = 0.25f;
   AccelSettings accel;
 };
 
@@ -107,6 +112,7 @@ struct FitLog {
   double seconds = 0;  // wall time of the iteration, of which:
   double build_s = 0, forward_s = 0, backward_s = 0;  // BVH build, render + loss, replay + update
   size_t view = 0;
+  int level = 1;  // the pyramid's reduction factor of the view (not in log.csv)
 };
 
 class GeometryFit {
@@ -123,6 +129,11 @@ class GeometryFit {
   float extent() const { return extent_; }
 
   FitLog step(const std::atomic<bool>* cancel = nullptr);
+  // The pyramid's reduction factor of iteration `it` (1: full resolution), its coarse
+  // factor and the share of the iterations at it (0: none).
+  int level_factor(int it) const;
+  int coarse_factor() const;
+  double coarse_share() const { return coarse_factor() > 1 ? 1.0 - double(settings_.fine_fraction) : 0.0; }
 
   Fingerprint fingerprint() const;
   Checkpoint checkpoint() const;
@@ -140,6 +151,7 @@ class GeometryFit {
   void reorient_normals(FitLog& log);
   Image normal_target(const Camera& cam, const SplatImage& fwd) const;
   size_t view_of(int it) const;
+  std::shared_ptr<const TrainingImage> target_at(size_t view, int f) const;  // reduced by f (cached)
 
   GeometryFitSettings settings_;
   std::shared_ptr<const Dataset> dataset_;
@@ -151,6 +163,8 @@ class GeometryFit {
   size_t initial_count_ = 0;
   float extent_ = 1.0f;
   int iteration_ = 0;
+  mutable int reduced_factor_ = 1;
+  mutable std::vector<std::shared_ptr<const TrainingImage>> reduced_;  // per view, at reduced_factor_
 };
 
 // reorient_fit_normals: flips the field's normals toward the cameras' votes (unseen keep

@@ -30,7 +30,7 @@ std::string num(double v) {
 
 Fingerprint GeometryFit::fingerprint() const {
   const GeometryFitSettings& s = settings_;
-  return {{"stage", "geometry"},
+  Fingerprint fp = {{"stage", "geometry"},
           {"dataset", dataset_->transforms_path},
           {"views", std::to_string(dataset_->size())},
           {"initial_gaussians", std::to_string(initial_count_)},
@@ -48,6 +48,9 @@ Fingerprint GeometryFit::fingerprint() const {
                           std::to_string(s.densify_until) + " " + num(s.densify_grad) + " " + num(s.densify_fraction) +
                           " " + num(s.prune_opacity) + " " + num(s.split_scale) + " " + std::to_string(s.max_gaussians)},
           {"k", std::to_string(s.accel.k)}};
+  // Only then: checkpoints from before the pyramid still resume.
+  if (s.coarse_pixels > 0) fp.push_back({"pyramid", std::to_string(s.coarse_pixels) + " until " + num(1.0f - s.fine_fraction)});
+  return fp;
 }
 
 Checkpoint GeometryFit::checkpoint() const {
