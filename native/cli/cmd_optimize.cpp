@@ -358,6 +358,9 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     // --iters runs keep whole views (the measured defaults; docs/performance.md#time-to-quality).
     if (!cmd.count("--views-per-iter")) o.opt.views_per_iter = 0;
     if (!cmd.count("--crop")) o.opt.crop = -1;
+    // And the resolution pyramid (optim/view_pyramid.h), for both stages: the first
+    // three quarters on views reduced to at most kBudgetCoarsePixels.
+    if (!cmd.count("--coarse-pixels")) o.opt.coarse_pixels = kBudgetCoarsePixels;
   }
   const double fit_seconds = budget.budget_s > 0.0 ? kFitShare * (budget.budget_s - budget.spent_s) : 0.0;
   if (o.dataset.empty()) {

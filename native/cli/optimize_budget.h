@@ -22,6 +22,9 @@ class Optimizer;
 namespace ptir::cli {
 
 constexpr double kFitShare = 0.2;  // the geometry stage's share of a budget, at most
+// A budget's resolution pyramid: views reduced to at most this many pixels for the
+// first (1 - fine fraction) of both stages (docs/performance.md#time-to-quality).
+constexpr int kBudgetCoarsePixels = 16384;
 // Seconds kept for writing the outputs and the last checkpoint after the last iteration.
 constexpr double kOutputReserve = 2.0;
 
