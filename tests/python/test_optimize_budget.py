@@ -56,3 +56,23 @@ def test_fit_budget_stops_a_long_fit_early(cli, dataset, tmp_path):  # noqa: F81
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-2000:]
     assert 1 <= _iterations(out) < 100000 and (out / "gaussians.ply").exists()
+
+
+def test_budget_runs_both_stages_on_the_resolution_pyramid(cli, dataset, tmp_path):  # noqa: F811
+    """A budget takes the resolution pyramid (optim/view_pyramid.h): here --coarse-pixels 256
+    reduces the 32x32 views to 16x16 for the first three quarters of both stages. The run
+    records it (settings.json) and ends inside its budget with the two phases timed apart
+    by the pacer."""
+    out = tmp_path / "pyr"
+    r = optimize(cli, dataset, out, "--budget", "8s", "--coarse-pixels", "256", "--fit-iters", "40")
+    assert "budget 8 s" in r.stderr, r.stderr[-2000:]
+    settings = json.loads((out / "settings.json").read_text())
+    assert settings["pyramid"] == "256 until 0.75", settings
+    rec = json.loads((out / "budget.json").read_text())
+    assert 0.0 < rec["spent_s"] <= rec["budget_s"]
+    assert _iterations(out) >= 1 and (out / "fit" / "gaussians.ply").exists()
+    # Without a budget the pyramid is off unless asked for (an --iters run is unchanged).
+    r = optimize(cli, dataset, tmp_path / "iters", "--iters", "3", "--fit-iters", "0")
+    assert "pyramid" not in json.loads((tmp_path / "iters" / "settings.json").read_text())
+    r = optimize(cli, dataset, tmp_path / "bad", "--iters", "3", "--coarse-pixels", "-5", check=False)
+    assert r.returncode != 0 and "coarse" in r.stderr, r.stderr[-2000:]
