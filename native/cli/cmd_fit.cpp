@@ -23,6 +23,7 @@
 #include "commands.h"
 #include "fit_stage.h"
 #include "output_guard.h"
+#include "pyramid_flags.h"
 #include "ptir/core/error.h"
 #include "ptir/optim/budget_plan.h"
 
@@ -89,13 +90,7 @@ Runner add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--densify-grad", o->stage.s.densify_grad, "mean positional gradient (3DGS units) that densifies")
       ->capture_default_str();
-  cmd->add_option("--coarse-pixels", o->stage.s.coarse_pixels,
-                  "resolution pyramid: views larger than this many pixels are fitted reduced by a power of two to at "
-                  "most that many, until the last --fine-fraction of the iterations (0: always full resolution)")
-      ->capture_default_str();
-  cmd->add_option("--fine-fraction", o->stage.s.fine_fraction,
-                  "resolution pyramid: the last fraction of the iterations, at the photos' full resolution")
-      ->capture_default_str();
+  add_pyramid_flags(cmd, &o->stage.s.coarse_pixels, &o->stage.s.fine_fraction);
   cmd->add_option("--densify-every", o->stage.s.densify_every, "iterations between densification steps")->capture_default_str();
   cmd->add_option("--densify-from", o->stage.s.densify_from, "first densification iteration")->capture_default_str();
   cmd->add_option("--densify-until", o->stage.s.densify_until, "no densification from this iteration on")

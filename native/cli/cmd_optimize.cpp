@@ -71,6 +71,7 @@
 #include "help_groups.h"
 #include "radiance_stage.h"
 #include "job_stop.h"
+#include "pyramid_flags.h"
 #include "ptir/core/error.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/checkpoint.h"
@@ -527,13 +528,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--prior", o->prior, "folder of prior albedo/roughness maps in the dataset's layout");
   cmd->add_option("--views-per-iter", o->opt.views_per_iter, "training views per iteration")->capture_default_str();
   cmd->add_option("--crop", o->opt.crop, "random square crops of this side (0: whole images)")->capture_default_str();
-  cmd->add_option("--coarse-pixels", o->opt.coarse_pixels,
-                  "resolution pyramid: views larger than this many pixels are rendered reduced by a power of two to "
-                  "at most that many, until the last --fine-fraction of the iterations (0: always full resolution)")
-      ->capture_default_str();
-  cmd->add_option("--fine-fraction", o->opt.fine_fraction,
-                  "resolution pyramid: the last fraction of the iterations, at the photos' full resolution")
-      ->capture_default_str();
+  add_pyramid_flags(cmd, &o->opt.coarse_pixels, &o->opt.fine_fraction);
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "iterations between checkpoints (0: only at the end)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all); resumed runs are bit-identical on the same count");
