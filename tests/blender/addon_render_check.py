@@ -263,6 +263,19 @@ def child_processes():
     return found
 
 
+def cpu_ticks(pids):
+    """User + system CPU clock ticks (1/100 s) the processes have used so far."""
+    total = 0
+    for pid in pids:
+        try:
+            with open("/proc/%d/stat" % pid) as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            total += int(fields[11]) + int(fields[12])  # utime, stime (fields 14, 15 of stat)
+        except (OSError, IndexError, ValueError):
+            continue
+    return total
+
+
 def cancel_mode(tmp):
     """A render with an endless sample count, interrupted the way Esc interrupts it: Blender sets its
     break flag (here through Ctrl-C, SIGINT, which blender -b maps to the same flag); the engine must
@@ -281,9 +294,15 @@ def cancel_mode(tmp):
                 seen["children"] = kids
                 break
             time.sleep(0.05)
-        # The engine process starts before the scene is synced and the render request sent: let the
-        # render get under way, then break.
-        time.sleep(1.5)
+        # The engine process starts before the scene is synced and the render request sent: break
+        # once the render is under way, i.e. once the engine has spent half a second of CPU on it. A
+        # break that lands while Blender is still starting the render is cleared when the render
+        # begins (seen in CI under load after a fixed 1.5 s wait: one lost break, an endless
+        # render); a second Ctrl-C would kill Blender, so there is one.
+        t_wait = time.monotonic()
+        while time.monotonic() - t_wait < 120 and cpu_ticks(seen.get("children", [])) < 50:
+            time.sleep(0.05)
+        time.sleep(0.2)
         os.kill(os.getpid(), signal.SIGINT)
 
     threading.Thread(target=interrupt, daemon=True).start()
