@@ -282,6 +282,12 @@ def cancel_mode(tmp):
     stop its ptir process and return promptly."""
     import signal
     import threading
+    # A process started in the background by a non-interactive shell inherits SIGINT ignored, and
+    # Python then leaves it so (bpy as a module has no handler of Blender's own): the Ctrl-C below
+    # would do nothing and the endless render run on. Take Python's usual handler, as a terminal's
+    # Blender has.
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     scene = bpy.context.scene
     scene.render.resolution_percentage = 25
     scene.ptir_render.spp = 1000000
