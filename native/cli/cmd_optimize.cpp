@@ -199,30 +199,6 @@ std::string stop_message(const std::string& ckpt, int done, int saved) {
          " or later: continue with --resume (any number of ranks)";
 }
 
-// --estimate: the inputs are loaded (setup timed from t_start), then the probe; one JSON line on stdout.
-// With a budget (budget_s > 0): the plan for what is left of it after the set-up ("spp" is the planned one).
-// extra_setup_s: set-up still to come (radiance targets not rendered yet).
-int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double budget_s,
-                   double extra_setup_s) {
-  IterationEstimate est = estimate_iteration(opt);
-  const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() + extra_setup_s;
-  int iters = opt.settings().iterations - opt.iteration(), spp = opt.settings().integrator.spp;
-  if (budget_s > 0.0) {
-    const BudgetPlan p = plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings());
-    iters = p.iterations;
-    spp = p.spp;
-    est.seconds = p.s_per_iter;
-  }
-  std::printf("{\"estimate\": {\"setup_s\": %.4f, \"s_per_iter\": %.6f, \"iterations\": %d, \"total_s\": %.3f, "
-              "\"gaussians\": %zu, \"views\": %zu, \"width\": %d, \"height\": %d, \"probe_pixels\": %d, "
-              "\"probe_spp\": %d, \"spp\": %d, \"views_per_iter\": %d, \"crop\": %d, \"budget_s\": %.1f}}\n",
-              setup, est.seconds, iters, setup + iters * est.seconds, opt.scene().gaussians->size(),
-              opt.dataset().size(), opt.dataset().width, opt.dataset().height, est.probe_pixels, est.probe_spp, spp,
-              opt.settings().views_per_iteration, opt.settings().crop_size, budget_s);
-  std::fflush(stdout);
-  return 0;
-}
-
 // The geometry stage (METHOD §9's stage 1, `ptir fit`) before the materials:
 // the splats are fitted to the training views into OUT/fit/, and the inversion
 // runs on OUT/fit/gaussians.ply. Skipped, with a note, where it cannot model the

@@ -1,5 +1,6 @@
 #include "optimize_budget.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -74,5 +75,27 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
                  opt.settings().crop_size > 0 ? (std::to_string(opt.settings().crop_size) + "^2").c_str() : "whole views");
   return b;
 }
+
+int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double budget_s,
+                   double extra_setup_s) {
+  IterationEstimate est = estimate_iteration(opt);
+  const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() + extra_setup_s;
+  int iters = opt.settings().iterations - opt.iteration(), spp = opt.settings().integrator.spp;
+  if (budget_s > 0.0) {
+    const BudgetPlan p = plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings());
+    iters = p.iterations;
+    spp = p.spp;
+    est.seconds = p.s_per_iter;
+  }
+  std::printf("{\"estimate\": {\"setup_s\": %.4f, \"s_per_iter\": %.6f, \"iterations\": %d, \"total_s\": %.3f, "
+              "\"gaussians\": %zu, \"views\": %zu, \"width\": %d, \"height\": %d, \"probe_pixels\": %d, "
+              "\"probe_spp\": %d, \"spp\": %d, \"views_per_iter\": %d, \"crop\": %d, \"budget_s\": %.1f}}\n",
+              setup, est.seconds, iters, setup + iters * est.seconds, opt.scene().gaussians->size(),
+              opt.dataset().size(), opt.dataset().width, opt.dataset().height, est.probe_pixels, est.probe_spp, spp,
+              opt.settings().views_per_iteration, opt.settings().crop_size, budget_s);
+  std::fflush(stdout);
+  return 0;
+}
+
 
 }  // namespace ptir::cli

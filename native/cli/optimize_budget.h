@@ -47,4 +47,10 @@ void write_budget_state(const std::string& out_dir, const BudgetState& b);
 BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::steady_clock::time_point t_start,
                                   bool quiet);
 
+// --estimate: the inputs are loaded (setup timed from t_start), then the probe; one JSON line on stdout.
+// With a budget (budget_s > 0): the plan for what is left of it after the set-up ("spp" is the planned one).
+// extra_setup_s: set-up still to come (radiance targets not rendered yet). Returns 0.
+int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double budget_s,
+                   double extra_setup_s);
+
 }  // namespace ptir::cli
