@@ -318,10 +318,12 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     const BudgetState kept = read_budget_state(o.out);
     budgeted = budgeted || kept.budget_s > 0.0;
     if (kept.spp > 0 && !cmd.count("--spp")) o.opt.spp = kept.spp;  // the planned samples go on
+    if (kept.spp > 0 && !cmd.count("--coarse-spp")) o.opt.coarse_spp = kept.coarse_spp;
     if (kept.budget_s > 0.0 && !cmd.count("--iters")) {
       if (budget.budget_s == 0.0) budget.budget_s = kept.budget_s;
       budget.spent_s = kept.spent_s;
       budget.spp = kept.spp;
+      budget.coarse_spp = kept.coarse_spp;
     }
   } else if (!o.resume && !o.estimate && budget.budget_s == 0.0 && comm.rank() == 0) {
     std::error_code ec_budget;  // a fresh run without a budget: an older run's budget is stale
@@ -505,6 +507,9 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--views-per-iter", o->opt.views_per_iter, "training views per iteration")->capture_default_str();
   cmd->add_option("--crop", o->opt.crop, "random square crops of this side (0: whole images)")->capture_default_str();
   add_pyramid_flags(cmd, &o->opt.coarse_pixels, &o->opt.fine_fraction);
+  cmd->add_option("--coarse-spp", o->opt.coarse_spp,
+                  "resolution pyramid: samples per pixel while the views are reduced (0: --spp; a budget plans it)")
+      ->capture_default_str();
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "iterations between checkpoints (0: only at the end)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all); resumed runs are bit-identical on the same count");

@@ -33,10 +33,12 @@ BudgetState read_budget_state(const std::string& out_dir) {
     b.budget_s = j.at("budget_s").get<double>();
     b.spent_s = j.at("spent_s").get<double>();
     b.spp = j.at("spp").get<int>();
+    b.coarse_spp = j.value("coarse_spp", 0);
   } catch (const std::exception& e) {
     throw Error(path, std::string("not a budget record (budget_s, spent_s, spp): ") + e.what());
   }
-  if (!(b.budget_s > 0.0) || !(b.spent_s >= 0.0) || b.spp < 0) throw Error(path, "budget_s, spent_s or spp out of range");
+  if (!(b.budget_s > 0.0) || !(b.spent_s >= 0.0) || b.spp < 0 || b.coarse_spp < 0)
+    throw Error(path, "budget_s, spent_s, spp or coarse_spp out of range");
   return b;
 }
 
@@ -45,6 +47,7 @@ void write_budget_state(const std::string& out_dir, const BudgetState& b) {
   j["budget_s"] = b.budget_s;
   j["spent_s"] = b.spent_s;
   j["spp"] = b.spp;
+  j["coarse_spp"] = b.coarse_spp;
   io::write_text_atomic(budget_path(out_dir), j.dump() + "\n");
 }
 
@@ -52,27 +55,34 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
                                   bool quiet) {
   const double since_start = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   const double left = b.budget_s - b.spent_s - since_start - kOutputReserve;
-  if (b.spp > 0 && b.spp != opt.settings().integrator.spp) opt.set_spp(b.spp);  // a resumed budget keeps its spp
+  if (b.spp > 0) {  // a resumed budget keeps its spp
+    opt.set_spp(b.spp);
+    opt.set_coarse_spp(b.coarse_spp);
+  }
   const IterationEstimate est = estimate_iteration(opt);
-  // The phases' estimates at the estimate's spp; their ratio is what the pacer uses.
-  b.est_coarse_s = est.coarse_seconds;
-  b.est_fine_s = est.fine_seconds;
-  int spp = opt.settings().integrator.spp;
   int iterations = 0;
   if (b.spp > 0) {
     iterations = left > 0.0 ? int(left / std::max(1e-9, est.seconds)) : 0;
   } else {
     const BudgetPlan p = plan_budget(std::max(0.0, left), est, opt.settings());
-    spp = p.spp;
     iterations = left > 0.0 ? p.iterations : 0;
-    opt.set_spp(spp);
+    opt.set_spp(p.spp);
+    opt.set_coarse_spp(p.coarse_spp);
   }
   opt.set_iterations(opt.iteration() + iterations);
-  b.spp = spp;
-  if (!quiet)
-    std::fprintf(stderr, "optimize: budget %.0f s (%.0f s left): %d iterations at %d spp, %d patch(es) of %s per iteration\n",
-                 b.budget_s, std::max(0.0, left), iterations, spp, opt.settings().views_per_iteration,
+  b.spp = opt.settings().integrator.spp;
+  b.coarse_spp = opt.settings().coarse_spp;
+  // The phases' estimates at the planned spp; their ratio is what the pacer uses.
+  b.est_coarse_s = est.fine_spp > 0 ? phase_seconds(est, true, opt.spp_at(2)) : est.coarse_seconds;
+  b.est_fine_s = est.fine_spp > 0 ? phase_seconds(est, false, b.spp) : est.fine_seconds;
+  if (!quiet) {
+    const bool pyramid = opt.pyramid_coarse_share() > 0.0;
+    std::fprintf(stderr, "optimize: budget %.0f s (%.0f s left): %d iterations at %d spp%s, %d patch(es) of %s per iteration\n",
+                 b.budget_s, std::max(0.0, left), iterations, b.spp,
+                 pyramid ? (" (" + std::to_string(opt.spp_at(2)) + " while coarse)").c_str() : "",
+                 opt.settings().views_per_iteration,
                  opt.settings().crop_size > 0 ? (std::to_string(opt.settings().crop_size) + "^2").c_str() : "whole views");
+  }
   return b;
 }
 
@@ -80,18 +90,20 @@ int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t
                    double extra_setup_s) {
   IterationEstimate est = estimate_iteration(opt);
   const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() + extra_setup_s;
-  int iters = opt.settings().iterations - opt.iteration(), spp = opt.settings().integrator.spp;
+  int iters = opt.settings().iterations - opt.iteration(), spp = opt.settings().integrator.spp,
+      coarse_spp = opt.pyramid_coarse_share() > 0.0 ? opt.spp_at(2) : 0;
   if (budget_s > 0.0) {
     const BudgetPlan p = plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings());
     iters = p.iterations;
     spp = p.spp;
+    coarse_spp = p.coarse_spp;
     est.seconds = p.s_per_iter;
   }
   std::printf("{\"estimate\": {\"setup_s\": %.4f, \"s_per_iter\": %.6f, \"iterations\": %d, \"total_s\": %.3f, "
               "\"gaussians\": %zu, \"views\": %zu, \"width\": %d, \"height\": %d, \"probe_pixels\": %d, "
-              "\"probe_spp\": %d, \"spp\": %d, \"views_per_iter\": %d, \"crop\": %d, \"budget_s\": %.1f}}\n",
+              "\"probe_spp\": %d, \"spp\": %d, \"coarse_spp\": %d, \"views_per_iter\": %d, \"crop\": %d, \"budget_s\": %.1f}}\n",
               setup, est.seconds, iters, setup + iters * est.seconds, opt.scene().gaussians->size(),
-              opt.dataset().size(), opt.dataset().width, opt.dataset().height, est.probe_pixels, est.probe_spp, spp,
+              opt.dataset().size(), opt.dataset().width, opt.dataset().height, est.probe_pixels, est.probe_spp, spp, coarse_spp,
               opt.settings().views_per_iteration, opt.settings().crop_size, budget_s);
   std::fflush(stdout);
   return 0;

@@ -6,8 +6,9 @@
 // iteration count after every iteration from its own rate.
 //
 // OUT/budget.json (atomic, after every iteration) holds the budget, the
-// seconds spent and the planned spp: `--resume` continues a budgeted run with
+// seconds spent and the planned spp (both phases'): `--resume` continues a budgeted run with
 // what is left of it (a new --budget replaces the total), at the same spp.
+// (budget.json without coarse_spp, from before it was planned: the coarse phase at spp.)
 #pragma once
 
 #include <chrono>
@@ -32,6 +33,7 @@ struct BudgetState {
   double budget_s = 0.0;  // 0: no budget
   double spent_s = 0.0;   // by earlier runs of this output folder (resumed)
   int spp = 0;            // planned (0: not planned yet)
+  int coarse_spp = 0;     // planned for the resolution pyramid's coarse phase (0: spp)
   // Not kept in budget.json: the probe's estimate of a coarse and a full-resolution
   // iteration (the resolution pyramid's phases), until the run measures its own.
   double est_coarse_s = 0.0, est_fine_s = 0.0;

@@ -56,6 +56,41 @@ TEST(BudgetPlan, FitsTheBudgetAndMovesTheSamples) {
   EXPECT_LE(p.iterations * p.s_per_iter, 4000.0 + 1e-9);
 }
 
+// With the resolution pyramid the plan keeps kReferenceIterations and moves the samples
+// along kPyramidRungs: the coarse phase gives up its samples first.
+TEST(BudgetPlan, PyramidKeepsTheIterationsAndPutsTheSamplesLate) {
+  OptimizerSettings s;  // 32 spp
+  IterationEstimate e;
+  e.coarse_share = 0.75;
+  e.coarse_spp = e.fine_spp = 32;
+  e.coarse_seconds = 0.8, e.coarse_fixed_seconds = 0.0;  // a coarse iteration: 0.025 s per spp
+  e.fine_seconds = 1.0, e.fine_fixed_seconds = 0.04;     // a fine one: 0.03 s per spp + 0.04
+  EXPECT_NEAR(phase_seconds(e, true, 16), 0.4, 1e-12);
+  EXPECT_NEAR(phase_seconds(e, false, 64), 0.04 + 2 * 0.96, 1e-12);
+  EXPECT_NEAR(iteration_seconds(e, s, 32, 16), 0.75 * 0.4 + 0.25 * 1.0, 1e-12);
+  // 800 x 32/32 costs 800 x 0.85 = 680 s; 800 x 16/32 costs 440 s, 800 x 16/16 320 s.
+  BudgetPlan p = plan_budget(700.0, e, s);
+  EXPECT_EQ(p.coarse_spp, 32);
+  EXPECT_EQ(p.spp, 32);
+  p = plan_budget(500.0, e, s);  // 800 x 32/32 does not fit: the coarse phase halves
+  EXPECT_EQ(p.coarse_spp, 16);
+  EXPECT_EQ(p.spp, 32);
+  EXPECT_GE(p.iterations, kReferenceIterations);
+  EXPECT_LE(p.iterations * p.s_per_iter, 500.0 + 1e-9);
+  p = plan_budget(400.0, e, s);  // then the fine phase
+  EXPECT_EQ(p.coarse_spp, 16);
+  EXPECT_EQ(p.spp, 16);
+  p = plan_budget(100.0, e, s);  // below the first rung: fewer iterations at kMinSpp
+  EXPECT_EQ(p.coarse_spp, kMinSpp);
+  EXPECT_EQ(p.spp, kMinSpp);
+  EXPECT_LT(p.iterations, kReferenceIterations);
+  EXPECT_LE(p.iterations * p.s_per_iter, 100.0 + 1e-9);
+  p = plan_budget(5000.0, e, s);  // long: the fine phase doubles first
+  EXPECT_GE(p.iterations, kReferenceIterations);
+  EXPECT_LE(p.iterations * p.s_per_iter, 5000.0 + 1e-9);
+  EXPECT_GT(p.spp, 32);
+}
+
 TEST(BudgetPlan, PacerLandsOnTheEndTime) {
   const BudgetPacer pacer(100.0);
   // 10 iterations in 5 s, at 10 s since the start: 90 s left at 0.5 s each.

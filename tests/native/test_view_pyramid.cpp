@@ -121,3 +121,37 @@ TEST(ViewPyramid, OptimiserTrainsOnReducedViewsUntilTheFineShare) {
   }
   EXPECT_EQ(opt.nonfinite_gradients(), 0u);
 }
+
+// The coarse phase's own spp (coarse_spp): the coarse iterations render at it, the fine
+// ones at spp; coarse_spp equal to spp is the same run as 0 (bit for bit), and the
+// fingerprint names it only where it differs.
+TEST(ViewPyramid, CoarsePhaseRendersAtItsOwnSpp) {
+  const OptimizerFixture& fx = fixture();
+  OptimizerSettings s = small_settings();
+  s.iterations = 4;
+  s.coarse_pixels = 144;
+  s.fine_fraction = 0.5f;  // iterations 0, 1 coarse; 2, 3 fine
+  s.views_per_iteration = 0;
+  s.crop_size = -1;
+  auto losses = [&](int coarse_spp, std::string* pyramid_entry) {
+    OptimizerSettings t = s;
+    t.coarse_spp = coarse_spp;
+    Optimizer opt(input_scene(fx.n), fx.data, t);
+    EXPECT_EQ(opt.spp_at(2), coarse_spp > 0 ? coarse_spp : s.integrator.spp);
+    EXPECT_EQ(opt.spp_at(1), s.integrator.spp);
+    for (const auto& kv : opt.fingerprint())
+      if (kv.first == "pyramid") *pyramid_entry = kv.second;
+    std::vector<double> l;
+    for (int i : {0, 2}) l.push_back(opt.evaluate(i, false).image);  // a coarse and a fine iteration
+    return l;
+  };
+  std::string e0, same, half;
+  const auto l0 = losses(0, &e0), lsame = losses(s.integrator.spp, &same), lhalf = losses(s.integrator.spp / 2, &half);
+  EXPECT_EQ(l0, lsame);
+  EXPECT_EQ(e0, same);
+  EXPECT_EQ(e0.find("coarse spp"), std::string::npos) << e0;
+  EXPECT_NE(half.find("coarse spp " + std::to_string(s.integrator.spp / 2)), std::string::npos) << half;
+  EXPECT_NE(l0[0], lhalf[0]);  // the coarse iteration: other samples
+  EXPECT_EQ(l0[1], lhalf[1]);  // the fine one: the same
+}
+

@@ -22,25 +22,51 @@ double parse_duration(const std::string& text, const std::string& what) {
   return v * scale;
 }
 
-double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp) {
-  if (s.integrator.spp <= 0) return e.seconds;
-  // The estimate's seconds are fixed costs plus a per-sample part proportional to the spp.
-  const double per_spp_part = e.seconds - e.fixed_seconds;
-  return e.fixed_seconds + per_spp_part * double(spp) / double(s.integrator.spp);
+namespace {
+// Fixed costs plus a per-sample part proportional to the spp, from `seconds` at `at_spp`.
+double at_spp(double seconds, double fixed, int at_spp, int spp) {
+  return at_spp > 0 ? fixed + (seconds - fixed) * double(spp) / double(at_spp) : seconds;
+}
+}  // namespace
+
+double phase_seconds(const IterationEstimate& e, bool coarse, int spp) {
+  return coarse ? at_spp(e.coarse_seconds, e.coarse_fixed_seconds, e.coarse_spp, spp)
+                : at_spp(e.fine_seconds, e.fine_fixed_seconds, e.fine_spp, spp);
+}
+
+double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp, int coarse_spp) {
+  if (e.fine_spp <= 0) return at_spp(e.seconds, e.fixed_seconds, s.integrator.spp, spp);  // one phase, at the settings' spp
+  const double fine = phase_seconds(e, false, spp);
+  if (!(e.coarse_share > 0.0)) return fine;
+  return e.coarse_share * phase_seconds(e, true, coarse_spp > 0 ? coarse_spp : spp) + (1.0 - e.coarse_share) * fine;
 }
 
 BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const OptimizerSettings& s) {
   BudgetPlan p;
-  auto iterations_at = [&](int spp) { return int(std::floor(seconds / std::max(1e-9, iteration_seconds(e, s, spp)))); };
-  p.spp = s.integrator.spp;
-  int n = iterations_at(p.spp);
-  if (n < kMinIterations) {  // short budget: fewer samples per iteration, down to kMinSpp
-    while (p.spp > kMinSpp && iterations_at(p.spp) < kMinIterations) p.spp = std::max(kMinSpp, p.spp / 2);
-  } else if (n > kReferenceIterations) {  // long budget: more samples per iteration, up to kMaxSpp
-    while (p.spp < kMaxSpp && iterations_at(2 * p.spp) >= kReferenceIterations) p.spp *= 2;
+  auto iterations_at = [&](int spp, int coarse) {
+    return int(std::floor(seconds / std::max(1e-9, iteration_seconds(e, s, spp, coarse))));
+  };
+  if (e.fine_spp > 0 && e.coarse_share > 0.0) {
+    // The pyramid: the most samples that still give kReferenceIterations, on the ladder of
+    // kPyramidRungs; below its first rung, fewer iterations at kMinSpp.
+    p.spp = kPyramidRungs[0].fine;
+    p.coarse_spp = kPyramidRungs[0].coarse;
+    for (const SppRung& r : kPyramidRungs)
+      if (iterations_at(r.fine, r.coarse) >= kReferenceIterations) {
+        p.spp = r.fine;
+        p.coarse_spp = r.coarse;
+      }
+  } else {
+    p.spp = s.integrator.spp;
+    int n = iterations_at(p.spp, 0);
+    if (n < kMinIterations) {  // short budget: fewer samples per iteration, down to kMinSpp
+      while (p.spp > kMinSpp && iterations_at(p.spp, 0) < kMinIterations) p.spp = std::max(kMinSpp, p.spp / 2);
+    } else if (n > kReferenceIterations) {  // long budget: more samples per iteration, up to kMaxSpp
+      while (p.spp < kMaxSpp && iterations_at(2 * p.spp, 0) >= kReferenceIterations) p.spp *= 2;
+    }
   }
-  p.iterations = std::max(1, iterations_at(p.spp));
-  p.s_per_iter = iteration_seconds(e, s, p.spp);
+  p.iterations = std::max(1, iterations_at(p.spp, p.coarse_spp));
+  p.s_per_iter = iteration_seconds(e, s, p.spp, p.coarse_spp);
   return p;
 }
 

@@ -8,7 +8,11 @@
 // kMinSpp) where the budget would leave fewer iterations than kMinIterations;
 // more spp (up to kMaxSpp) where it would give more than kReferenceIterations
 // (measured: longer runs lose albedo to the late drift, more samples per
-// iteration gain; docs/inversion.md). Then the pacer re-plans the iteration
+// iteration gain; docs/inversion.md). With the resolution pyramid the samples
+// go late: a plan keeps kReferenceIterations by giving the coarse phase half
+// the fine phase's spp (down to kMinCoarseSpp) before it gives up iterations
+// (measured: 800 x 16/32 beats 533 x 32/32 at equal time by 0.36 dB albedo;
+// docs/performance.md#samples-late). Then the pacer re-plans the iteration
 // count from the run's own measured rate after every iteration, so the run ends
 // within the budget whatever the estimate's error (the schedules -- warm-up,
 // decay, balance -- are fractions of the count, so they stretch with it).
@@ -26,18 +30,27 @@ double parse_duration(const std::string& text, const std::string& what);
 constexpr int kReferenceIterations = 800;  // the default run's count (METHOD §6)
 constexpr int kMinIterations = 200;
 constexpr int kMinSpp = 8, kMaxSpp = 128;
+// A pyramid's plan, cheapest first: (coarse phase's spp, fine phase's spp).
+struct SppRung {
+  int coarse, fine;
+};
+constexpr SppRung kPyramidRungs[] = {{8, 8}, {16, 16}, {16, 32}, {32, 32}, {32, 64}, {64, 64}, {64, 128}, {128, 128}};
 
 struct BudgetPlan {
   int iterations = 0;
   int spp = 0;
+  int coarse_spp = 0;       // the resolution pyramid's coarse phase (0: no pyramid, or spp)
   double s_per_iter = 0.0;  // estimated, at the planned spp
 };
 
 // The plan for `seconds` of iterations from the estimate of an iteration at `s`'s spp and batch.
 BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const OptimizerSettings& s);
 
-// Seconds per iteration at `spp`, from the estimate's per-sample and per-pixel costs.
-double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp);
+// Seconds per iteration at `spp`, from the estimate's per-sample and per-pixel costs
+// (with the pyramid: the mean over its phases, the coarse one at coarse_spp, 0: spp).
+double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp, int coarse_spp = 0);
+// Seconds of one iteration of the pyramid's coarse (or full-resolution) phase at `spp`.
+double phase_seconds(const IterationEstimate& e, bool coarse, int spp);
 
 // A run in two phases of different cost (the resolution pyramid, view_pyramid.h):
 // iteration it of a total-iteration run is coarse while it < coarse_share x total.

@@ -105,13 +105,17 @@ IterationEstimate estimate_iteration(const Optimizer& opt) {
   }
   auto fixed = [&](int f) { return batch(f).first * e.regulariser_per_pixel + batch(f).second * e.replay_fixed; };
   auto seconds = [&](int f) {
-    return batch(f).first * double(s.integrator.spp) * (e.primal_per_sample + e.replay_per_sample) + fixed(f);
+    return batch(f).first * double(opt.spp_at(f)) * (e.primal_per_sample + e.replay_per_sample) + fixed(f);
   };
   e.coarse_share = opt.pyramid_coarse_share();
   const int fc = opt.pyramid_coarse_factor();
   e.fine_seconds = seconds(1);
   e.coarse_seconds = e.coarse_share > 0.0 ? seconds(fc) : e.fine_seconds;
-  e.fixed_seconds = e.coarse_share * fixed(fc) + (1.0 - e.coarse_share) * fixed(1);
+  e.coarse_fixed_seconds = e.coarse_share > 0.0 ? fixed(fc) : fixed(1);
+  e.fine_fixed_seconds = fixed(1);
+  e.coarse_spp = opt.spp_at(e.coarse_share > 0.0 ? fc : 1);
+  e.fine_spp = opt.spp_at(1);
+  e.fixed_seconds = e.coarse_share * e.coarse_fixed_seconds + (1.0 - e.coarse_share) * e.fine_fixed_seconds;
   e.seconds = e.coarse_share * e.coarse_seconds + (1.0 - e.coarse_share) * e.fine_seconds;
   return e;
 }

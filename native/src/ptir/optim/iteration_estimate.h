@@ -31,6 +31,8 @@ struct IterationEstimate {
   // a coarse iteration (the first coarse_share of the run) and a full-resolution one.
   double coarse_share = 0.0;
   double coarse_seconds = 0.0, fine_seconds = 0.0;
+  double coarse_fixed_seconds = 0.0, fine_fixed_seconds = 0.0;  // their parts that do not scale with the spp
+  int coarse_spp = 0, fine_spp = 0;                            // the spp they were estimated at
 };
 
 IterationEstimate estimate_iteration(const Optimizer& opt);

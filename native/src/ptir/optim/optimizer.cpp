@@ -74,6 +74,7 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   if (settings_.views_per_iteration < 0) throw Error("views per iteration must be at least 1 (0: automatic)");
   if (settings_.crop_size < -1) throw Error("crop size must be >= 0 (-1: automatic)");
   if (settings_.coarse_pixels < 0) throw Error("coarse pixels must be >= 0 (0: no resolution pyramid)");
+  if (settings_.coarse_spp < 0) throw Error("coarse spp must be >= 0 (0: the spp)");
   if (!(settings_.fine_fraction >= 0.0f && settings_.fine_fraction <= 1.0f)) throw Error("the fine fraction must be in [0, 1]");
   auto_batch_ = settings_.views_per_iteration == 0 || settings_.crop_size < 0;
   resolve_patch_batch(dataset_->width, dataset_->height, int(dataset_->size()), &settings_.views_per_iteration,
@@ -299,6 +300,7 @@ Optimizer::ViewWork Optimizer::view_work(int it, size_t v, const ViewPick& pk) c
   w.target = Image(pk.w, pk.h, {"R", "G", "B"});
   for (size_t p = 0; p < 3 * w.px; ++p) w.target.pixels[p] = loss_encode(w.target_rgb.pixels[p]);
   w.is = settings_.integrator;
+  w.is.spp = spp_at(pk.factor);
   w.is.seed = hash_combine(hash_combine(settings_.seed, kTagPath), hash_combine(uint64_t(it), uint64_t(v)));
   return w;
 }

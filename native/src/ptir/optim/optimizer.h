@@ -101,6 +101,10 @@ struct OptimizerSettings {
   // 0: off.
   int coarse_pixels = 0;
   float fine_fraction = 0.25f;
+  // The coarse phase's samples per pixel (0: integrator.spp). Samples pay late, when
+  // the rates have decayed and the gradients' noise sets what is left; early, the
+  // iterations' count does (docs/performance.md#samples-late).
+  int coarse_spp = 0;
   ImageLossSettings loss;         // lambda_s 0.2, binomial filter on
   bool srgb_loss = true;          // compare in sRGB space (false: linear)
   // With srgb_loss and the loss's blur: blur the linear render, then take the curve ("srgb-blur-first").
@@ -194,6 +198,7 @@ class Optimizer {
   void set_iterations(int n) { settings_.iterations = n; }
   // The samples per pixel of the iterations to come (a time budget plans them; budget_plan.h).
   void set_spp(int spp) { settings_.integrator.spp = spp; }
+  void set_coarse_spp(int spp) { settings_.coarse_spp = spp; }
   // Data-parallel runs (optim/data_parallel.h): every rank's optimiser shares each
   // iteration's views through `comm` (which must outlive it); default: one process.
   void set_communicator(const Communicator& comm) { comm_ = &comm; }
@@ -261,6 +266,8 @@ class Optimizer {
   // factor (1: these views are not reduced) and the share of the iterations at it.
   int pyramid_level_factor(int it) const;
   int pyramid_coarse_factor() const;
+  // Samples per pixel of an iteration at reduction factor f (coarse_spp for f > 1).
+  int spp_at(int f) const { return f > 1 && settings_.coarse_spp > 0 ? settings_.coarse_spp : settings_.integrator.spp; }
   double pyramid_coarse_share() const { return pyramid_coarse_factor() > 1 ? 1.0 - double(settings_.fine_fraction) : 0.0; }
   // Views and crop side of an iteration at reduction factor f (the batch resolved for that level).
   std::pair<int, int> batch_at(int f) const;

@@ -111,7 +111,8 @@ Fingerprint Optimizer::fingerprint() const {
   if (is.indirect_from_field) fp.push_back({"indirect", "field"});
   if (settings_.neutral_light) fp.push_back({"light", "neutral"});
   if (settings_.coarse_pixels > 0)
-    fp.push_back({"pyramid", std::to_string(settings_.coarse_pixels) + " until " + num(1.0f - settings_.fine_fraction)});
+    fp.push_back({"pyramid", std::to_string(settings_.coarse_pixels) + " until " + num(1.0f - settings_.fine_fraction) +
+                                 (spp_at(2) != is.spp ? ", coarse spp " + std::to_string(spp_at(2)) : std::string())});
   return fp;
 }
 

@@ -32,6 +32,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (!(o.fine_fraction >= 0.0f && o.fine_fraction <= 1.0f)) throw Error(names("fine_fraction") + " must be in [0, 1]");
   s.coarse_pixels = o.coarse_pixels;
   s.fine_fraction = o.fine_fraction;
+  if (o.coarse_spp < 0) throw Error(names("coarse_spp") + " must be >= 0 (0: the same as " + names("spp") + ")");
+  s.coarse_spp = o.coarse_spp;
   s.lambda_tv = o.lambda_tv;
   if (!(o.lr_final > 0.0f && o.lr_final <= 1.0f)) throw Error(names("lr_final") + " must be in (0, 1]");
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");

@@ -36,6 +36,7 @@ struct OptimizeOptions {
   int crop = 0;
   int coarse_pixels = OptimizerSettings{}.coarse_pixels;    // resolution pyramid (view_pyramid.h; 0: off)
   float fine_fraction = OptimizerSettings{}.fine_fraction;  // its last share at full resolution
+  int coarse_spp = OptimizerSettings{}.coarse_spp;          // its coarse phase's spp (0: spp)
   std::string loss_space = "srgb-blur-first";  // srgb-blur-first, srgb or linear (optimizer.h)
   float lambda_tv = 0.095f;
   float lr_final = OptimizerSettings{}.lr_final;
