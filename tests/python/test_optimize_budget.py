@@ -4,6 +4,7 @@ sphere set of test_optimize_cli.py (6 views of 32x32, 1 thread). How close a bud
 lands to its time is a benchmark (bench/time_to_quality.py), not asserted here."""
 
 import json
+import re
 
 from test_optimize_cli import dataset, optimize  # noqa: F401  (the module's fixture and runner)
 
@@ -71,8 +72,18 @@ def test_budget_runs_both_stages_on_the_resolution_pyramid(cli, dataset, tmp_pat
     rec = json.loads((out / "budget.json").read_text())
     assert 0.0 < rec["spent_s"] <= rec["budget_s"]
     assert _iterations(out) >= 1 and (out / "fit" / "gaussians.ply").exists()
+    # Both phases' spp are planned (budget_plan.h's ladder) and kept for --resume.
+    m = re.search(r"at (\d+) spp \((\d+) while coarse\)", r.stderr)
+    assert m, r.stderr[-2000:]
+    assert (rec["spp"], rec["coarse_spp"]) == (int(m.group(1)), int(m.group(2))), rec
     # Without a budget the pyramid is off unless asked for (an --iters run is unchanged).
     r = optimize(cli, dataset, tmp_path / "iters", "--iters", "3", "--fit-iters", "0")
     assert "pyramid" not in json.loads((tmp_path / "iters" / "settings.json").read_text())
     r = optimize(cli, dataset, tmp_path / "bad", "--iters", "3", "--coarse-pixels", "-5", check=False)
     assert r.returncode != 0 and "coarse" in r.stderr, r.stderr[-2000:]
+    # The coarse phase's own spp, asked for: the fingerprint names it.
+    optimize(cli, dataset, tmp_path / "cspp", "--iters", "4", "--fit-iters", "0", "--spp", "8",
+             "--coarse-pixels", "256", "--coarse-spp", "4")
+    assert json.loads((tmp_path / "cspp" / "settings.json").read_text())["pyramid"] == "256 until 0.75, coarse spp 4"
+    r = optimize(cli, dataset, tmp_path / "bad2", "--iters", "3", "--coarse-spp", "-1", check=False)
+    assert r.returncode != 0 and "--coarse-spp" in r.stderr, r.stderr[-2000:]

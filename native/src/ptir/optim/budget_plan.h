@@ -8,11 +8,12 @@
 // kMinSpp) where the budget would leave fewer iterations than kMinIterations;
 // more spp (up to kMaxSpp) where it would give more than kReferenceIterations
 // (measured: longer runs lose albedo to the late drift, more samples per
-// iteration gain; docs/inversion.md). With the resolution pyramid the samples
-// go late: a plan keeps kReferenceIterations by giving the coarse phase half
-// the fine phase's spp (down to kMinCoarseSpp) before it gives up iterations
-// (measured: 800 x 16/32 beats 533 x 32/32 at equal time by 0.36 dB albedo;
-// docs/performance.md#samples-late). Then the pacer re-plans the iteration
+// iteration gain; docs/inversion.md). With the resolution pyramid a plan keeps
+// kReferenceIterations and takes the most samples that still fit them, on a
+// ladder of (coarse phase, fine phase) spp; it gives up iterations only below
+// 8 spp (measured at 256²: 800 x 16/32 beats 533 x 32/32 at equal time by
+// 0.36 dB albedo, 420 x 16 loses 1.4 dB to 800 x 8; docs/performance.md,
+// "The pyramid's samples"). Then the pacer re-plans the iteration
 // count from the run's own measured rate after every iteration, so the run ends
 // within the budget whatever the estimate's error (the schedules -- warm-up,
 // decay, balance -- are fractions of the count, so they stretch with it).

@@ -101,9 +101,8 @@ struct OptimizerSettings {
   // 0: off.
   int coarse_pixels = 0;
   float fine_fraction = 0.25f;
-  // The coarse phase's samples per pixel (0: integrator.spp). Samples pay late, when
-  // the rates have decayed and the gradients' noise sets what is left; early, the
-  // iterations' count does (docs/performance.md#samples-late).
+  // The coarse phase's samples per pixel (0: integrator.spp): a budget's plan
+  // (budget_plan.h) steps the spp one phase at a time, the coarse one first.
   int coarse_spp = 0;
   ImageLossSettings loss;         // lambda_s 0.2, binomial filter on
   bool srgb_loss = true;          // compare in sRGB space (false: linear)
