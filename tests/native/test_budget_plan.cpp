@@ -77,9 +77,15 @@ TEST(BudgetPlan, PyramidKeepsTheIterationsAndPutsTheSamplesLate) {
   EXPECT_EQ(p.spp, 32);
   EXPECT_GE(p.iterations, kReferenceIterations);
   EXPECT_LE(p.iterations * p.s_per_iter, 500.0 + 1e-9);
-  p = plan_budget(400.0, e, s);  // then the fine phase
+  p = plan_budget(350.0, e, s);  // then the fine phase
   EXPECT_EQ(p.coarse_spp, 16);
   EXPECT_EQ(p.spp, 16);
+  // 310 s: 720 iterations at 16/16, an eighth short of 800 at most: taken, rather than
+  // 1409 at 8/8 (iterations past 800 lose).
+  p = plan_budget(310.0, e, s);
+  EXPECT_EQ(p.spp, 16);
+  EXPECT_GE(p.iterations, kRungIterations);
+  EXPECT_LT(p.iterations, kReferenceIterations);
   p = plan_budget(100.0, e, s);  // below the first rung: fewer iterations at kMinSpp
   EXPECT_EQ(p.coarse_spp, kMinSpp);
   EXPECT_EQ(p.spp, kMinSpp);

@@ -47,12 +47,12 @@ BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const Optimiz
     return int(std::floor(seconds / std::max(1e-9, iteration_seconds(e, s, spp, coarse))));
   };
   if (e.fine_spp > 0 && e.coarse_share > 0.0) {
-    // The pyramid: the most samples that still give kReferenceIterations, on the ladder of
-    // kPyramidRungs; below its first rung, fewer iterations at kMinSpp.
+    // The pyramid: the most samples that still give (nearly) kReferenceIterations, on the
+    // ladder of kPyramidRungs; below its first rung, fewer iterations at kMinSpp.
     p.spp = kPyramidRungs[0].fine;
     p.coarse_spp = kPyramidRungs[0].coarse;
     for (const SppRung& r : kPyramidRungs)
-      if (iterations_at(r.fine, r.coarse) >= kReferenceIterations) {
+      if (iterations_at(r.fine, r.coarse) >= kRungIterations) {
         p.spp = r.fine;
         p.coarse_spp = r.coarse;
       }
