@@ -40,16 +40,17 @@ TEST(BudgetPlan, FitsTheBudgetAndMovesTheSamples) {
   OptimizerSettings s;  // 32 spp
   const IterationEstimate e = one_second_estimate();
   EXPECT_NEAR(iteration_seconds(e, s, 16), 0.1 + 0.9 * 0.5, 1e-12);
-  // 500 s: between kMinIterations and kReferenceIterations at 32 spp, kept.
+  // 500 s: 500 iterations at 32 spp, 909 at 16: the samples give way to the iterations.
   BudgetPlan p = plan_budget(500.0, e, s);
-  EXPECT_EQ(p.spp, 32);
-  EXPECT_EQ(p.iterations, 500);
-  // 60 s: too few iterations at 32 spp; halved down to kMinSpp.
+  EXPECT_EQ(p.spp, 16);
+  EXPECT_EQ(p.coarse_spp, 0);  // no pyramid
+  EXPECT_EQ(p.iterations, 909);
+  // 60 s: 184 iterations at 8 spp, the ladder's foot: fewer iterations.
   p = plan_budget(60.0, e, s);
-  EXPECT_EQ(p.spp, kMinSpp);
+  EXPECT_EQ(p.spp, 8);
   EXPECT_LE(p.iterations * iteration_seconds(e, s, p.spp), 60.0 + 1e-9);
-  EXPECT_GT(p.iterations, 60);
-  // 4000 s: more than kReferenceIterations at 32 spp; doubled while 800 still fit.
+  EXPECT_EQ(p.iterations, 184);
+  // 4000 s: more than kReferenceIterations at 32 spp; the samples grow while 700 still fit.
   p = plan_budget(4000.0, e, s);
   EXPECT_EQ(p.spp, 128);  // 0.1 + 4 x 0.9 = 3.7 s at 128 spp: 1081 iterations
   EXPECT_GE(p.iterations, kReferenceIterations);
@@ -57,7 +58,7 @@ TEST(BudgetPlan, FitsTheBudgetAndMovesTheSamples) {
 }
 
 // With the resolution pyramid the plan keeps kReferenceIterations and moves the samples
-// along kPyramidRungs: the coarse phase gives up its samples first.
+// along kSppRungs: the coarse phase gives up its samples first.
 TEST(BudgetPlan, PyramidKeepsTheIterationsAndPutsTheSamplesLate) {
   OptimizerSettings s;  // 32 spp
   IterationEstimate e;
@@ -86,9 +87,9 @@ TEST(BudgetPlan, PyramidKeepsTheIterationsAndPutsTheSamplesLate) {
   EXPECT_EQ(p.spp, 16);
   EXPECT_GE(p.iterations, kRungIterations);
   EXPECT_LT(p.iterations, kReferenceIterations);
-  p = plan_budget(100.0, e, s);  // below the first rung: fewer iterations at kMinSpp
-  EXPECT_EQ(p.coarse_spp, kMinSpp);
-  EXPECT_EQ(p.spp, kMinSpp);
+  p = plan_budget(100.0, e, s);  // below the first rung: fewer iterations at 8 spp
+  EXPECT_EQ(p.coarse_spp, 8);
+  EXPECT_EQ(p.spp, 8);
   EXPECT_LT(p.iterations, kReferenceIterations);
   EXPECT_LE(p.iterations * p.s_per_iter, 100.0 + 1e-9);
   p = plan_budget(5000.0, e, s);  // long: the fine phase doubles first

@@ -46,25 +46,15 @@ BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const Optimiz
   auto iterations_at = [&](int spp, int coarse) {
     return int(std::floor(seconds / std::max(1e-9, iteration_seconds(e, s, spp, coarse))));
   };
-  if (e.fine_spp > 0 && e.coarse_share > 0.0) {
-    // The pyramid: the most samples that still give (nearly) kReferenceIterations, on the
-    // ladder of kPyramidRungs; below its first rung, fewer iterations at kMinSpp.
-    p.spp = kPyramidRungs[0].fine;
-    p.coarse_spp = kPyramidRungs[0].coarse;
-    for (const SppRung& r : kPyramidRungs)
-      if (iterations_at(r.fine, r.coarse) >= kRungIterations) {
-        p.spp = r.fine;
-        p.coarse_spp = r.coarse;
-      }
-  } else {
-    p.spp = s.integrator.spp;
-    int n = iterations_at(p.spp, 0);
-    if (n < kMinIterations) {  // short budget: fewer samples per iteration, down to kMinSpp
-      while (p.spp > kMinSpp && iterations_at(p.spp, 0) < kMinIterations) p.spp = std::max(kMinSpp, p.spp / 2);
-    } else if (n > kReferenceIterations) {  // long budget: more samples per iteration, up to kMaxSpp
-      while (p.spp < kMaxSpp && iterations_at(2 * p.spp, 0) >= kReferenceIterations) p.spp *= 2;
+  // The most samples that still give (nearly) kReferenceIterations, on the ladder of
+  // kSppRungs (one phase, without the pyramid: the rungs' fine spp); below its first
+  // rung, fewer iterations at its 8 spp.
+  const bool pyramid = e.coarse_share > 0.0;
+  for (const SppRung& r : kSppRungs)
+    if (p.spp == 0 || iterations_at(r.fine, pyramid ? r.coarse : 0) >= kRungIterations) {
+      p.spp = r.fine;
+      p.coarse_spp = pyramid ? r.coarse : 0;
     }
-  }
   p.iterations = std::max(1, iterations_at(p.spp, p.coarse_spp));
   p.s_per_iter = iteration_seconds(e, s, p.spp, p.coarse_spp);
   return p;

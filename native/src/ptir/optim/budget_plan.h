@@ -3,17 +3,15 @@
 //
 // Before the first iteration, plan_budget turns the seconds left into
 // iterations and samples per pixel from the measured cost of an iteration
-// (iteration_estimate.h): the default's 32 spp where that gives between
-// kMinIterations and kReferenceIterations iterations; fewer spp (down to
-// kMinSpp) where the budget would leave fewer iterations than kMinIterations;
-// more spp (up to kMaxSpp) where it would give more than kReferenceIterations
-// (measured: longer runs lose albedo to the late drift, more samples per
-// iteration gain; docs/inversion.md). With the resolution pyramid a plan keeps
-// kReferenceIterations and takes the most samples that still fit them, on a
-// ladder of (coarse phase, fine phase) spp; it gives up iterations only below
-// 8 spp (measured at 256²: 800 x 16/32 beats 533 x 32/32 at equal time by
-// 0.36 dB albedo, 420 x 16 loses 1.4 dB to 800 x 8; docs/performance.md,
-// "The pyramid's samples"). Then the pacer re-plans the iteration
+// (iteration_estimate.h): it keeps kReferenceIterations and takes the most
+// samples that still fit them, on a ladder of (resolution pyramid's coarse
+// phase, full-resolution phase) spp from 8/8 to 128/128; it gives up
+// iterations only below 8 spp. Measured at 256² (docs/performance.md, "The
+// pyramid's samples"): 800 x 16/32 beats 533 x 32/32 at equal time by 0.36 dB
+// albedo, 420 x 16 loses 1.4 dB to 800 x 8, 1600 x 8 loses 0.34 dB to it
+// (longer runs drift, docs/inversion.md); at 128², without the pyramid, the
+// same rule against the earlier one (32 spp kept for 200-800 iterations):
+// docs/performance.md. Then the pacer re-plans the iteration
 // count from the run's own measured rate after every iteration, so the run ends
 // within the budget whatever the estimate's error (the schedules -- warm-up,
 // decay, balance -- are fractions of the count, so they stretch with it).
@@ -29,13 +27,12 @@ namespace ptir {
 double parse_duration(const std::string& text, const std::string& what);
 
 constexpr int kReferenceIterations = 800;  // the default run's count (METHOD §6)
-constexpr int kMinIterations = 200;
-constexpr int kMinSpp = 8, kMaxSpp = 128;
-// A pyramid's plan, cheapest first: (coarse phase's spp, fine phase's spp).
+// The plan's ladder, cheapest first: (the pyramid's coarse phase's spp, the fine
+// phase's spp); a run without the pyramid takes the fine spp.
 struct SppRung {
   int coarse, fine;
 };
-constexpr SppRung kPyramidRungs[] = {{8, 8}, {16, 16}, {16, 32}, {32, 32}, {32, 64}, {64, 64}, {64, 128}, {128, 128}};
+constexpr SppRung kSppRungs[] = {{8, 8}, {16, 16}, {16, 32}, {32, 32}, {32, 64}, {64, 64}, {64, 128}, {128, 128}};
 // A rung is taken where it gives at least this many iterations: an eighth short of
 // kReferenceIterations costs nothing measured (776 x 16/32: 32.67 dB against 800's
 // 32.63), where the rung below would spend the rest on iterations past 800, which
@@ -45,7 +42,7 @@ constexpr int kRungIterations = kReferenceIterations * 7 / 8;
 struct BudgetPlan {
   int iterations = 0;
   int spp = 0;
-  int coarse_spp = 0;       // the resolution pyramid's coarse phase (0: no pyramid, or spp)
+  int coarse_spp = 0;       // the resolution pyramid's coarse phase (0: no pyramid)
   double s_per_iter = 0.0;  // estimated, at the planned spp
 };
 
