@@ -60,6 +60,25 @@ def test_defaults_when_material_and_normals_are_absent(tmp_path, ptir):
     np.testing.assert_array_equal(d.roughness, g.roughness)
 
 
+def test_2dgs_surfels_read_as_the_engine_reads_them(tmp_path, ptir):
+    """2D Gaussian Splatting's save_ply: no scale_2 (surfels), normals zero. Both readers make the surfel
+    SURFEL_THICKNESS x its smaller scale thick, so its shortest axis is its normal (the rotation's z),
+    however elongated (the random log-scales span e^8 = 2981:1)."""
+    raw = ac.random_raw(2000, sh_rest=45, normals=False, seed=5)
+    del raw["scale_2"]
+    path = ac.write_ply(tmp_path / "surfels.ply", raw)
+    d = sp.read_splat_ply(path)
+    g = ptir.load_gaussians(str(path))
+    _check_against_native(d, g)
+    small = np.minimum(d.scale[:, 0], d.scale[:, 1])
+    np.testing.assert_array_equal(d.scale[:, 2], sp.SURFEL_THICKNESS * small)
+    assert np.all(d.scale[:, 2] < d.scale[:, :2].min(axis=1))
+    # the engine's shortest-axis normal is the rotation's z axis: R e_z = (2(xz + wy), 2(yz - wx), 1 - 2(x^2 + y^2))
+    w, x, y, z = (d.rotation[:, k].astype(np.float64) for k in range(4))
+    rz = np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], axis=1)
+    np.testing.assert_allclose(np.abs(np.sum(rz * np.asarray(g.normal, np.float64), axis=1)), 1.0, atol=1e-5)
+
+
 @pytest.mark.parametrize("fmt,types", [("ascii", {}), ("binary_big_endian", {}),
                                        ("binary_little_endian", {"x": "double", "y": "double", "z": "double"}),
                                        ("binary_big_endian", {"opacity": "double", "rot_0": "double"})])

@@ -179,6 +179,42 @@ TEST(GaussianPly, BadInputMessages) {
   expect_load_error(write_ascii("huge.ply", kBasic, {"0 0 0 1000 0 0 1 0 0 0 0"}), {"scale_0", "too large"});
 }
 
+// 2D Gaussian Splatting writes surfels: scale_0 and scale_1 only (its save_ply), normals
+// zero. They load as flat Gaussians, kSurfelThickness x the smaller scale thick, whose
+// normal is the rotation's z axis; saved, the file keeps its two scale columns.
+TEST(GaussianPly, SurfelsOf2dgs) {
+  const std::vector<std::string> props = float_props({"x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2",
+                                                      "opacity", "scale_0", "scale_1", "rot_0", "rot_1", "rot_2", "rot_3"});
+  const double h = std::sqrt(0.5);  // a quarter turn about x: the surfel's z axis goes to -y
+  const std::string in = write_ascii(
+      "surfels.ply", props,
+      {"0 0 0 0 0 0 0.1 0.2 0.3 0 " + num(std::log(0.2)) + " " + num(std::log(0.05)) + " 1 0 0 0",
+       "1 0 0 0 0 0 0 0 0 2 " + num(std::log(0.03)) + " " + num(std::log(0.04)) + " " + num(h) + " " + num(h) + " 0 0"});
+  GaussianField f = load_gaussians(in);
+  ASSERT_EQ(f.size(), 2u);
+  EXPECT_NEAR(f.scale[0].x, 0.2f, 1e-6);
+  EXPECT_NEAR(f.scale[0].y, 0.05f, 1e-6);
+  EXPECT_FLOAT_EQ(f.scale[0].z, kSurfelThickness * f.scale[0].y);
+  EXPECT_FLOAT_EQ(f.scale[1].z, kSurfelThickness * f.scale[1].x);
+  EXPECT_FALSE(f.normals_from_file);  // zero nx, ny, nz: the shortest axis, i.e. the surfel's normal
+  EXPECT_NEAR(std::fabs(f.normal[0].z), 1.0f, 1e-6);
+  EXPECT_NEAR(std::fabs(f.normal[1].y), 1.0f, 1e-6);
+
+  const std::string out = gs_tmp("surfels_out.ply");
+  save_gaussians(out, f);
+  const io::PlyFile b = io::read_ply(out);
+  EXPECT_EQ(b.get("vertex")->get("scale_2"), nullptr);
+  const GaussianField g = load_gaussians(out);
+  for (size_t i = 0; i < 2; ++i)
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(g.scale[i][k], f.scale[i][k]);
+
+  // One scale alone is not a surfel: both missing ones are named.
+  expect_load_error(write_ascii("one_scale.ply", float_props({"x", "y", "z", "scale_0", "rot_0", "rot_1", "rot_2",
+                                                              "rot_3", "opacity"}),
+                                {"0 0 0 0 1 0 0 0 0"}),
+                    {"missing properties scale_1, scale_2 ("});
+}
+
 TEST(GaussianPly, ShortestAxisAndCentroidOrientation) {
   GaussianField f;
   const float s = std::sqrt(0.5f);

@@ -5,6 +5,8 @@ native/src/ptir/io/ply*.cpp, ply_compressed.cpp).
   (logit) scale_0..2 (log) rot_0..3 (w x y z), normals zero.
 - Mip-Splatting at SH degree 0: the same without f_rest, plus its per-splat 3D filter `filter_3D`
   (a smoothing scale the engine ignores: the file's opacity and scale are the unfiltered ones).
+- 2D Gaussian Splatting (`gaussian_model.py save_ply` of hbb1/2d-gaussian-splatting): the INRIA
+  columns with scale_0 and scale_1 only (surfels in the rotation's x-y plane), normals zero.
 - SuperSplat / splat-transform compressed: splats in Morton order, chunks of 256 with float
   position, log-scale and colour bounds; uint packed_position (11/10/11 bits in the chunk's
   bounds), packed_rotation (largest of w x y z dropped, the other three 10 bits each in
@@ -62,6 +64,17 @@ def write_mip_splatting_sh0(path, rec, filter_3d):
     cols.update({"f_dc_%d" % k: rec["f_dc_%d" % k] for k in range(3)})
     cols.update({name: rec[name] for name in GEOMETRY})
     cols["filter_3D"] = np.broadcast_to(np.asarray(filter_3d, np.float64), (len(rec),))
+    return _write_float_ply(path, cols)
+
+
+def write_2dgs(path, rec):
+    """2DGS's layout of splats whose third axis is their thin one: the INRIA columns without scale_2."""
+    cols = {c: rec[c] for c in "xyz"}
+    cols.update({c: np.zeros(len(rec)) for c in ("nx", "ny", "nz")})
+    cols.update({"f_dc_%d" % k: rec["f_dc_%d" % k] for k in range(3)})
+    cols.update({n: rec[n] for n in sorted((n for n in rec.dtype.names if n.startswith("f_rest_")),
+                                           key=lambda n: int(n[7:]))})
+    cols.update({name: rec[name] for name in GEOMETRY if name != "scale_2"})
     return _write_float_ply(path, cols)
 
 

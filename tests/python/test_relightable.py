@@ -13,7 +13,7 @@ score worse than the right run (bounds from measured values, at the asserts; fix
 evaluations: 72 s of the file's 87 s on 2 cores at load 12).
 
 The PLY layouts other tools write (INRIA SH degree 3, Mip-Splatting's DC only with its 3D filter,
-SuperSplat compressed; tests/python/splat_layouts.py), made from the same fitted splats, go through
+SuperSplat compressed, 2DGS surfels; tests/python/splat_layouts.py), made from the same fitted splats, go through
 the command at a quick setting and give finite albedos in [0, 1] that follow the sphere's two
 colours (about 4 s each; the whole file 87 s on 2 cores at load 12).
 """
@@ -133,7 +133,7 @@ def test_wrong_sh_sign_or_inner_cameras_lose_albedo(cli, capture, tmp_path):
     assert sign["roughness_mse"] >= 1.15 * good["roughness_mse"], got
 
 
-@pytest.mark.parametrize("layout", ["inria_sh3", "mip_splatting_sh0", "supersplat_compressed"])
+@pytest.mark.parametrize("layout", ["inria_sh3", "mip_splatting_sh0", "supersplat_compressed", "2dgs_sh3"])
 def test_other_tools_layouts_give_materials(cli, capture, tmp_path, layout):
     """The fitted splats as other tools write them, through the command at a quick setting: finite albedos
     in [0, 1], not constant, following the sphere's colours (warm top, cool bottom: the red-minus-blue
@@ -145,6 +145,10 @@ def test_other_tools_layouts_give_materials(cli, capture, tmp_path, layout):
     elif layout == "mip_splatting_sh0":
         # filter_3D: Mip-Splatting's 0.2 x distance / focal length (3.6 / 51 px at 40 px and 0.75 rad)
         splat_layouts.write_mip_splatting_sh0(ply, rec, 0.2 * 3.6 / (20 / math.tan(0.375)))
+    elif layout == "2dgs_sh3":
+        # the fitted splats are surfels already (made with a 1e-3 third scale): their thin axis is z
+        assert np.mean(rec["scale_2"] < np.minimum(rec["scale_0"], rec["scale_1"])) > 0.99
+        splat_layouts.write_2dgs(ply, rec)
     else:
         splat_layouts.write_supersplat_from(ply, rec)
     out = tmp_path / "out"

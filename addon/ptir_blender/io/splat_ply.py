@@ -10,7 +10,10 @@ without a per-splat Python loop:
     optional uchar 'sh' element), decoded as the engine decodes it
     (supersplat_ply.py);
   - PTIR's material properties albedo_0..2, roughness, metallic and the normal
-    nx, ny, nz (activated, linear).
+    nx, ny, nz (activated, linear);
+  - 2D Gaussian Splatting's surfels (scale_0 and scale_1 only): flat splats whose
+    third scale is SURFEL_THICKNESS x the smaller of the two, as the engine reads
+    them (written back in the standard layout, with that third scale).
 Activation as the engine: scale = exp(scale_i) (at least FLT_MIN), opacity =
 sigmoid(opacity) in float32, rotation = quaternion (w, x, y, z) normalised in
 double. Absent material properties get the engine's defaults (albedo 0.3,
@@ -45,6 +48,9 @@ DEFAULT_ROUGHNESS = 0.6
 DEFAULT_METALLIC = 0.0
 FLT_MIN = np.float32(np.finfo(np.float32).tiny)
 UNIT_TOLERANCE = 1e-6  # |q|^2 - 1 of a quaternion that counts as normalised
+# A 2DGS surfel's thickness as a share of its smaller scale (the engine's kSurfelThickness,
+# scene/gaussian_ply.h): the smallest axis, so the surfel's normal is its shortest axis.
+SURFEL_THICKNESS = np.float32(1e-3)
 
 REQUIRED = ("x", "y", "z", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3", "opacity")
 # Properties the reader interprets; everything else on the vertex element is "extra".
@@ -305,7 +311,8 @@ def read_splat_ply(path):
     props = els["vertex"]
     if supersplat_ply.is_compressed(els):
         props = supersplat_ply.decode_compressed(els, path)
-    missing = [p for p in REQUIRED if p not in props]
+    surfels = "scale_0" in props and "scale_1" in props and "scale_2" not in props  # 2DGS
+    missing = [p for p in REQUIRED if p not in props and not (surfels and p == "scale_2")]
     if missing:
         raise SplatPlyError("%s: not a 3D Gaussian splat PLY: missing properties %s (%s)"
                             % (path, ", ".join(missing), _looks_like(elements, vertex_el)))
@@ -319,13 +326,15 @@ def read_splat_ply(path):
         return c
 
     position = np.stack([col("x"), col("y"), col("z")], axis=1)
-    raw_scale = np.stack([col("scale_%d" % k) for k in range(3)], axis=1)
+    raw_scale = np.stack([col("scale_%d" % k) for k in range(2 if surfels else 3)], axis=1)
     scale = activate_scale(raw_scale)
     if not np.all(np.isfinite(scale)):
         bad = np.argwhere(~np.isfinite(scale))[0]
         raise SplatPlyError("%s: property 'scale_%d' at vertex %d is too large: exp(%g) overflows"
                             % (path, bad[1], bad[0], raw_scale[bad[0], bad[1]]))
     scale = np.maximum(scale, FLT_MIN)
+    if surfels:
+        scale = np.concatenate([scale, SURFEL_THICKNESS * np.minimum(scale[:, :1], scale[:, 1:])], axis=1)
     raw_op = col("opacity")
     opacity = activate_opacity(raw_op)
     q32 = np.stack([col("rot_%d" % k) for k in range(4)], axis=1)

@@ -116,10 +116,13 @@ GaussianField gaussians_from_ply(io::PlyFile ply, const std::string& path) {
   if (!vp) throw Error(path, "not a 3D Gaussian splat PLY: no 'vertex' element");
   const PlyElement& v = *vp;
 
-  // Required properties: one message listing every missing one.
+  // Required properties: one message listing every missing one. A 2DGS file (surfels:
+  // scale_0 and scale_1 only) is a field of flat Gaussians (surfel_thickness below).
+  const bool surfels = v.get("scale_0") && v.get("scale_1") && !v.get("scale_2");
   std::string missing;
   for (const char* name : kRequired)
-    if (!v.get(name)) missing += (missing.empty() ? "" : ", ") + std::string(name);
+    if (!v.get(name) && !(surfels && std::string(name) == "scale_2"))
+      missing += (missing.empty() ? "" : ", ") + std::string(name);
   if (!missing.empty())
     throw Error(path, "not a 3D Gaussian splat PLY: missing properties " + missing + " (" + looks_like(ply, v) + ")");
   if (v.count == 0) throw Error(path, "contains no Gaussians (the vertex element has 0 rows)");
@@ -134,18 +137,19 @@ GaussianField gaussians_from_ply(io::PlyFile ply, const std::string& path) {
   // Geometry with activations: exp scale, sigmoid opacity, normalised quaternion.
   {
     const Column x(v, "x", path), y(v, "y", path), z(v, "z", path), op(v, "opacity", path);
-    const Column s[3] = {{v, "scale_0", path}, {v, "scale_1", path}, {v, "scale_2", path}};
+    const Column s[3] = {{v, "scale_0", path}, {v, "scale_1", path}, surfels ? Column() : Column(v, "scale_2", path)};
     const Column q[4] = {{v, "rot_0", path}, {v, "rot_1", path}, {v, "rot_2", path}, {v, "rot_3", path}};
     for (size_t i = 0; i < n; ++i) {
       f.position[i] = Vec3(x(i), y(i), z(i));
       f.opacity[i] = sigmoid(op(i));
-      for (int k = 0; k < 3; ++k) {
+      for (int k = 0; k < (surfels ? 2 : 3); ++k) {
         const float raw = s[k](i), e = std::exp(raw);
         if (!std::isfinite(e))
           throw Error(path, "property 'scale_" + std::to_string(k) + "' at vertex " + std::to_string(i) +
                                 " is too large: exp(" + std::to_string(raw) + ") overflows");
         f.scale[i][k] = std::max(e, std::numeric_limits<float>::min());  // keeps 1/scale finite
       }
+      if (surfels) f.scale[i][2] = kSurfelThickness * std::min(f.scale[i][0], f.scale[i][1]);
       double qd[4], len2 = 0;
       for (int k = 0; k < 4; ++k) {
         qd[k] = q[k](i);
