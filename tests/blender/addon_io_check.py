@@ -243,6 +243,32 @@ def check_register_cycle():
     print("register/unregister: symmetric")
 
 
+def check_other_layouts(tmp):
+    """SH degree 4 (72 f_rest: Blender 5.3's splats carry up to degree 4) imports into radiance:sh_0..23
+    and exports back bit for bit; a 2DGS file (no scale_2) imports as flat splats."""
+    raw = ac.random_raw(200, sh_rest=72, seed=13)
+    obj = import_ply(ac.write_ply(os.path.join(tmp, "sh4.ply"), raw))
+    h.check(obj.data.attributes.get("radiance:sh_23") is not None, "degree 4: radiance:sh_23")
+    got = splat_object.read_data_from_object(obj)
+    for k in (0, 15, 23):
+        want = np.stack([np.float32(raw["f_rest_%d" % (c * 24 + k)]) for c in range(3)], 1)
+        assert_equal(got.sh_rest[k], want, "degree 4 radiance:sh_%d" % k)
+    out = os.path.join(tmp, "sh4_out.ply")
+    bpy.ops.object.select_all(action="DESELECT")
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    h.check(bpy.ops.export_scene.gaussian_splat_ply(filepath=out) == {"FINISHED"}, "degree 4 export")
+    assert_equal(splat_ply.read_splat_ply(out).sh_rest, got.sh_rest, "degree 4 round trip")
+    bpy.data.objects.remove(obj)
+    raw = ac.random_raw(200, sh_rest=0, normals=False, seed=14)
+    del raw["scale_2"]
+    obj = import_ply(ac.write_ply(os.path.join(tmp, "surfels.ply"), raw))
+    got = splat_object.read_data_from_object(obj)
+    h.check(np.all(got.scale[:, 2] < got.scale[:, :2].min(axis=1)), "2DGS: the third scale is the thinnest")
+    bpy.data.objects.remove(obj)
+    print("other layouts: SH degree 4 round trip, 2DGS surfels")
+
+
 def main():
     tmp = h.argv()[0]
     for o in list(bpy.data.objects):
@@ -252,6 +278,7 @@ def main():
     check_round_trip(tmp, obj)
     check_transform(tmp, obj)
     check_malformed(tmp)
+    check_other_layouts(tmp)
     check_register_cycle()
 
 

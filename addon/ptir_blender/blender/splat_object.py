@@ -6,7 +6,7 @@ Attribute layout (point domain), after Blender 5.3's native splat names:
     rotation           w, x, y, z: QUATERNION (Blender 4.0+) or FLOAT_COLOR (4 floats, Blender 3.x)
     opacity            FLOAT         sigmoid-activated, [0, 1]
     radiance:base      FLOAT_VECTOR  SH DC coefficients f_dc_0..2 (raw, as in the PLY)
-    radiance:sh_<k>    FLOAT_VECTOR  higher SH coefficient k (RGB), k = 0 .. 3/8/15 for degree 1/2/3
+    radiance:sh_<k>    FLOAT_VECTOR  higher SH coefficient k (RGB), k = 0 .. 3/8/15/23 for degree 1/2/3/4
 PTIR's material, beside them under the ptir_ prefix:
     ptir_albedo        FLOAT_COLOR   linear RGB (alpha 1)
     ptir_roughness     FLOAT
@@ -118,7 +118,7 @@ def write_data_to_mesh(mesh, d, keep_positions=False):
     K = d.sh_rest.shape[0]
     for k in range(K):
         _set_attribute(mesh, "radiance:sh_%d" % k, "FLOAT_VECTOR", d.sh_rest[k])
-    for k in range(K, 15):  # a lower degree than before: drop stale coefficients
+    for k in range(K, 24):  # a lower degree than before: drop stale coefficients
         old = mesh.attributes.get("radiance:sh_%d" % k)
         if old is not None:
             mesh.attributes.remove(old)
@@ -199,7 +199,7 @@ def read_data_from_object(obj, sync_edit_mode=True):
     f_dc = _get_attribute(mesh, "radiance:base", 3, required=False, what=what)
     d.f_dc = f_dc if f_dc is not None else np.zeros((n, 3), np.float32)
     K = 0
-    for k in (15, 8, 3):
+    for k in (24, 15, 8, 3):
         if mesh.attributes.get("radiance:sh_%d" % (k - 1)) is not None:
             K = k
             break

@@ -4,8 +4,8 @@ Reading follows the engine's loader (native/src/ptir/scene/gaussian_ply.cpp)
 value for value, in numpy, so the add-on imports any file the engine reads
 without a per-splat Python loop:
   - the INRIA 3DGS layout, binary (either endianness) or ASCII, any numeric
-    type, properties by name in any order, SH degree 0-3 (f_rest_* count 0, 9,
-    24 or 45, stored channel-major);
+    type, properties by name in any order, SH degree 0-4 (f_rest_* count 0, 9,
+    24, 45 or 72, stored channel-major);
   - SuperSplat / PlayCanvas compressed PLY (chunk + packed_* vertex words,
     optional uchar 'sh' element), decoded as the engine decodes it
     (supersplat_ply.py);
@@ -91,7 +91,7 @@ class SplatData:
 
     @property
     def sh_degree(self):
-        return {0: 0, 3: 1, 8: 2, 15: 3}[self.sh_rest.shape[0]]
+        return {0: 0, 3: 1, 8: 2, 15: 3, 24: 4}[self.sh_rest.shape[0]]
 
     def copy(self):
         out = SplatData(**{f: np.array(getattr(self, f), copy=True) for f in self.FIELDS})
@@ -350,10 +350,10 @@ def read_splat_ply(path):
     rotation[unit] = q32[unit]
 
     rest_names = [k for k in props if k.startswith("f_rest_")]
-    counts = {0: 0, 9: 3, 24: 8, 45: 15}
+    counts = {0: 0, 9: 3, 24: 8, 45: 15, 72: 24}
     if len(rest_names) not in counts:
-        raise SplatPlyError("%s: unsupported SH: %d f_rest_* properties (expected 0, 9, 24 or 45 for SH degree 0 "
-                            "to 3)" % (path, len(rest_names)))
+        raise SplatPlyError("%s: unsupported SH: %d f_rest_* properties (expected 0, 9, 24, 45 or 72 for SH degree "
+                            "0 to 4)" % (path, len(rest_names)))
     K = counts[len(rest_names)]
     for i in range(3 * K):
         if "f_rest_%d" % i not in props:
@@ -493,9 +493,9 @@ def validate(d, path="splats"):
             raise SplatPlyError("%s: %s has shape %s, expected %s" % (path, name, a.shape, shape))
         if not np.all(np.isfinite(a)):
             raise SplatPlyError("%s: %s has non-finite values" % (path, name))
-    if d.sh_rest.ndim != 3 or d.sh_rest.shape[1] != n or d.sh_rest.shape[0] not in (0, 3, 8, 15) \
+    if d.sh_rest.ndim != 3 or d.sh_rest.shape[1] != n or d.sh_rest.shape[0] not in (0, 3, 8, 15, 24) \
             or d.sh_rest.shape[2] != 3:
-        raise SplatPlyError("%s: sh_rest has shape %s, expected (0|3|8|15, n, 3)" % (path, d.sh_rest.shape))
+        raise SplatPlyError("%s: sh_rest has shape %s, expected (0|3|8|15|24, n, 3)" % (path, d.sh_rest.shape))
     if np.any(d.scale <= 0):
         raise SplatPlyError("%s: scale must be positive (%d splats are not)" % (path, int(np.sum(d.scale <= 0))))
     if np.any(np.sum(np.asarray(d.rotation, np.float64) ** 2, axis=1) == 0):

@@ -75,7 +75,7 @@ class VIEW3D_PT_ptir_splats(_SidebarPanel, bpy.types.Panel):
             return
         mesh = obj.data
         sh = 0
-        for k, deg in ((15, 3), (8, 2), (3, 1)):
+        for k, deg in ((24, 4), (15, 3), (8, 2), (3, 1)):
             if mesh.attributes.get("radiance:sh_%d" % (k - 1)) is not None:
                 sh = deg
                 break

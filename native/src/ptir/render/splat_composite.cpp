@@ -173,7 +173,7 @@ void trace_splat_backward(const SceneAccel& accel, const Ray& ray, Vec3 backgrou
   const GaussianField& f = accel.field();
   const CullSettings& cull = accel.settings().cull;
   RayState st;
-  float basis[16];
+  float basis[kMaxShCoefficients];
   accel.walk(ray, [&](const GaussianHit& h) { return replay(f, cull, ray, h, s, adj, st, basis, g), true; }, nullptr, true);
 }
 
@@ -264,7 +264,7 @@ void render_splat_backward(const SceneAccel& accel, const Camera& cam, Vec3 back
   tbb::parallel_for(0, chunks, [&](int chunk) {
     SplatGradients& g = partial[size_t(chunk)];
     g.resize(f.size(), f.sh_stride());
-    float basis[16];
+    float basis[kMaxShCoefficients];
     for (int br = chunk; br < rows4; br += chunks) {
       if (control.cancel && control.cancel->load()) return;
       for (int bx = 0; bx < cam.width; bx += 4) {

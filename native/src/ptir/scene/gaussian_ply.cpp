@@ -91,17 +91,17 @@ bool optional_group(const PlyElement& v, const std::vector<std::string>& names, 
   return true;
 }
 
-// SH degree from the number of f_rest_* properties (0, 9, 24 or 45), checking their numbering.
+// SH degree from the number of f_rest_* properties (0, 9, 24, 45 or 72), checking their numbering.
 int sh_degree_from_rest(const PlyElement& v, const std::string& path) {
   size_t count = 0;
   for (const io::PlyProperty& p : v.properties)
     if (p.name.rfind("f_rest_", 0) == 0) ++count;
   int degree = -1;
-  for (int d = 0; d <= 3; ++d)
+  for (int d = 0; d <= kMaxShDegree; ++d)
     if (count == static_cast<size_t>(3 * ((d + 1) * (d + 1) - 1))) degree = d;
   if (degree < 0)
     throw Error(path, "unsupported SH: " + std::to_string(count) +
-                          " f_rest_* properties (expected 0, 9, 24 or 45 for SH degree 0 to 3)");
+                          " f_rest_* properties (expected 0, 9, 24, 45 or 72 for SH degree 0 to 4)");
   for (const std::string& name : numbered("f_rest_", count))
     if (!v.get(name))
       throw Error(path, "f_rest_* properties are not numbered 0.." + std::to_string(count - 1) + ": missing " + name);

@@ -14,11 +14,15 @@ constexpr float kC2[5] = {1.0925484305920792f, -1.0925484305920792f, 0.315391565
                           0.5462742152960396f};
 constexpr float kC3[7] = {-0.5900435899266435f, 2.890611442640554f, -0.4570457994644658f, 0.3731763325901154f,
                           -0.4570457994644658f, 1.445305721320277f, -0.5900435899266435f};
+// Degree 4, in the order and signs of the 3DGS family's eval_sh (gsplat, svox2).
+constexpr float kC4[9] = {2.5033429417967046f,  -1.7701307697799304f, 0.9461746957575601f,
+                          -0.6690465435572892f, 0.10578554691520431f, -0.6690465435572892f,
+                          0.47308734787878004f, -1.7701307697799304f, 0.6258357354491761f};
 
 }  // namespace
 
 // Same basis order and signs as eval_sh() in the INRIA code; dir is the ray
-// direction (camera to Gaussian). Degrees above 3 are ignored.
+// direction (camera to Gaussian).
 Vec3 GaussianField::sh_colour(size_t i, Vec3 dir) const {
   const int stride = sh_stride();
   if (sh.size() < (i + 1) * static_cast<size_t>(stride)) return Vec3(0.5f);
@@ -41,6 +45,11 @@ Vec3 GaussianField::sh_colour(size_t i, Vec3 dir) const {
                   kC3[4] * x * (4.0f * zz - xx - yy) * coef(13) + kC3[5] * z * (xx - yy) * coef(14) +
                   kC3[6] * x * (xx - 3.0f * yy) * coef(15);
       }
+      if (sh_degree > 3) {  // the basis's own degree-4 values (sh_basis)
+        float y4[kMaxShCoefficients];
+        sh_basis(4, d, y4);
+        for (int k = 16; k < 25; ++k) result += y4[k] * coef(k);
+      }
     }
   }
   return vmax(result + Vec3(0.5f), Vec3(0.0f));
@@ -60,6 +69,12 @@ void sh_basis(int degree, Vec3 dir, float* out) {
   out[9] = kC3[0] * y * (3.0f * xx - yy), out[10] = kC3[1] * xy * z, out[11] = kC3[2] * y * (4.0f * zz - xx - yy);
   out[12] = kC3[3] * z * (2.0f * zz - 3.0f * xx - 3.0f * yy), out[13] = kC3[4] * x * (4.0f * zz - xx - yy);
   out[14] = kC3[5] * z * (xx - yy), out[15] = kC3[6] * x * (xx - 3.0f * yy);
+  if (degree < 4) return;
+  out[16] = kC4[0] * xy * (xx - yy), out[17] = kC4[1] * yz * (3.0f * xx - yy);
+  out[18] = kC4[2] * xy * (7.0f * zz - 1.0f), out[19] = kC4[3] * yz * (7.0f * zz - 3.0f);
+  out[20] = kC4[4] * (zz * (35.0f * zz - 30.0f) + 3.0f), out[21] = kC4[5] * xz * (7.0f * zz - 3.0f);
+  out[22] = kC4[6] * (xx - yy) * (7.0f * zz - 1.0f), out[23] = kC4[7] * xz * (xx - 3.0f * yy);
+  out[24] = kC4[8] * (xx * (xx - 3.0f * yy) - yy * (3.0f * xx - yy));
 }
 
 // The local axis with the smallest standard deviation (first one on ties).

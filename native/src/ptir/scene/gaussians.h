@@ -68,7 +68,11 @@ struct GaussianField {
   Vec3 sh_colour(size_t i, Vec3 dir) const;
 };
 
-// The SH basis values Y_k(dir) (k < (degree+1)^2, degree <= 3) that sh_colour
+// The most SH coefficients per channel a field holds: degree 4, as Blender 5.3's splats.
+inline constexpr int kMaxShDegree = 4;
+inline constexpr int kMaxShCoefficients = (kMaxShDegree + 1) * (kMaxShDegree + 1);
+
+// The SH basis values Y_k(dir) (k < (degree+1)^2, degree <= kMaxShDegree) that sh_colour
 // weighs the coefficients with: colour_c = max(0, 0.5 + sum_k Y_k sh[k*3+c]).
 // (For the adjoint of the colour, render/splat_composite.)
 void sh_basis(int degree, Vec3 dir, float* y);
