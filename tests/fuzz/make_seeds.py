@@ -52,12 +52,13 @@ props = ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2", "opacity
          "rot_0", "rot_1", "rot_2", "rot_3"]
 
 
-def plain_ply(n, ascii=False):
+def plain_ply(n, ascii=False, names=props):
     hdr = ("ply\nformat %s 1.0\nelement vertex %d\n" % ("ascii" if ascii else "binary_little_endian", n)
-           + "".join("property float %s\n" % p for p in props) + "end_header\n")
-    v = np.random.default_rng(1).normal(size=(n, len(props))).astype(np.float32)
-    v[:, 13] = 1
-    v[:, 14:17] = 0
+           + "".join("property float %s\n" % p for p in names) + "end_header\n")
+    v = np.random.default_rng(1).normal(size=(n, len(names))).astype(np.float32)
+    r = names.index("rot_0")
+    v[:, r] = 1
+    v[:, r + 1:r + 4] = 0
     if ascii:
         return (hdr + "".join(" ".join("%g" % x for x in row) + "\n" for row in v)).encode()
     return hdr.encode() + v.tobytes()
@@ -65,6 +66,9 @@ def plain_ply(n, ascii=False):
 
 open(C + "ply/plain_bin.ply", "wb").write(plain_ply(4))
 open(C + "ply/plain_ascii.ply", "wb").write(plain_ply(3, True))
+# 2DGS surfels (no scale_2) and SH degree 4 (72 f_rest)
+open(C + "ply/surfels_bin.ply", "wb").write(plain_ply(4, names=[p for p in props if p != "scale_2"]))
+open(C + "ply/sh4_bin.ply", "wb").write(plain_ply(2, names=props[:9] + ["f_rest_%d" % i for i in range(72)] + props[9:]))
 chunk_props = ["min_x", "min_y", "min_z", "max_x", "max_y", "max_z", "min_scale_x", "min_scale_y", "min_scale_z",
                "max_scale_x", "max_scale_y", "max_scale_z"]
 hdr = ("ply\nformat binary_little_endian 1.0\nelement chunk 1\n" + "".join("property float %s\n" % p for p in chunk_props)
