@@ -10,6 +10,8 @@
 //
 // --budget (s, m or h): at most --iters iterations, fewer where they would not end
 // in time (the count re-planned from the measured rate; the add-on's time presets).
+// It takes the resolution pyramid unless --coarse-pixels is given, and spends the
+// time on full-resolution iterations first unless --fine-fraction is (fit_stage.h).
 //
 // Writes OUT/gaussians.ply (standard 3DGS layout with the fitted values, SH
 // radiance, nx,ny,nz; material columns as the writer adds them), OUT/log.csv and
@@ -22,6 +24,7 @@
 
 #include "commands.h"
 #include "fit_stage.h"
+#include "optimize_budget.h"
 #include "output_guard.h"
 #include "pyramid_flags.h"
 #include "ptir/core/error.h"
@@ -38,12 +41,18 @@ struct FitCommand {
   int threads = 0;
 };
 
-int run_fit(const FitCommand& o) {
+int run_fit(const FitCommand& o, const CLI::App& cmd) {
   std::optional<tbb::global_control> limit;
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   FitStage stage = o.stage;
-  if (!o.budget.empty()) stage.seconds = parse_duration(o.budget, "--budget");
+  if (!o.budget.empty()) {
+    stage.seconds = parse_duration(o.budget, "--budget");
+    // As `ptir optimize --budget`'s geometry stage (the add-on's time presets run this one):
+    // the resolution pyramid, its fine fraction planned from the time (fit_stage.h).
+    if (!cmd.count("--coarse-pixels")) stage.s.coarse_pixels = kBudgetCoarsePixels;
+    stage.plan_fine_fraction = !cmd.count("--fine-fraction");
+  }
   check_fit_stage(stage);
   guard_outputs({{o.stage.gaussians}, {o.stage.dataset}, {}, {o.stage.dataset}}, {{}, {o.stage.out}}, o.force);
   remove_stale_outputs({o.stage.out}, o.stage.quiet);
@@ -104,7 +113,7 @@ Runner add_fit_command(CLI::App& app) {
   cmd->add_flag("-q,--quiet", o->stage.quiet, "no progress output");
   add_force_flag(cmd, o->force);
   add_capture_flags(cmd, &o->stage.capture);
-  return [o] { return run_fit(*o); };
+  return [o, cmd] { return run_fit(*o, *cmd); };
 }
 
 }  // namespace ptir::cli

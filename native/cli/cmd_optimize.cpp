@@ -114,6 +114,7 @@ struct OptimizeCommand {
   CaptureFlags capture;  // real captures (docs/dataset_format.md)
   int fit_iters = 1500;  // the geometry stage first (0: the splats' geometry as given)
   bool fitted = false;   // the inversion runs on splats its geometry stage fitted (OUT/fit/)
+  bool plan_fit_fine_fraction = false;  // a budget without --fine-fraction: the stage plans its own (fit_stage.h)
   double targets_left_s = 0;  // --estimate without --dataset: the radiance targets still to render
   RadianceStage radiance;  // no --dataset: targets from the splats' own radiance (radiance_stage.h)
 };
@@ -248,6 +249,7 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm, double fit_seco
   f.s.seed = o.opt.seed;
   f.s.coarse_pixels = o.opt.coarse_pixels;  // the command's resolution pyramid, for both stages
   f.s.fine_fraction = o.opt.fine_fraction;
+  f.plan_fine_fraction = o.plan_fit_fine_fraction && fit_seconds > 0.0;
   f.capture = o.capture;
   remove_stale_outputs({f.out}, o.quiet);
   const int rc = run_fit_stage(f, "ptir optimize ... --resume");
@@ -340,6 +342,8 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     // And the resolution pyramid (optim/view_pyramid.h), for both stages: the first
     // three quarters on views reduced to at most kBudgetCoarsePixels.
     if (!cmd.count("--coarse-pixels")) o.opt.coarse_pixels = kBudgetCoarsePixels;
+    // The geometry stage spends its share on full-resolution iterations first (fit_stage.h).
+    o.plan_fit_fine_fraction = !cmd.count("--fine-fraction");
   }
   const double fit_seconds = budget.budget_s > 0.0 ? kFitShare * (budget.budget_s - budget.spent_s) : 0.0;
   if (o.dataset.empty()) {

@@ -19,6 +19,11 @@ struct FitStage {
   int checkpoint_every = 200;
   size_t max_gaussians = 0;  // 0: 1.5 x the input's count
   double seconds = 0.0;      // > 0: a time limit; the iteration count is re-planned from the measured rate
+  // With a time limit and the resolution pyramid: after the first coarse iterations, the
+  // fine fraction becomes the largest (at least s.fine_fraction) whose iterations still fit
+  // in the time (budget_plan.h: plan_fine_fraction). A resumed fit keeps the planned one
+  // (its checkpoint's fingerprint).
+  bool plan_fine_fraction = false;
   GeometryFitSettings s;
   CaptureFlags capture;
 };

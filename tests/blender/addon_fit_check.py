@@ -13,7 +13,8 @@
 4. The same with the object moved: the object's local splats are the fitted (world-space) PLY
    brought back through the inverse of its transform.
 5. The time presets: Draft gives the fit `--budget` of FIT_SHARE of its 2 minutes and the inversion
-   the rest with no iteration count (and the engine's automatic batch); Custom keeps `--iters` /
+   the rest with no iteration count (and the engine's automatic batch), re-counted at its launch from
+   what the fit left; Custom keeps `--iters` /
    `--spp` / `--crop` and no budget.
 Prints "FIT_STATS: {json}".
 """
@@ -142,6 +143,10 @@ def check_presets(spec, splats, work):
         h.check(job.args[job.args.index("--budget") + 1] == "%.0fs" % ((1 - optimize_job.FIT_SHARE) * 120)
                 and "--iters" not in job.args and "--crop" not in job.args,
                 "Draft: the inversion's budget, no count, the engine's batch: %s" % job.args)
+        # Launched after a fit that took 20 s, the inversion gets the 100 s the preset has left.
+        late = optimize_job.inversion_args(job, 20.0)
+        h.check(late[late.index("--budget") + 1] == "100s" and late[:late.index("--budget")] == job.args[:job.args.index("--budget")],
+                "Draft after a 20-s fit: the inversion's budget is what is left (%s)" % late)
         s.preset = "CUSTOM"
         job = optimize_job.prepare(bpy.context, s, os.path.join(work, "preset_job2"), cli)
         h.check("--budget" not in job.args + job.fit_args and job.args[job.args.index("--iters") + 1] == "5",

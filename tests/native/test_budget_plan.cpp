@@ -2,8 +2,10 @@
 // durations parse with their units and refuse the rest; a plan fits its budget
 // by its own cost model (iteration_seconds x iterations <= budget) and moves
 // the spp the way the header says; the pacer's re-plan lands the run on its end
-// time; the automatic batch takes patches only where a view is larger than it.
+// time; a budgeted fit buys full-resolution iterations with its time; the automatic batch takes patches only where a view is larger than it.
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "ptir/core/error.h"
 #include "ptir/optim/budget_plan.h"
@@ -128,6 +130,32 @@ TEST(BudgetPlan, TwoPhasePacerCountsEachPhaseAtItsCost) {
   PhaseCosts unknown;
   unknown.coarse_share = 0.75;
   EXPECT_EQ(pacer.replan(1, 1.0, 50, unknown), 50);  // nothing measured yet
+}
+
+// The geometry stage's fine fraction under a budget: the largest share of the run at full
+// resolution whose remaining iterations fit in the time, never below the least asked.
+TEST(BudgetPlan, FineFractionBuysFullResolutionWithTheTimeLeft) {
+  PhaseCosts c;
+  c.coarse_share = 0.75;
+  c.coarse_s = 1.0;
+  c.fine_s = 3.0;
+  // 100 iterations, 8 done (coarse): all the rest fine costs 92 x 3 = 276 s.
+  EXPECT_DOUBLE_EQ(plan_fine_fraction(276.0, 8, 100, c, 0.25), 0.92);
+  EXPECT_DOUBLE_EQ(plan_fine_fraction(1000.0, 8, 100, c, 0.25), 0.92);  // time to spare: still every one left
+  // The least (25 fine): 67 coarse + 25 x 3 = 142 s; each moved iteration costs 2 s more.
+  EXPECT_DOUBLE_EQ(plan_fine_fraction(142.0, 8, 100, c, 0.25), 0.25);
+  EXPECT_DOUBLE_EQ(plan_fine_fraction(150.0, 8, 100, c, 0.25), 0.29);  // 8 s: 4 moved
+  EXPECT_DOUBLE_EQ(plan_fine_fraction(151.9, 8, 100, c, 0.25), 0.29);  // not 5
+  EXPECT_DOUBLE_EQ(plan_fine_fraction(100.0, 8, 100, c, 0.25), 0.25);  // short of the least: the pacer cuts the count
+  // The plan fits, and one more iteration at full resolution would not.
+  auto seconds = [&](int boundary) { return (boundary - 8) * c.coarse_s + (100 - boundary) * c.fine_s; };
+  for (double t : {150.0, 200.0, 250.0}) {
+    const int boundary = 100 - int(std::lround(100.0 * plan_fine_fraction(t, 8, 100, c, 0.25)));
+    EXPECT_LE(seconds(boundary), t) << t;
+    EXPECT_GT(seconds(boundary - 1), t) << t;
+  }
+  PhaseCosts unknown;
+  EXPECT_DOUBLE_EQ(plan_fine_fraction(500.0, 8, 100, unknown, 0.25), 0.25);  // nothing measured
 }
 
 TEST(PatchBatch, PatchesOnlyWhereAViewIsMuchLargerThanTheBatch) {

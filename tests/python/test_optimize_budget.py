@@ -67,6 +67,10 @@ def test_budget_runs_both_stages_on_the_resolution_pyramid(cli, dataset, tmp_pat
     out = tmp_path / "pyr"
     r = optimize(cli, dataset, out, "--budget", "8s", "--coarse-pixels", "256", "--fit-iters", "40")
     assert "budget 8 s" in r.stderr, r.stderr[-2000:]
+    # The geometry stage plans its fine fraction after 8 coarse iterations: 32 more of these
+    # (milliseconds each) at full resolution fit its share easily, so all of them are
+    # (fit_stage.h; 32/40 on the grid of 1/1024: 819/1024).
+    assert "fit: 80 % of the iterations at full resolution" in r.stderr, r.stderr[-2000:]
     settings = json.loads((out / "settings.json").read_text())
     assert settings["pyramid"] == "256 until 0.75", settings
     rec = json.loads((out / "budget.json").read_text())
@@ -76,6 +80,17 @@ def test_budget_runs_both_stages_on_the_resolution_pyramid(cli, dataset, tmp_pat
     m = re.search(r"at (\d+) spp \((\d+) while coarse\)", r.stderr)
     assert m, r.stderr[-2000:]
     assert (rec["spp"], rec["coarse_spp"]) == (int(m.group(1)), int(m.group(2))), rec
+    # The planned fine fraction is in the fit's checkpoint: a budgeted fit resumed keeps it
+    # (without the inversion's checkpoint the resume goes back to the fit, done here, whose
+    # fingerprint must match the plan, not the default quarter).
+    (out / "checkpoint.bin").unlink()
+    r = optimize(cli, dataset, out, "--budget", "16s", "--coarse-pixels", "256", "--fit-iters", "40", "--resume")
+    assert "resumed from" in r.stderr and "at full resolution" not in r.stderr, r.stderr[-2000:]
+    assert _iterations(out) >= 1
+    # --fine-fraction given: the fit keeps it (no plan).
+    r = optimize(cli, dataset, tmp_path / "ff", "--budget", "8s", "--coarse-pixels", "256", "--fit-iters", "40",
+                 "--fine-fraction", "0.5")
+    assert "of the iterations at full resolution" not in r.stderr, r.stderr[-2000:]
     # Without a budget the pyramid is off unless asked for (an --iters run is unchanged).
     r = optimize(cli, dataset, tmp_path / "iters", "--iters", "3", "--fit-iters", "0")
     assert "pyramid" not in json.loads((tmp_path / "iters" / "settings.json").read_text())

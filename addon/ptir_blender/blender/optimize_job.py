@@ -34,14 +34,25 @@ from ..errors import OptimizeError
 ENV_NODE = "PTIR Environment"
 
 # The Optimise panel's time presets (properties.py, `preset`): seconds the whole run may take,
-# of which the geometry stage takes at most FIT_SHARE (as `ptir optimize --budget` gives its own).
+# of which the geometry stage takes at most FIT_SHARE (as `ptir optimize --budget` gives its own,
+# cli/optimize_budget.h's kFitShare); the inversion gets what the fit leaves (inversion_args).
 PRESET_SECONDS = {"DRAFT": 120.0, "GOOD": 600.0, "FINAL": 1800.0}
-FIT_SHARE = 0.2
+FIT_SHARE = 0.4
 
 
 def preset_seconds(settings):
     """The time preset's seconds, or 0 for Custom (the iteration count)."""
     return PRESET_SECONDS.get(getattr(settings, "preset", "CUSTOM"), 0.0)
+
+
+def inversion_args(job, elapsed_s):
+    """The inversion's command line once the stages before it took `elapsed_s` seconds: under a
+    time preset, its --budget is what the preset has left (a fit that ended early leaves the
+    inversion more than 1 - FIT_SHARE), at least 10 s."""
+    args = list(job.args)
+    if job.budget_s and job.fit_args and "--budget" in args:
+        args[args.index("--budget") + 1] = "%.0fs" % max(10.0, job.budget_s - elapsed_s)
+    return args
 
 
 class OptimizeJob:
@@ -58,6 +69,7 @@ class OptimizeJob:
         self.warnings = []
         self.fit_args = []          # the geometry stage's command line (empty: no fit)
         self.fit_dir = ""
+        self.budget_s = 0.0         # a time preset's seconds for the whole run (0: Custom)
 
 
 def _camera_image(cam_obj):
@@ -225,6 +237,7 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_
 
     gaussians = splats
     budget = preset_seconds(settings)
+    job.budget_s = budget
     if wants_fit(settings, bpy.path.abspath(settings.dataset_dir) if settings.source == "DATASET" else None, split,
                  has_meshes=bool(job.mesh_entries)):
         job.fit_dir = os.path.join(job.out_dir, "fit")

@@ -18,6 +18,7 @@ failed or cancelled run leaves the scene as it was.
 import os
 import shutil
 import tempfile
+import time
 
 import bpy
 
@@ -58,6 +59,7 @@ class _OptimizeRun:
     _prepared = None
     _job_dir = None
     _stages = ()
+    _t_start = 0.0
     _stage = 0
     _echo = False
 
@@ -80,6 +82,7 @@ class _OptimizeRun:
         self._stages = ([("fit", self._prepared.fit_args)] if self._prepared.fit_args else []) + \
             [("optimize", self._prepared.args)]
         self._stage = 0
+        self._t_start = time.monotonic()
         _state["cancel"] = False
         settings.running = True
         settings.progress = 0.0
@@ -92,6 +95,8 @@ class _OptimizeRun:
     def _launch(self):
         """Starts stage self._stage as the child job."""
         name, args = self._stages[self._stage]
+        if name == "optimize":  # under a time preset: what the fit left of it
+            args = optimize_job.inversion_args(self._prepared, time.monotonic() - self._t_start)
         if self._echo:
             print("ptir %s: %s" % (name, " ".join(args)), flush=True)
         self._child = cli.ChildJob(args, parse=cli.parse_optimize_progress, echo=self._echo,

@@ -77,6 +77,21 @@ double PhaseCosts::seconds_left(int done, int total) const {
   return double(coarse) * coarse_s + double(fine) * fine_s;
 }
 
+double plan_fine_fraction(double seconds_left, int done, int total, const PhaseCosts& costs, double least) {
+  least = std::clamp(least, 0.0, 1.0);
+  if (total <= 0 || !(costs.coarse_s > 0.0) || !(costs.fine_s > costs.coarse_s)) return least;
+  // The coarse iterations are [0, boundary): each one moved to full resolution costs
+  // fine_s - coarse_s more, so the earliest boundary >= done whose time fits gives the answer.
+  const int latest = std::clamp(int(std::ceil((1.0 - least) * double(total))), 0, total);
+  const double all_coarse = double(std::max(0, latest - done)) * costs.coarse_s +
+                            double(total - std::max(latest, done)) * costs.fine_s;
+  const double spare = seconds_left - all_coarse;
+  if (!(spare > 0.0)) return least;
+  const int movable = std::max(0, latest - done);
+  const int moved = std::min(movable, int(std::floor(spare / (costs.fine_s - costs.coarse_s))));
+  return std::max(least, double(total - (latest - moved)) / double(total));
+}
+
 int BudgetPacer::replan(int done, double now_s, int total, const PhaseCosts& costs) const {
   if (!(costs.coarse_s > 0.0 && costs.fine_s > 0.0)) return total;  // nothing measured yet
   const double left = end_s_ - now_s;

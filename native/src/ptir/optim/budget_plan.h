@@ -80,6 +80,15 @@ class PhaseClock {
   int count_[2] = {0, 0}, seen_[2] = {0, 0};
 };
 
+// The geometry stage's fine fraction under a time limit (ptir optimize --budget): the
+// largest share of its `total` iterations at full resolution -- the pyramid's last ones --
+// whose iterations [done, total) still fit in `seconds_left` at `costs`' coarse and fine
+// seconds, at least `least` (where none fits, the pacer cuts the count instead). A fit at
+// full resolution throughout beat the pyramid's quarter by 0.5 dB albedo at the inversion
+// after it (docs/performance.md, "The geometry stage's share"), and the coarse phase is
+// what the time has to buy back.
+double plan_fine_fraction(double seconds_left, int done, int total, const PhaseCosts& costs, double least);
+
 // Re-plans the iteration count during a run that must end `end_s` seconds
 // after the pacer's clock started (the caller's seconds).
 class BudgetPacer {

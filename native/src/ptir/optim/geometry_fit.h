@@ -124,6 +124,9 @@ class GeometryFit {
   int iteration() const { return iteration_; }
   const GeometryFitSettings& settings() const { return settings_; }
   void set_iterations(int n) { settings_.iterations = n; }
+  // The pyramid's share at full resolution (a budget's plan, budget_plan.h), before its
+  // first full-resolution iteration; it is in the fingerprint, so checkpoints carry it.
+  void set_fine_fraction(float f) { settings_.fine_fraction = f; }
   const GaussianField& field() const { return field_; }
   const std::vector<FitLog>& log() const { return log_; }
   float extent() const { return extent_; }
