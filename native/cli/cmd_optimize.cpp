@@ -342,8 +342,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     // And the resolution pyramid (optim/view_pyramid.h), for both stages: the first
     // three quarters on views reduced to at most kBudgetCoarsePixels.
     if (!cmd.count("--coarse-pixels")) o.opt.coarse_pixels = kBudgetCoarsePixels;
-    // The geometry stage spends its share on full-resolution iterations first (fit_stage.h).
-    o.plan_fit_fine_fraction = !cmd.count("--fine-fraction");
+    o.plan_fit_fine_fraction = !cmd.count("--fine-fraction");  // full resolution first (fit_stage.h)
   }
   const double fit_seconds = budget.budget_s > 0.0 ? kFitShare * (budget.budget_s - budget.spent_s) : 0.0;
   if (o.dataset.empty()) {
