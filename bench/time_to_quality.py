@@ -26,8 +26,10 @@ table) and OUT/ttq.png (quality against minutes; matplotlib).
 
     bench/time_to_quality.py --plot-points POINTS.json --png OUT.png
 
-plots runs measured by hand (a JSON list of {"label", "minutes", "albedo", "relight"}; the
-docs' plot, docs/time_to_quality.png, is made so from performance.md's table).
+plots runs measured by hand (a JSON list of {"label", "minutes", "albedo", "relight"}, optional
+"marker", "color", "xlabel" and "series": points of one series are joined by a line; the docs'
+plots, docs/time_to_quality.png and time_to_quality_budgets.png, are made so from
+performance.md's tables).
 """
 
 import argparse
@@ -100,9 +102,18 @@ def plot_points(points_path, png_path):
     points = json.load(open(points_path))
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     for ax, key in zip(axes, ("albedo", "relight")):
+        series = {}  # points sharing a "series" are joined by a line (a build's budgets)
         for pt in points:
-            if pt.get(key) is not None:
-                ax.plot([pt["minutes"]], [pt[key]], pt.get("marker", "o"), label=pt["label"])
+            if pt.get(key) is None:
+                continue
+            if pt.get("series"):
+                series.setdefault(pt["series"], []).append(pt)
+            else:
+                ax.plot([pt["minutes"]], [pt[key]], pt.get("marker", "o"), label=pt["label"], color=pt.get("color"))
+        for name, pts in series.items():
+            pts.sort(key=lambda q: q["minutes"])
+            ax.plot([q["minutes"] for q in pts], [q[key] for q in pts], pts[0].get("marker", "o") + "-", label=name,
+                    color=pts[0].get("color"))
         ax.set_xscale("log")
         ax.set_xlabel(points[0].get("xlabel", "minutes"))
         ax.set_ylabel("%s PSNR (dB)" % key)
