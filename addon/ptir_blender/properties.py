@@ -151,6 +151,8 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
     running: BoolProperty(default=False, options={"SKIP_SAVE"})
     progress: FloatProperty(default=0.0, min=0.0, max=1.0, subtype="FACTOR", options={"SKIP_SAVE"})
     status: StringProperty(default="", options={"SKIP_SAVE"})
+    # What `ptir optimize` made of a real capture's splat: "object against a background" or "scene".
+    capture_subject: StringProperty(default="", options={"SKIP_SAVE"})
 
 
 class PTIREditSettings(bpy.types.PropertyGroup):

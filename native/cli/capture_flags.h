@@ -14,6 +14,7 @@ struct CaptureFlags {
   int holdout = 8;
   bool black_background = false;
   bool ignore_exif = false;
+  std::string calibration;  // --calibration: a capture calibration (scene/capture_calibration.h)
 };
 
 inline void add_capture_flags(CLI::App* cmd, CaptureFlags* f) {
@@ -30,6 +31,9 @@ inline void add_capture_flags(CLI::App* cmd, CaptureFlags* f) {
   cmd->add_flag("--black-background", f->black_background, "pixels that are exactly black are background (not supervised)");
   cmd->add_flag("--ignore-exif", f->ignore_exif,
                 "real captures: do not divide the photos by their EXIF exposure (ExposureTime x ISO / FNumber^2)");
+  cmd->add_option("--calibration", f->calibration,
+                  "real captures: a capture calibration (masks, per-photo gains, EXIF on or off), e.g. the "
+                  "OUT/capture/calibration.json `ptir optimize` wrote (docs/captures.md)");
 }
 
 inline void apply_capture_flags(const CaptureFlags& f, DatasetOptions& d) {
@@ -42,6 +46,7 @@ inline void apply_capture_flags(const CaptureFlags& f, DatasetOptions& d) {
   d.world = f.world;
   d.black_background = f.black_background;
   d.exif_exposure = !f.ignore_exif;
+  d.calibration = f.calibration;
 }
 
 }  // namespace ptir::cli

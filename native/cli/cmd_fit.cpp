@@ -39,6 +39,7 @@ struct FitCommand {
   std::string budget;
   bool force = false;
   int threads = 0;
+  bool sh_only = false;  // --sh-only: the geometry frozen, the radiance refitted
 };
 
 int run_fit(const FitCommand& o, const CLI::App& cmd) {
@@ -52,6 +53,11 @@ int run_fit(const FitCommand& o, const CLI::App& cmd) {
     // the resolution pyramid, its fine fraction planned from the time (fit_stage.h).
     if (!cmd.count("--coarse-pixels")) stage.s.coarse_pixels = kBudgetCoarsePixels;
     stage.plan_fine_fraction = !cmd.count("--fine-fraction");
+  }
+  if (o.sh_only) {  // what this geometry can show of the photos: only the SH learn, nothing is added or removed
+    stage.s.lr_position = stage.s.lr_scale = stage.s.lr_rotation = stage.s.lr_opacity = stage.s.lr_normal = 0.0f;
+    stage.s.lambda_distortion = 0.0f;
+    stage.no_densify = true;
   }
   check_fit_stage(stage);
   guard_outputs({{o.stage.gaussians}, {o.stage.dataset}, {}, {o.stage.dataset}}, {{}, {o.stage.out}}, o.force);
@@ -106,6 +112,9 @@ Runner add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--max-gaussians", o->stage.max_gaussians, "upper bound on the count (0: 1.5 x the input's)");
   cmd->add_flag("--no-densify", o->stage.no_densify, "keep the count (no pruning, cloning or splitting)");
+  cmd->add_flag("--sh-only", o->sh_only,
+                "freeze the geometry (positions, shapes, opacities, normals, the count) and refit only the SH radiance: "
+                "what this geometry can show of the photos (a real capture's reference, docs/captures.md)");
   cmd->add_option("--reorient-every", o->stage.s.reorient_every,
                   "re-orient the normals toward the cameras every N iterations and after the last (0: never)")
       ->capture_default_str();

@@ -62,6 +62,7 @@
 
 #include "brdf_option.h"
 #include "capture_flags.h"
+#include "capture_stage.h"
 #include "commands.h"
 #include "optimize_budget.h"
 #include "output_guard.h"
@@ -93,7 +94,7 @@ const std::set<std::string> kCommonOptions = {
     "--help", "--help-all", "--dataset", "--gaussians", "--scene", "--out", "--fit-iters", "--iters", "--spp",
     "--bounces", "--env", "--env-size", "--env-init", "--seed", "--brdf", "--resume", "--threads",
     "--checkpoint-every", "--images", "--holdout", "--optimize-metallic", "--learn-exposure", "--estimate",
-    "--quiet", "--force", "--budget"};
+    "--quiet", "--force", "--budget", "--subject"};
 
 // The command's own options around the set-up shared with the Python module.
 struct OptimizeCommand {
@@ -117,7 +118,42 @@ struct OptimizeCommand {
   bool plan_fit_fine_fraction = false;  // a budget without --fine-fraction: the stage plans its own (fit_stage.h)
   double targets_left_s = 0;  // --estimate without --dataset: the radiance targets still to render
   RadianceStage radiance;  // no --dataset: targets from the splats' own radiance (radiance_stage.h)
+  bool env_detail = false;  // the environment started from the photos' background: OUT/env.exr gets their detail
+  std::string subject = "auto";  // --subject: a real capture's splat is an object or the scene (capture_stage.h)
 };
+
+// The capture stage's view of the command (the input splats, the calibration so far).
+CaptureStage capture_stage_of(const OptimizeCommand& o) {
+  CaptureStage c;
+  c.dataset = o.dataset;
+  c.gaussians = o.gaussians;
+  c.out = o.out;
+  c.capture = o.capture;
+  c.s.subject = o.subject;
+  c.resume = o.resume;
+  c.quiet = o.quiet;
+  char extra = 0;
+  if (std::sscanf(o.env_size.c_str(), "%dx%d%c", &c.s.env_width, &c.s.env_height, &extra) != 2 || c.s.env_width < 1 ||
+      c.s.env_height < 1)
+    throw Error("--env-size must be WIDTHxHEIGHT (e.g. 128x64), got '" + o.env_size + "'");
+  return c;
+}
+
+// Real photos (capture_stage.h): the analysis' calibration applies to every stage, and
+// an object's background seen directly starts the environment (unless --env-init).
+void capture_stage(OptimizeCommand& o) {
+  if (o.subject != "auto" && o.subject != "object" && o.subject != "scene")
+    throw Error("--subject must be auto, object or scene, got '" + o.subject + "'");
+  const CaptureStageResult r = run_capture_stage(capture_stage_of(o));
+  if (r.calibration.empty()) return;
+  o.capture.calibration = r.calibration;
+  if (o.opt.env_init.empty() && !r.background_env.empty() && o.opt.env == "latlong") {
+    o.opt.env_init = r.background_env;
+    o.opt.fix_env_seen = true;  // the environment seen directly is known light
+    o.env_detail = true;
+  }
+}
+
 
 // Defaults that depend on the dataset: the Gaussians a 3DGS output folder names
 // (point_cloud/iteration_N, largest N). The environment model is the lat-long
@@ -215,7 +251,7 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm, double fit_seco
   const std::string fitted = (fit_dir / "gaussians.ply").string();
   std::error_code ec;
   if (o.resume && fs::exists(fs::path(o.out) / "checkpoint.bin", ec)) {
-    if (fs::exists(fitted, ec)) {
+    if (fs::exists(fitted, ec) && !fit_kept_input(fit_dir.string())) {
       o.gaussians = fitted;
       o.fitted = true;
     }
@@ -253,6 +289,7 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm, double fit_seco
   f.capture = o.capture;
   remove_stale_outputs({f.out}, o.quiet);
   const int rc = run_fit_stage(f, "ptir optimize ... --resume");
+  if (rc == 0 && !keep_fitted_geometry(capture_stage_of(o), fitted)) return 0;  // the input splats stay
   o.gaussians = fitted;
   o.fitted = true;
   return rc;
@@ -345,6 +382,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     o.plan_fit_fine_fraction = !cmd.count("--fine-fraction");  // full resolution first (fit_stage.h)
   }
   const double fit_seconds = budget.budget_s > 0.0 ? kFitShare * (budget.budget_s - budget.spent_s) : 0.0;
+  if (!o.dataset.empty() && !o.estimate && comm.size() == 1) capture_stage(o);
   if (o.dataset.empty()) {
     if (const int rc = radiance_stage(o, cmd, comm)) return rc;
   } else if (const int rc = geometry_stage(o, comm, fit_seconds)) {
@@ -463,6 +501,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
                  opt.iteration(), ckpt.c_str(), o.out.c_str());
     return 130;
   }
+  if (o.env_detail && comm.rank() == 0) write_env_with_detail(o.out);
   if (!o.quiet)
     std::fprintf(stderr, "wrote %s/gaussians.ply, env.exr, log.csv (%d iterations)\n", o.out.c_str(), opt.iteration());
   return 0;
@@ -487,6 +526,10 @@ Runner add_optimize_command(CLI::App& app) {
                   "geometry; skipped with --scene meshes and under MPI)")
       ->capture_default_str();
   cmd->add_option("--out", o->out, "output folder")->required();
+  cmd->add_option("--subject", o->subject,
+                  "real captures: the splat is an object against a background (its coverage masks the photos, the "
+                  "background starts the environment), the whole scene, or auto (from its coverage of the photos)")
+      ->capture_default_str();
   cmd->add_option("--iters", o->opt.iters, "iterations")->capture_default_str();
   cmd->add_option("--spp", o->opt.spp, "samples per pixel per iteration")->capture_default_str();
   cmd->add_option("--bounces", o->opt.bounces, "indirect bounces")->capture_default_str();
@@ -502,6 +545,9 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();
   cmd->add_option("--env-init", o->opt.env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
   cmd->add_flag("--fix-env", o->opt.fix_env, "keep the --env-init environment fixed (known lighting)");
+  cmd->add_flag("--fix-env-seen", o->opt.fix_env_seen,
+                "hold the --env-init map's texels whose alpha is 1 fixed (the environment the photos saw) and learn the "
+                "rest (a real capture of an object sets it with its background: docs/captures.md)");
   cmd->add_option("--seed", o->opt.seed, "random seed (views, crops, paths)")->capture_default_str();
   cli::add_brdf_option(cmd, &o->brdf);
   cmd->add_flag("--resume", o->resume, "continue from OUT/checkpoint.bin");

@@ -76,7 +76,8 @@ void bind_dataset(py::module_& m) {
   m.def("load_dataset",
         [](const std::string& path, const std::string& split, std::optional<std::string> prior, const std::string& layout,
            const std::string& images, int holdout, const std::string& test_list, const std::string& undistort_cache,
-           const std::string& dataparser_transforms, const std::string& world, bool black_background, bool exif_exposure) {
+           const std::string& dataparser_transforms, const std::string& world, bool black_background, bool exif_exposure,
+           const std::string& calibration) {
           DatasetOptions o;
           o.split = split;
           if (prior) o.prior_dir = *prior;
@@ -89,13 +90,14 @@ void bind_dataset(py::module_& m) {
           o.world = world;
           o.black_background = black_background;
           o.exif_exposure = exif_exposure;
+          o.calibration = calibration;
           py::gil_scoped_release release;
           return std::shared_ptr<Dataset>(load_dataset(path, o));
         },
         py::arg("path"), py::arg("split") = "train", py::arg("prior") = py::none(), py::arg("layout") = "auto",
         py::arg("images") = "", py::arg("holdout") = 8, py::arg("test_list") = "", py::arg("undistort_cache") = "",
         py::arg("dataparser_transforms") = "", py::arg("world") = "auto", py::arg("black_background") = false,
-        py::arg("exif_exposure") = true,
+        py::arg("exif_exposure") = true, py::arg("calibration") = "",
         "Read a dataset folder: NeRF-synthetic/TensoIR (transforms_<split>.json; optional GT and prior maps), or a real "
         "capture (COLMAP, 3DGS output, nerfstudio; split train/test/all by holdout); docs/dataset_format.md.");
   m.def("detect_layout", &detect_layout, py::arg("path"), "The dataset layout of a folder ('' if none is recognised).");

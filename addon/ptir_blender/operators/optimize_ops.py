@@ -86,6 +86,7 @@ class _OptimizeRun:
         _state["cancel"] = False
         settings.running = True
         settings.progress = 0.0
+        settings.capture_subject = ""
         settings.status = "starting"
         self._launch()
 
@@ -115,6 +116,8 @@ class _OptimizeRun:
         """The run's progress over all stages; the status names the stage when there are several."""
         n = len(self._stages)
         settings.progress = (self._stage + p.fraction) / n
+        if getattr(p, "subject", ""):
+            settings.capture_subject = p.subject
         text = p.text or "starting"
         settings.status = text if n == 1 else "%s %d/%d: %s" % (
             "fit" if self._stages[self._stage][0] == "fit" else "optimise", self._stage + 1, n, text)

@@ -137,6 +137,8 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             else:
                 row.prop(s, "progress", text="Progress", slider=True)
             box = layout.box()
+            if s.capture_subject:
+                box.label(text="Capture: %s" % s.capture_subject, icon="CAMERA_DATA")
             for part in (s.status or "starting").split(", "):
                 box.label(text=part)
             layout.operator("ptir.optimize_cancel", text="Cancel (Esc)", icon="CANCEL")
@@ -167,6 +169,8 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
                 layout.operator("ptir.optimize_estimate", icon="TIME")
             if s.status:
                 layout.label(text=s.status, icon="INFO")
+            if s.capture_subject:
+                layout.label(text="Capture: %s" % s.capture_subject, icon="CAMERA_DATA")
         meshes = [o for o in context.visible_objects if o.type == "MESH" and not splat_object.is_splat_object(o)]
         if meshes:
             layout.label(text="%d visible mesh%s take part (shadows, bounces)" % (len(meshes), "es" if len(meshes) > 1 else ""),

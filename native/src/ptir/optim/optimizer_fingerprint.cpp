@@ -92,7 +92,8 @@ Fingerprint Optimizer::fingerprint() const {
                    num(ps.init_metallic_optimised) + (ps.init_from_field ? " from the input" : "")},
       {"metallic", ps.optimize_metallic ? "optimised" : "fixed"},
       {"env", env_settings_text(ps)},
-      {"env_init", ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()},
+      {"env_init", (ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()) +
+                       (ps.env_init_seen_fixed ? " (seen texels fixed)" : "")},
       {"env_optimised", ps.optimize_env ? "1" : "0"},
       {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
       {"exposure", ps.learn_exposure ? "learned" : "fixed"},

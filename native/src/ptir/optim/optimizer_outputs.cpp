@@ -93,6 +93,8 @@ void Optimizer::write_outputs(const std::string& dir) const {
   rec["pixel_filter"] =
       std::string(pixel_filter_name(settings_.integrator.filter.type)) + " " + num(settings_.integrator.filter.width);
   for (const auto& kv : fingerprint()) rec[kv.first] = kv.second;
+  // A real capture's analysis (scene/capture_calibration.h): subject, EXIF, colours, geometry kept.
+  if (!dataset_->calibration_record.empty()) rec["capture"] = ojson::parse(dataset_->calibration_record);
   io::write_text_atomic((out / "settings.json").string(), rec.dump(1) + "\n");
 }
 

@@ -85,6 +85,9 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.env_height = o.env_height;
   s.params.env_init_path = o.env_init;
   s.params.optimize_env = !o.fix_env;
+  s.params.env_init_seen_fixed = o.fix_env_seen;
+  if (o.fix_env_seen && o.env_init.empty())
+    throw Error(names("fix_env_seen") + " needs " + names("env_init") + " (a map whose alpha marks the seen texels)");
   if (o.fix_env && o.env_init.empty())
     throw Error(names("fix_env") + " needs " + names("env_init") + " (the known environment map)");
   s.params.optimize_metallic = o.optimize_metallic;

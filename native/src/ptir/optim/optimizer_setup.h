@@ -79,6 +79,7 @@ struct OptimizeOptions {
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start
   bool fix_env = false;
+  bool fix_env_seen = false;     // hold env_init's seen texels (its alpha) fixed
   bool optimize_metallic = false;
   bool optimize_meshes = false;
   bool learn_exposure = false;  // one exposure scale per training view (exposure.h)

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "ptir/core/error.h"
+#include "ptir/io/image.h"
 #include "ptir/optim/env_pyramid.h"
 
 namespace ptir {
@@ -95,6 +96,24 @@ void install_environment(Scene& scene, const ParameterSettings& s) {
   }
 }
 
+namespace {
+
+// The env_init map's seen texels (alpha > 0.5) as log radiance, NaN elsewhere.
+std::vector<float> known_environment(const Scene& scene, const ParameterSettings& s) {
+  const Environment* env = scene.environment.as<Environment>();
+  if (!env || s.env_init_path.empty()) throw Error("the seen environment texels need a lat-long --env-init map");
+  const Image map = read_image(s.env_init_path);
+  if (map.channels < 4) throw Error(s.env_init_path, "has no alpha channel to say which texels were seen");
+  if (map.width != env->width() || map.height != env->height()) throw Error(s.env_init_path, "size differs from the environment's");
+  std::vector<float> known(size_t(map.width) * size_t(map.height) * 3, std::nanf(""));
+  for (size_t t = 0; t < known.size() / 3; ++t)
+    if (map.pixels[size_t(map.channels) * t + 3] > 0.5f)
+      for (int c = 0; c < 3; ++c) known[3 * t + size_t(c)] = std::log(std::max(env->texels()[3 * t + size_t(c)], 1e-6f));
+  return known;
+}
+
+}  // namespace
+
 Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
   Parameters p;
   const size_t n = scene.gaussians->size();
@@ -115,6 +134,7 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
       }
     }
   }
+  if (s.env_init_seen_fixed && s.optimize_env) p.env_known = known_environment(scene, s);
   // Fixed lighting (or none): no group.
   if (s.optimize_env && scene.environment.present()) {
     std::vector<float> raw(scene.environment.parameter_count());
@@ -149,6 +169,9 @@ void check_size(const ParameterGroup& g, size_t n) {
 std::vector<float> environment_raw(const Parameters& p, const ParameterGroup& fine, const Scene& scene) {
   std::vector<float> raw = fine.raw;
   if (const ParameterGroup* coarse = p.find(ParamKind::EnvironmentCoarse)) coarse_upsampler(*coarse, scene).add_up(coarse->raw.data(), raw.data());
+  if (p.env_known.size() == raw.size())  // the seen texels are known
+    for (size_t i = 0; i < raw.size(); ++i)
+      if (!std::isnan(p.env_known[i])) raw[i] = p.env_known[i];
   return raw;
 }
 
@@ -211,6 +234,17 @@ void apply_parameters(const Parameters& p, const ParameterSettings& s, Scene& sc
   }
 }
 
+namespace {
+
+// Known (seen) environment texels take no step.
+void drop_known(const Parameters& p, std::vector<float>& d) {
+  if (p.env_known.size() != d.size()) return;
+  for (size_t i = 0; i < d.size(); ++i)
+    if (!std::isnan(p.env_known[i])) d[i] = 0.0f;
+}
+
+}  // namespace
+
 std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGradients& gr, const Scene& scene) {
   std::vector<std::vector<float>> out;
   out.reserve(p.groups.size());
@@ -239,6 +273,7 @@ std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGr
         if (!scene.environment.present() || scene.environment.parameter_count() != g.raw.size())
           throw Error("the environment gradients do not match the scene's environment");
         scene.environment->raw_gradient(environment_raw(p, g, scene).data(), gr.environment.data(), d.data());
+        drop_known(p, d);
         break;
       case ParamKind::EnvironmentCoarse: {
         // The fine gradient (as above), carried down to the coarse level.
@@ -246,6 +281,7 @@ std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGr
         if (!fine) throw Error("a coarse environment level without the environment group");
         std::vector<float> d_fine(fine->raw.size());
         scene.environment->raw_gradient(environment_raw(p, *fine, scene).data(), gr.environment.data(), d_fine.data());
+        drop_known(p, d_fine);
         coarse_upsampler(g, scene).adjoint(d_fine.data(), d.data());
         break;
       }

@@ -58,6 +58,10 @@ struct ParameterSettings {
   // Known lighting: start the lat-long environment from this map (its size wins
   // over env_width/height) instead of the constant env_init.
   std::string env_init_path;
+  // The environment seen directly (a real capture's background, optim/capture_analysis.h):
+  // the env_init_path map's texels whose 4th channel is over 0.5 are known and held at their
+  // value; the others are learnt (the coarse level learns from those alone).
+  bool env_init_seen_fixed = false;
   bool optimize_env = true;              // false: the environment is held fixed
   int sg_lobes = 24;
   // Coarse-to-fine lat-long environment (env_pyramid.h): the width of the coarse
@@ -125,6 +129,9 @@ struct ParameterGroup {
 
 struct Parameters {
   std::vector<ParameterGroup> groups;
+  // Per raw value of the environment: the known log radiance (NaN: learnt); empty: none
+  // (ParameterSettings::env_init_seen_fixed).
+  std::vector<float> env_known;
   const ParameterGroup* find(ParamKind k) const;
   ParameterGroup* find(ParamKind k);
   size_t count() const;  // scalars in all groups

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/error.h"
+#include "ptir/scene/capture_calibration.h"
 #include "ptir/io/exr_header.h"
 #include "ptir/io/input_file.h"
 #include "ptir/scene/json_limits.h"
@@ -182,9 +183,12 @@ std::shared_ptr<const TrainingImage> Dataset::target(size_t i) const {
     if (cache_[i]) return cache_[i];
   }
   auto read = std::make_shared<TrainingImage>(read_training_image(views[i].files.image, views[i].files.mask, black_background));
-  if (views[i].exposure != 1.0) {  // EXIF exposure (DatasetOptions::exif_exposure)
-    const float inv = float(1.0 / views[i].exposure);
-    for (float& v : read->rgb.pixels) v *= inv;
+  const std::array<float, 3>& gain = views[i].gain;
+  if (views[i].exposure != 1.0 || gain != std::array<float, 3>{1.0f, 1.0f, 1.0f}) {
+    // EXIF exposure (DatasetOptions::exif_exposure) and the calibration's gain.
+    const int nc = read->rgb.channels;
+    for (size_t p = 0; p < read->rgb.pixels.size(); ++p)
+      read->rgb.pixels[p] *= float(1.0 / (views[i].exposure * double(gain[p % size_t(nc) < 3 ? p % size_t(nc) : 0])));
   }
   std::shared_ptr<const TrainingImage> img = read;
   if (img->rgb.width != width || img->rgb.height != height)
@@ -339,6 +343,8 @@ std::unique_ptr<Dataset> load_dataset(const std::string& dir, const DatasetOptio
   // The same record gives the same defaults in every layout (issue 38).
   data->brdf = data->layout == "nerf" ? read_recorded_bsdf_model(data->transforms_path)
                                       : read_recorded_bsdf_model((fs::path(data->root) / "dataset.json").string());
+  if (!options.calibration.empty())
+    apply_capture_calibration(*data, read_capture_calibration(options.calibration), options.calibration);
   return data;
 }
 

@@ -39,6 +39,7 @@
 // transforms or image files, unreadable images, size mismatches, bad JSON.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <memory>
 #include <mutex>
@@ -72,6 +73,9 @@ struct DatasetOptions {
   // each training image is divided by its exposure relative to the capture's
   // median, so photos taken with different settings agree (false: as stored).
   bool exif_exposure = true;
+  // A capture calibration file (scene/capture_calibration.h: the subject's masks, the
+  // photos' gains, EXIF on or off), applied after reading ("" = none).
+  std::string calibration;
   // Training images are decoded once and kept while their total size stays under
   // this budget; beyond it each use reads the file again (a PNG read costs far
   // less than an iteration).
@@ -97,6 +101,9 @@ struct DatasetView {
   Camera camera;  // camera.image_path == files.image
   ViewFiles files;
   double exposure = 1.0;  // EXIF exposure relative to the capture's median (1: none); target() divides by it
+  // The camera's white balance and exposure against the capture's consensus, per channel
+  // (scene/capture_calibration.h; 1: none); target() divides by it too.
+  std::array<float, 3> gain{1.0f, 1.0f, 1.0f};
 };
 
 class Dataset {
@@ -118,6 +125,8 @@ class Dataset {
   // as scripts/make_dataset.py writes it) or of DIR/dataset.json (every layout);
   // unset when neither says.
   std::optional<BsdfModel> brdf;
+  // The applied capture calibration's record (JSON text; "" = none): OUT/settings.json's "capture".
+  std::string calibration_record;
 
   size_t size() const { return views.size(); }
   std::vector<Camera> cameras() const;

@@ -1,0 +1,111 @@
+#include "capture_stage.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "ptir/core/error.h"
+#include "ptir/io/atomic_file.h"
+#include "ptir/io/image.h"
+#include "ptir/lights/env_detail.h"
+#include "ptir/optim/geometry_check.h"
+#include "ptir/scene/capture_calibration.h"
+#include "ptir/scene/dataset.h"
+#include "ptir/scene/gaussian_ply.h"
+
+namespace ptir::cli {
+
+namespace fs = std::filesystem;
+
+CaptureStageResult run_capture_stage(const CaptureStage& c) {
+  CaptureStageResult r;
+  DatasetOptions dopt;
+  apply_capture_flags(c.capture, dopt);
+  if (!dopt.calibration.empty()) return r;  // given: applied as it is
+  const std::string layout = dopt.layout == "auto" ? detect_layout(c.dataset) : dopt.layout;
+  if (layout == "nerf" || layout.empty()) return r;
+  const fs::path dir = fs::path(c.out) / "capture";
+  const fs::path cal = dir / "calibration.json", env = dir / "background_env.exr";
+  std::error_code ec;
+  if (c.resume && fs::exists(cal, ec)) {
+    r.calibration = cal.string();
+    if (fs::exists(env, ec)) r.background_env = env.string();
+    return r;
+  }
+  dopt.split = "all";
+  const std::unique_ptr<Dataset> all = load_dataset(c.dataset, dopt);
+  bool own_masks = false;
+  for (const DatasetView& v : all->views) own_masks = own_masks || !v.files.mask.empty();
+  CaptureAnalysisSettings s = c.s;
+  if (own_masks && s.subject == "auto") s.subject = "object";
+  CaptureAnalysis a = analyse_capture(load_gaussians(c.gaussians), *all, s);
+  if (own_masks) a.masks.clear();  // the capture's own masks stay
+  if (!c.quiet)
+    for (const std::string& line : capture_analysis_lines(a)) std::fprintf(stderr, "%s\n", line.c_str());
+  if (own_masks && !c.quiet) std::fprintf(stderr, "capture: the capture's own masks are used\n");
+  fs::remove_all(dir, ec);
+  write_capture_analysis(a, *all, s, dir.string());
+  r.calibration = cal.string();
+  if (a.background.width > 0) r.background_env = env.string();
+  return r;
+}
+
+bool keep_fitted_geometry(const CaptureStage& c, const std::string& fitted) {
+  DatasetOptions dopt;
+  apply_capture_flags(c.capture, dopt);
+  if (dopt.calibration.empty()) return true;
+  dopt.split = "test";
+  std::unique_ptr<Dataset> test;
+  try {
+    test = load_dataset(c.dataset, dopt);
+  } catch (const Error&) {
+    return true;  // no held-out photos (--holdout 0): nothing to check against
+  }
+  const HeldOutScore before = held_out_radiance_psnr(load_gaussians(c.gaussians), *test);
+  const HeldOutScore after = held_out_radiance_psnr(load_gaussians(fitted), *test);
+  const bool keep = after.mean_psnr >= before.mean_psnr;
+  using ojson = nlohmann::ordered_json;
+  const ojson check = {{"kept", keep ? "fitted" : "input"},
+                       {"held_out_psnr_input", before.mean_psnr},
+                       {"held_out_psnr_fitted", after.mean_psnr},
+                       {"per_view_input", before.psnr},
+                       {"per_view_fitted", after.psnr}};
+  io::write_text_atomic((fs::path(fitted).parent_path() / "check.json").string(), check.dump(1) + "\n");
+  CaptureCalibration cal = read_capture_calibration(dopt.calibration);
+  ojson rec = cal.record_json.empty() ? ojson::object() : ojson::parse(cal.record_json);
+  rec["geometry"] = {{"kept", check["kept"]}, {"held_out_psnr_input", before.mean_psnr},
+                     {"held_out_psnr_fitted", after.mean_psnr}};
+  cal.record_json = rec.dump();
+  write_capture_calibration(dopt.calibration, cal);
+  if (!c.quiet)
+    std::fprintf(stderr,
+                 "fit: held-out photos %.2f dB with the fitted splats, %.2f dB with the input's geometry: %s\n",
+                 after.mean_psnr, before.mean_psnr,
+                 keep ? "the fitted splats are kept" : "the input splats are kept (the fit did not show the photos better)");
+  return keep;
+}
+
+bool fit_kept_input(const std::string& fit_dir) {
+  const fs::path check = fs::path(fit_dir) / "check.json";
+  std::error_code ec;
+  if (!fs::exists(check, ec)) return false;
+  std::ifstream in(check);
+  try {
+    return nlohmann::json::parse(in).value("kept", std::string()) == "input";
+  } catch (const std::exception& e) {
+    throw Error(check.string(), std::string("not valid JSON: ") + e.what());
+  }
+}
+
+void write_env_with_detail(const std::string& out) {
+  const fs::path dir = fs::path(out) / "capture";
+  const fs::path start = dir / "background_env.exr", seen = dir / "background_seen.exr", env = fs::path(out) / "env.exr";
+  std::error_code ec;
+  if (!fs::exists(start, ec) || !fs::exists(seen, ec) || !fs::exists(env, ec)) return;
+  const Image learnt = read_image(env.string());
+  write_image(env.string(), env_with_detail(learnt, read_image(start.string()), read_image(seen.string())));
+}
+
+}  // namespace ptir::cli
