@@ -6,14 +6,17 @@ the mesh) with Cycles and with the PTIR engine, each as the Render Result and as
 Alpha Over of it over a constant colour (docs/alpha.md).
 
 Metrics, on the pixels whose Cycles coverage (alpha) is 0.02-0.5 (the silhouettes):
-  colour ratio   median over those pixels of sum(RGB PTIR) / sum(RGB Cycles), both as Blender holds
-                 them (associated: RGB premultiplied by alpha). Bound: 0.8-1.25.
-  and over the whole image of the mesh scene: PSNR (linear values clipped to [0, 1]) of PTIR's
-  Alpha Over composite against Cycles'. Bound: >= 38 dB.
-The test can fail: the straight colour the engine handed Blender before (the world seen behind the
-silhouettes kept in RGB) measured a median ratio of 3.8 (issue 53), and the straight colour of the
-same renders (RGB / alpha) is checked to fall outside the bound here ("test design").
-Measured (64 x 64 mesh / 48 x 48 splat, 64 spp): see docs/alpha.md.
+  ratio         median of sum(RGB PTIR) / sum(RGB Cycles), both as Blender holds them (associated:
+                RGB premultiplied by alpha). Bound (mesh): 0.8-1.25.
+  colour ratio  the same of RGB / alpha on both sides: the colour of what covers the pixel, if RGB is
+                associated. Bound: 0.8-1.25 (the splat twin's silhouette covers about twice Cycles'
+                mesh there, so only colour at equal coverage compares).
+  over          PSNR (linear values clipped to [0, 1], whole image) of PTIR's Alpha Over composite
+                against Cycles'. Bound: >= 38 dB (mesh), >= 35 dB (splat).
+The test can fail: the colour the engine handed Blender before (the world seen behind the
+silhouettes kept in RGB) measured a ratio of 5.0-5.6 and 23 dB, and straight colour (RGB / alpha stored
+with the alpha) is checked to fall outside the bound here ("test design").
+64 x 64, 64 spp, 3 bounces; about 25 s per Blender. Measured: docs/alpha.md.
 """
 
 import json
