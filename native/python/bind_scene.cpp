@@ -188,7 +188,6 @@ void def_scene_renders(SceneClass& cls) {
                PathStats stats;
                auto t0 = std::chrono::steady_clock::now();
                img = render_path(*s.tracer, cam, settings, {}, &stats, nullptr, transparent);
-               set_film_alpha(img, transparent, s.scene.environment.present());
                s.last_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                s.last_stats = stats;
              }
@@ -199,9 +198,10 @@ void def_scene_renders(SceneClass& cls) {
            py::arg("geometric_criterion") = py::none(), py::arg("self_intersection") = py::none(),
            py::arg("threads") = py::none(), py::arg("pixel_filter") = py::none(), py::arg("filter_width") = py::none(),
            py::arg("transparent") = false,
-           "Path-trace an image: float32 (height, width, 4), associated linear RGBA as `ptir render` writes it "
-           "(docs/alpha.md: A = coverage with transparent=True or no environment, else 1). camera: None (the "
-           "first), a name, an index or a ptir.Camera; other arguments override the scene's integrator settings.");
+           "Path-trace an image: float32 (height, width, 4), linear RGB + coverage A, the estimator's image (with "
+           "transparent=True, Film > Transparent: RGB premultiplied by A; `ptir render` files make an opaque "
+           "film's A 1 in front of an environment: docs/alpha.md). camera: None (the first), a name, an index "
+           "or a ptir.Camera; other arguments override the scene's integrator settings.");
 }
 
 // Read-only views of the scene's contents and the last render's statistics.
