@@ -131,3 +131,19 @@ def test_transparent_png_is_straight(ptir, cli, tmp_path):
     s = np.clip(x[..., :3][covered] / a[covered][:, None], 0.0, 1.0)
     expect = np.where(s <= 0.0031308, 12.92 * s, 1.055 * s ** (1 / 2.4) - 0.055)
     assert np.abs(png[..., :3][covered] - expect).max() <= 1.0 / 255.0 + 1e-6
+
+
+def test_png_reads_as_associated_and_writes_back_straight(ptir, tmp_path):
+    """A PNG's straight colour is decoded, then multiplied by its alpha (the in-memory convention);
+    writing that image back gives the PNG's bytes (OpenImageIO divides nothing a second time)."""
+    from PIL import Image
+    straight = np.array([[[188, 128, 64, 128], [188, 128, 64, 255], [188, 128, 64, 32]]], np.uint8)
+    Image.fromarray(straight, "RGBA").save(tmp_path / "s.png")
+    img = ptir.read_image(str(tmp_path / "s.png"))
+    c = straight[..., :3] / 255.0
+    a = straight[..., 3:] / 255.0
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    assert np.abs(img[..., :3] - a * linear).max() <= 1e-5
+    assert np.abs(img[..., 3:] - a).max() <= 1e-6
+    ptir.write_image(str(tmp_path / "back.png"), img)
+    assert np.array_equal(np.asarray(Image.open(tmp_path / "back.png")), straight)
