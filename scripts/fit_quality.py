@@ -57,6 +57,13 @@ def dataset_filter(dataset):
         return None
 
 
+def over_white(rgba):
+    """Associated linear RGBA as display values over white: the straight colour sRGB-encoded, blended by A."""
+    a = np.clip(rgba[..., 3:4], 0, 1)
+    straight = np.where(a > 0, rgba[..., :3] / np.maximum(a, 1e-6), 0.0)
+    return srgb(straight) * a + (1 - a)
+
+
 def score(ptir, cli, dataset, gaussians, work, normal_spp=16):
     """Mean NVS PSNR (dB) and normal MAE (degrees) over the test views."""
     cameras = dataset / "transforms_test.json"
@@ -65,14 +72,13 @@ def score(ptir, cli, dataset, gaussians, work, normal_spp=16):
     psnrs, maes = [], []
     for i, fr in enumerate(frames):
         view = dataset / (fr["file_path"].lstrip("./") + ".png")
-        gt = ptir.read_image(str(view), True)
+        gt = ptir.read_image(str(view), True)  # associated linear RGBA (docs/alpha.md)
         a = gt[..., 3:4]
-        gt_disp = srgb(gt[..., :3]) * a + (1 - a)
+        gt_disp = over_white(gt)
         render(cli, gaussians, cameras, i, "preview", work / "p.exr")
         render(cli, gaussians, cameras, i, "normal", work / "n.exr", normal_spp, pixel_filter)
         p = ptir.read_image(str(work / "p.exr"), True)
-        # preview: linear of the display composite on black (A = coverage); over white.
-        pred_disp = srgb(p[..., :3]) + (1 - np.clip(p[..., 3:4], 0, 1))
+        pred_disp = over_white(p)  # the preview: associated linear RGBA, A = coverage
         mse = float(np.mean((pred_disp - gt_disp) ** 2))
         psnrs.append(10 * math.log10(1 / max(mse, 1e-10)))
         gtn_path = view.parent / "normal.png"

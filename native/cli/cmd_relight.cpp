@@ -187,7 +187,9 @@ void add_relight_content(const RelightOptions& o, const CLI::App& cmd, const fs:
     throw Error("no light: give --env, --point or --area (or a scene file with lights or an environment)");
 }
 
-// Renders one camera and writes OUT/<name>.exr and .png (straight alpha with --transparent).
+// Renders one camera and writes OUT/<name>.exr (associated RGBA) and .png (straight;
+// docs/alpha.md). Without --transparent the environment is seen behind the object and
+// the picture is opaque (A = 1) when there is one.
 void render_relit_view(const RelightOptions& o, const PathTracer& tracer, const IntegratorSettings& is, const Camera& cam,
                        const std::string& name) {
   ProgressBar bar("relight " + name, o.quiet);
@@ -195,19 +197,10 @@ void render_relit_view(const RelightOptions& o, const PathTracer& tracer, const 
   control.progress = [&](float f) { bar.update(f); };
   Image img = o.transparent ? eval::render_transparent(tracer, cam, is, control) : render_path(tracer, cam, is, control);
   bar.finish();
+  set_film_alpha(img, o.transparent, tracer.scene().environment.present());
   const fs::path exr = fs::path(o.output) / (name + ".exr"), png = fs::path(o.output) / (name + ".png");
   write_image(exr.string(), img, Encoding::Colour);
-  if (o.transparent) {
-    // PNG stores straight alpha.
-    Image straight = img;
-    for (size_t k = 0, n = size_t(img.width) * img.height; k < n; ++k) {
-      float a = img.pixels[k * 4 + 3];
-      for (int c = 0; c < 3; ++c) straight.pixels[k * 4 + c] = a > 1e-6f ? img.pixels[k * 4 + c] / a : 0.0f;
-    }
-    write_image(png.string(), straight, Encoding::Colour);
-  } else {
-    write_image(png.string(), img, Encoding::Colour);
-  }
+  write_image(png.string(), img, Encoding::Colour);  // un-premultiplied by write_image
 }
 
 int run_relight(const RelightOptions& o, const CLI::App& cmd) {

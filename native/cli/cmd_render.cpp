@@ -1,10 +1,17 @@
 // `ptir render`: path-traced colour or AOV images.
 //
-//   ptir render scene.json -o out.exr [--spp N] [--bounces N] [--camera NAME] [--seed S] [--threads N]
+//   ptir render scene.json -o out.exr [--spp N] [--bounces N] [--camera NAME] [--seed S] [--threads N] [--transparent]
 //       the scene file (docs/scene_format.md); path-traced colour by default.
 //   ptir render --gaussians g.ply [--mesh m.ply ...] (--cameras t.json [--frame I] | --c2w ... --fov-x F)
 //       [--aov preview|opacity|depth|normal|albedo|diffuse_color|roughness|metallic|rgb] [--env map.exr ...] -o out.png
 //       the flag form: AOVs of the primary hit, or (--aov rgb) path-traced colour under --env.
+//
+// Alpha (docs/alpha.md): an EXR holds associated RGBA (RGB premultiplied by A),
+// a PNG straight RGBA. Path-traced colour: A is the coverage when nothing is seen
+// behind the objects (--transparent, Cycles' Film > Transparent, or a scene
+// without an environment), else 1 (render/render_path.h set_film_alpha); the
+// preview AOV is associated like it; data AOVs hold the surface's values with
+// the coverage as A.
 //
 // Integrator switches (both forms; in the scene form they override the file):
 // --spp, --bounces, --seed, --interaction aggregate|discrete, --tau-g,
@@ -77,6 +84,7 @@ struct RenderOptions {
   std::string interaction = "aggregate";
   float tau_g = 0.5f;
   bool no_geometric_criterion = false;
+  bool transparent = false;  // leave the directly seen environment out (Film > Transparent)
   std::string self_intersection = "backface";
   std::string env;
   float env_strength = 1.0f;
@@ -229,7 +237,7 @@ void orient_flag_normals(const RenderOptions& o, const Camera& camera, PathTrace
 // 8-bit files get sRGB colour; AOV data is mapped (normals 0.5 + 0.5 n, depth / max).
 void write_render(const RenderOptions& o, const std::optional<Aov>& aov, const Image& image) {
   const bool eight_bit = lower_ext(o.output) == ".png";
-  if (!aov && eight_bit) {
+  if (!aov && eight_bit && !o.transparent) {
     // The environment is part of a path-traced picture: 8-bit files get RGB only (an
     // alpha channel would make the sky transparent, and PNG alpha is unassociated).
     Image rgb_only(image.width, image.height, {"R", "G", "B"});
@@ -237,7 +245,7 @@ void write_render(const RenderOptions& o, const std::optional<Aov>& aov, const I
       for (int c = 0; c < 3; ++c) rgb_only.pixels[i * 3 + c] = image.pixels[i * 4 + c];
     write_image(o.output, rgb_only, Encoding::Colour);
   } else if (!aov) {
-    write_image(o.output, image, Encoding::Colour);  // EXR: linear RGB + coverage alpha
+    write_image(o.output, image, Encoding::Colour);  // EXR: associated; PNG (--transparent): straight
   } else {
     float depth_max = 0.0f;
     write_image(o.output, eight_bit ? aov_for_8bit(*aov, image, &depth_max) : image, aov_encoding(*aov));
@@ -306,8 +314,8 @@ int run_render(const RenderOptions& o, const CLI::App& cmd) {
   if (scene_mode) load_scene_form(o, cmd, scene, camera);
   else load_flag_form(o, cmd, scene, camera);
   check_image_budget(camera.width, camera.height, o.max_memory_gib, scene_mode ? o.scene : "camera");
-  if (aov && (cmd.count("--bounces") || o.no_geometric_criterion || cmd.count("--self-intersection")))
-    throw Error("--bounces, --no-geometric-criterion and --self-intersection apply to --aov rgb (path tracing) only");
+  if (aov && (cmd.count("--bounces") || o.no_geometric_criterion || cmd.count("--self-intersection") || o.transparent))
+    throw Error("--bounces, --no-geometric-criterion, --self-intersection and --transparent apply to --aov rgb (path tracing) only");
   IntegratorSettings settings = scene.integrator;
   apply_integrator_flags(o, cmd, settings);
   if (aov && !cmd.count("--spp")) settings.spp = 1;  // AOVs: pixel centres unless asked
@@ -335,13 +343,14 @@ int run_render(const RenderOptions& o, const CLI::App& cmd) {
   as.interaction = settings.interaction;
   Image image = render_row_bands(comm, camera, [&](const Camera& band, size_t b) {
     band_now = b;
-    if (!aov) return render_path(tracer, band, settings, control, &report.path);
+    if (!aov) return render_path(tracer, band, settings, control, &report.path, nullptr, o.transparent);
     return render_aov(tracer.accel(), band, *aov, as, control, &report.trace);
   });
   report.render_s = seconds_since(t2);
   bar.finish();
   sum_over_ranks(comm, report);
   if (comm.rank() != 0) return 0;
+  if (!aov) set_film_alpha(image, o.transparent, scene.environment.present());
   write_render(o, aov, image);
   report.total_s = seconds_since(t0);
   report_render(o, scene, camera, settings, aov, report);
@@ -379,6 +388,8 @@ Runner add_render_command(CLI::App& app) {
                 "ablation: every Gaussian hit with O > 0 is an interaction (no chi_geom gate)");
   cmd->add_option("--self-intersection", o->self_intersection,
                   "backface (backface-aware rejection) or fixed (PTIR code's fixed offset)");
+  cmd->add_flag("--transparent", o->transparent,
+                "leave the directly seen environment out (Cycles' Film > Transparent): RGB premultiplied by A = coverage");
   cmd->add_option("--env", o->env, "flag form: lat-long environment map (.exr/.hdr, Blender orientation)");
   cmd->add_option("--env-strength", o->env_strength, "environment strength (Background node Strength)");
   cmd->add_option("--env-rotation", o->env_rotation, "environment Z rotation in radians (Mapping node)");

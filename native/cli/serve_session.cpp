@@ -418,6 +418,7 @@ json ServeSession::render(const json& request, const std::atomic<bool>* cancel,
     };
   PathStats stats;
   Image image = render_path(pt, camera, settings, control, &stats, nullptr, transparent, first);
+  set_film_alpha(image, transparent, scene_->environment.present());  // as `ptir render` writes it
   if (ends_with_exr(output)) write_image(output, image, Encoding::Colour);
   else write_raw(output, image);
   json reply = {{"width", camera.width}, {"height", camera.height}, {"spp", settings.spp}, {"first_sample", first},

@@ -167,7 +167,8 @@ void def_scene_renders(SceneClass& cls) {
            [](PyScene& s, py::object camera, std::optional<int> spp, std::optional<int> bounces,
               std::optional<uint64_t> seed, std::optional<std::string> interaction,
               std::optional<bool> geometric_criterion, std::optional<std::string> self_intersection,
-              std::optional<int> threads, std::optional<std::string> pixel_filter, std::optional<float> filter_width) {
+              std::optional<int> threads, std::optional<std::string> pixel_filter, std::optional<float> filter_width,
+              bool transparent) {
              Camera cam = pick_camera(s, camera);
              IntegratorSettings settings = s.scene.integrator;
              if (spp) settings.spp = *spp;
@@ -186,7 +187,7 @@ void def_scene_renders(SceneClass& cls) {
                if (threads) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(*threads));
                PathStats stats;
                auto t0 = std::chrono::steady_clock::now();
-               img = render_path(*s.tracer, cam, settings, {}, &stats);
+               img = render_path(*s.tracer, cam, settings, {}, &stats, nullptr, transparent);
                s.last_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                s.last_stats = stats;
              }
@@ -196,8 +197,11 @@ void def_scene_renders(SceneClass& cls) {
            py::arg("seed") = py::none(), py::arg("interaction") = py::none(),
            py::arg("geometric_criterion") = py::none(), py::arg("self_intersection") = py::none(),
            py::arg("threads") = py::none(), py::arg("pixel_filter") = py::none(), py::arg("filter_width") = py::none(),
-           "Path-trace an image: float32 (height, width, 4), linear RGB + coverage. camera: None (the first), a "
-           "name, an index or a ptir.Camera; other arguments override the scene's integrator settings.");
+           py::arg("transparent") = false,
+           "Path-trace an image: float32 (height, width, 4), linear RGB + coverage A, the estimator's image (with "
+           "transparent=True, Film > Transparent: RGB premultiplied by A; `ptir render` files make an opaque "
+           "film's A 1 in front of an environment: docs/alpha.md). camera: None (the first), a name, an index "
+           "or a ptir.Camera; other arguments override the scene's integrator settings.");
 }
 
 // Read-only views of the scene's contents and the last render's statistics.

@@ -1,6 +1,7 @@
 """The live PTIR viewport in a real Blender window under Xvfb (steps in viewport_check.py): Rendered
 shading with PTIR (first with the engine missing: said, then rendered once it is back), a splat group's albedo and the lights' power changed (screenshots, colour ratios
-measured), the engine process killed mid-render (Blender survives, the next redraw renders again), and
+measured), the engine process killed mid-render (Blender survives, the next redraw renders again), Film >
+Transparent (the world leaves the passes: alpha 0 there, Blender's checkerboard shows; docs/alpha.md), and
 F12 through the same process equal to `ptir render` (max difference 0) without a re-export."""
 
 import json
@@ -81,6 +82,15 @@ def test_live_viewport_edits_kill_and_f12(tmp_path):
     assert info["pending_when_killed"] and "died (SIGKILL)" in info["death_message"]
     assert steps["restarted"]["engine_pid"] != steps["camera"]["engine_pid"]
     assert np.abs(restarted - move).max() <= 2.0 / 255.0
+
+    # Film > Transparent: the world seen directly leaves the viewport's passes (alpha 0 there, drawn
+    # premultiplied over the viewport's background), what covers the pixels stays (alpha 1), no reload.
+    film = steps["film"]
+    print("film transparent: %.3f of the pixels alpha 0, %.3f alpha 1" % (film["alpha_zero"], film["alpha_one"]))
+    # Measured: 0.988 of the pixels alpha 0 (the sky and the ground are the environment), 0.010 alpha 1 (the box).
+    assert film["alpha_zero"] > 0.5 and film["alpha_one"] > 0.005 and film["loads"] == steps["restarted"]["loads"]
+    transparent = shot(film["screenshot"])
+    assert (np.abs(transparent - restarted).max(axis=-1) > 0.05).mean() > 0.05, "the world still shows"
 
     # F12 through the same process: no re-export, the CLI's image exactly, AOV passes in the compositor.
     f12 = info["f12"]

@@ -46,7 +46,7 @@ PIXEL = int(ARGS[ARGS.index("--pixel-size") + 1]) if "--pixel-size" in ARGS else
 KILL = "--no-kill" not in ARGS
 OVERLAYS = "--overlays" in ARGS  # keep the overlays (the status text) in the screenshots
 TIMEOUT = 60.0
-STEPS = ["base", "albedo", "lights", "camera", "move"] + (["kill", "restarted"] if KILL else [])
+STEPS = ["base", "albedo", "lights", "camera", "move"] + (["kill", "restarted"] if KILL else []) + ["film"]
 S = {"i": 0, "t_edit": None, "result": {"steps": {}}, "phase": "start", "sent_before": {}}
 
 
@@ -96,6 +96,8 @@ def edit(step):
         rv3d.view_rotation = q
     elif step == "move":
         bpy.data.objects["Suzanne Splats"].location.x += 0.15
+    elif step == "film":
+        scene.render.film_transparent = True  # the world seen directly leaves the picture (docs/alpha.md)
     elif step == "kill":
         vr = viewport()
         engine = engine_sync.session().engine
@@ -219,11 +221,15 @@ def _tick():
                               if v - S["sent_before"].get(k, 0) > 0},
                "loads": engine_sync.session().loads, "screenshot": screenshot(step),
                "engine_pid": engine_sync.session().engine.proc.pid, "status": vr._status(SAMPLES)}
+        if step == "film":  # the accumulated passes' alpha: 0 where only the world was seen, n where covered
+            a = vr.accum[..., 3] / vr.samples
+            rec["alpha_zero"], rec["alpha_one"] = float((a == 0.0).mean()), float((a == 1.0).mean())
         S["result"]["steps"][step] = rec
         print("VIEWPORT_STEP: %s %s" % (step, json.dumps(rec)), flush=True)
         S["i"] += 1
         if S["i"] >= len(STEPS):
             if KILL:
+                scene.render.film_transparent = False  # (F12 is compared with the CLI's opaque film)
                 S["result"]["f12"] = f12()
             print("VIEWPORT_CHECK: " + json.dumps(S["result"]), flush=True)
             print("ADDON_CHECK: OK", flush=True)

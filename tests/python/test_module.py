@@ -53,10 +53,11 @@ def test_wall_values_at_centre(ptir, wall_scene):
     assert centre["roughness"][0] == pytest.approx(0.6, abs=1e-4)
     assert centre["metallic"][0] == pytest.approx(0.0, abs=1e-6)
     # Preview: SH colours are display (sRGB) values; they are composited in that
-    # space (premultiplied by the coverage) and the result is stored linear.
+    # space, and the result is stored as linear colour associated with the
+    # coverage (docs/alpha.md): the coverage times the decoded straight colour.
     cov = centre["opacity"][0]
-    display = cov * np.array([0.8, 0.3, 0.1])
-    linear = np.where(display <= 0.04045, display / 12.92, ((display + 0.055) / 1.055) ** 2.4)
+    display = np.array([0.8, 0.3, 0.1])
+    linear = cov * np.where(display <= 0.04045, display / 12.92, ((display + 0.055) / 1.055) ** 2.4)
     assert centre["preview"][:3] == pytest.approx(linear, abs=0.01)
 
 

@@ -13,6 +13,10 @@ in flight and starts over. A timer (bpy.app.timers, main thread) asks the engine
 for the reply, which reads its pipe without blocking (io/pipe_lines.py: no reader
 threads), and tags the view for redraw when one has arrived. Pixels come back as raw float32 RGBA
 files in /dev/shm and go to the GPU as one texture (no per-pixel Python).
+
+Film > Transparent: the passes leave the directly seen world out and keep the coverage as alpha
+(associated RGBA, docs/alpha.md), drawn premultiplied over the viewport's background as Cycles draws
+its own; otherwise the picture is opaque (alpha 1).
 """
 
 import math
@@ -82,6 +86,7 @@ class ViewportRender:
         self.message = ""
         self.session = None
         self.view_cams = None   # (full, first-pass) engine cameras of the last draw (kick() reuses them)
+        self.transparent = False  # the scene's Film > Transparent at the last draw
         _active.add(self)
 
     # ---------------------------------------------------------------- state
@@ -127,6 +132,7 @@ class ViewportRender:
             self.view_cams = None
             return "PTIR: orthographic views are not supported in the viewport (use a perspective view)"
         self.view_cams = (full, view_camera(region, rv3d, pixel_size * FIRST_PASS_DIVIDER))
+        self.transparent = bool(depsgraph.scene.render.film_transparent)
         key = self._key(full)
         if key != self.key:
             self.restart()
@@ -139,11 +145,11 @@ class ViewportRender:
 
     def _key(self, full):
         return (tuple(full["c2w"]), full["fx"], full["fy"], full["cx"], full["cy"], full["width"], full["height"],
-                self.generation)
+                self.generation, self.transparent)
 
     def _send_pass(self, cam):
         out = self.session.file("view.raw")
-        rid = self.session.engine.send({"cmd": "render", "view": cam, "spp": 1,
+        rid = self.session.engine.send({"cmd": "render", "view": cam, "spp": 1, "transparent": self.transparent,
                                         "first_sample": 0 if self.passes == 0 else self.samples, "output": out})
         self.pending = (rid, self.passes, self.key, out, cam["width"], cam["height"])
         _ensure_timer()
@@ -192,7 +198,8 @@ class ViewportRender:
     def _upload(self, px, n):
         h, w = px.shape[:2]
         rgba = px[::-1] * (1.0 / n)  # top row first -> OpenGL's bottom row first
-        rgba[..., 3] = 1.0
+        if not self.transparent:
+            rgba[..., 3] = 1.0
         buf = gpu.types.Buffer("FLOAT", rgba.size, np.ascontiguousarray(rgba, np.float32).reshape(-1))
         self.texture = gpu.types.GPUTexture((w, h), format="RGBA16F", data=buf)
         self.texture_size = (w, h)

@@ -23,7 +23,10 @@ deltas. When the engine is missing or died, the viewport says so and starts a
 new one on the next redraw.
 
 Film: with Film > Transparent off the alpha is 1 (as Cycles); with it on, the
-alpha is the coverage and pixels that no surface covers are (0, 0, 0, 0).
+engine leaves the directly seen world out (the render request's "transparent"):
+RGB is premultiplied by the coverage A, the associated alpha Blender's render
+result holds and Cycles writes (docs/alpha.md), and pixels that no surface covers
+are (0, 0, 0, 0).
 """
 
 import os
@@ -59,12 +62,15 @@ def integrator_settings(settings):
             "interaction": settings.interaction, "tau_g": float(settings.tau_g)}
 
 
-def render_args(cli_exe, scene_json, output, camera, settings):
+def render_args(cli_exe, scene_json, output, camera, settings, transparent=False):
+    """The `ptir render` command line of F12's image (transparent: Film > Transparent)."""
     args = [cli_exe, "render", scene_json, "-o", output, "--camera", camera, "--spp", settings.spp,
             "--bounces", settings.bounces, "--seed", settings.seed, "--interaction", settings.interaction,
             "--tau-g", "%.9g" % settings.tau_g]
     if settings.threads > 0:
         args += ["--threads", settings.threads]
+    if transparent:
+        args.append("--transparent")
     return args
 
 
@@ -154,7 +160,8 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
                 camera = scene_export.camera_entry(scene.camera, scene, warnings) if scene.camera else None
                 if camera is None:
                     scene_bridge.scene_camera_name(scene)  # raises the message
-                request = {"cmd": "render", "camera": camera, "output": output, "aovs": aovs}
+                request = {"cmd": "render", "camera": camera, "output": output, "aovs": aovs,
+                           "transparent": bool(scene.render.film_transparent)}
                 rid = session.engine.send(request)
             label = "PTIR: %d spp, %d bounces%s" % (settings.spp, settings.bounces,
                                                    "" if sync["load"] else " (scene unchanged: no re-export)")
@@ -190,10 +197,8 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
         except PtirError as e:
             self._fail(str(e))
             return
-        if scene.render.film_transparent:
-            px[px[:, 3] <= 0.0] = 0.0
-        else:
-            px[:, 3] = 1.0
+        if not scene.render.film_transparent:
+            px[:, 3] = 1.0  # an opaque film (the world is seen behind the objects)
         result = self.begin_result(0, 0, width, height)
         layer = result.layers[0]
         layer.passes["Combined"].rect = px

@@ -289,8 +289,9 @@ void evaluate_view(EvalRun& run, size_t i) {
   const auto t0 = Clock::now();
   std::shared_ptr<const TrainingImage> gt = run.data->target(i);
   // A capture without masks is unbounded: its photos show the environment behind the Gaussians, and
-  // the render does too (rgba.exr then holds straight colour with the coverage as A); with a mask
-  // or alpha, the object on a transparent film composited over white (METHOD §7).
+  // the render does too (rgba.exr then holds an opaque picture, A = 1 where an environment is seen:
+  // docs/alpha.md); with a mask or alpha, the object on a transparent film (associated RGBA)
+  // composited over white (METHOD §7).
   const bool unbounded = !gt->has_alpha;
   auto aov = [&](Aov a) {
     return render_split(run, cam, [&](const Camera& c) { return render_aov(tracer.accel(), c, a, run.as, s.control); });
@@ -305,7 +306,13 @@ void evaluate_view(EvalRun& run, size_t i) {
   Image diffuse = aov(Aov::DiffuseColor);
   run.render_s += seconds_since(t0);
   if (s.comm->rank() != 0) return;
-  write_image((vdir / "rgba.exr").string(), rgba);
+  if (unbounded) {
+    Image opaque = rgba;
+    set_film_alpha(opaque, false, tracer.scene().environment.present());
+    write_image((vdir / "rgba.exr").string(), opaque);
+  } else {
+    write_image((vdir / "rgba.exr").string(), rgba);
+  }
   write_image((vdir / "albedo.exr").string(), albedo);
   write_image((vdir / "diffuse_color.exr").string(), diffuse);
   write_image((vdir / "roughness.exr").string(), rough);

@@ -57,13 +57,26 @@ void write_image(const std::string& path, const Image& image, Encoding encoding)
     if (is_alpha(image.channel_names[c])) spec.alpha_channel = c;
   if (ext == ".exr") spec.attribute("compression", "zip");
 
-  // 8-bit files: sRGB curve on colour channels, plain clamp on data and alpha.
+  // 8-bit files: straight colour (associated colour divided by its alpha), the sRGB
+  // curve on colour channels, plain clamp on data and alpha; handed to the writer as
+  // unassociated, so that it stores them as they are.
   std::vector<float> out = image.pixels;
   if (!floating) {
+    if (spec.alpha_channel >= 0) spec.attribute("oiio:UnassociatedAlpha", 1);
+    const size_t nc = size_t(image.channels);
     for (size_t i = 0; i < out.size(); ++i) {
-      int c = int(i % size_t(image.channels));
-      bool colour = encoding == Encoding::Colour && !is_alpha(image.channel_names[c]);
-      out[i] = colour ? linear_to_srgb(out[i]) : std::clamp(out[i], 0.0f, 1.0f);
+      const int c = int(i % nc);
+      const bool colour = encoding != Encoding::Data && c != spec.alpha_channel;
+      if (!colour) {
+        out[i] = std::clamp(out[i], 0.0f, 1.0f);
+        continue;
+      }
+      float v = out[i];
+      if (encoding == Encoding::Colour && spec.alpha_channel >= 0) {
+        const float a = image.pixels[i - size_t(c) + size_t(spec.alpha_channel)];
+        v = a > 0.0f ? v / a : 0.0f;
+      }
+      out[i] = linear_to_srgb(v);
     }
   }
 
@@ -94,7 +107,10 @@ Image read_image(const std::string& path, Encoding encoding, bool* stored_as_byt
   // "file not found"; a FIFO or a device is refused before OIIO blocks on it; an
   // EXR header's attributes must fit in the file before OpenEXR allocates them.
   check_exr_header(path, check_regular_file(path, "image"));
-  auto in = OIIO::ImageInput::open(path);
+  // Colour: a file's unassociated alpha (PNG's) is read as stored and associated below, in linear.
+  OIIO::ImageSpec config;
+  if (encoding != Encoding::Data) config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(path, &config);
   if (!in) throw Error(path, "cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) throw Error(path, "image has no pixels");
@@ -118,11 +134,17 @@ Image read_image(const std::string& path, Encoding encoding, bool* stored_as_byt
                    spec.format.basetype != OIIO::TypeDesc::HALF;
   if (stored_as_bytes)
     *stored_as_bytes = spec.format.basetype == OIIO::TypeDesc::UINT8 || spec.format.basetype == OIIO::TypeDesc::INT8;
-  if (eight_bit && encoding == Encoding::Colour) {
+  if (eight_bit && encoding != Encoding::Data) {
     for (size_t i = 0; i < image.pixels.size(); ++i) {
       int c = int(i % size_t(image.channels));
       if (c != spec.alpha_channel) image.pixels[i] = srgb_to_linear(image.pixels[i]);
     }
+  }
+  const bool straight_file = spec.alpha_channel >= 0 && spec.get_int_attribute("oiio:UnassociatedAlpha", 0) != 0;
+  if (straight_file && encoding == Encoding::Colour) {
+    const size_t nc = size_t(image.channels);
+    for (size_t i = 0; i < image.pixels.size(); ++i)
+      if (int(i % nc) != spec.alpha_channel) image.pixels[i] *= image.pixels[i - i % nc + size_t(spec.alpha_channel)];
   }
   for (float v : image.pixels)
     if (!std::isfinite(v)) throw Error(path, "image contains NaN or infinite values");

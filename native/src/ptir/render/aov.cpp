@@ -3,6 +3,7 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <mutex>
 #include <optional>
 
@@ -37,7 +38,8 @@ const char* aov_name(Aov aov) {
 }
 
 Encoding aov_encoding(Aov aov) {
-  return (aov == Aov::Albedo || aov == Aov::DiffuseColor || aov == Aov::Preview) ? Encoding::Colour : Encoding::Data;
+  if (aov == Aov::Preview) return Encoding::Colour;  // associated, as path-traced colour
+  return (aov == Aov::Albedo || aov == Aov::DiffuseColor) ? Encoding::StraightColour : Encoding::Data;
 }
 
 namespace {
@@ -211,9 +213,16 @@ Image render_aov(const SceneAccel& accel, const Camera& camera, Aov aov, const A
           const int x = xs[l], y = ys[l];
           float norm = aov == Aov::Preview ? 1.0f / float(spp) : (acc[l][3] > 0 ? 1.0f / acc[l][3] : 0.0f);
           for (int c = 0; c < nc - 1; ++c) image.at(x, y, c) = acc[l][c] * norm;
-          // Preview: display-space composite back to linear.
-          if (aov == Aov::Preview)
-            for (int c = 0; c < 3; ++c) image.at(x, y, c) = srgb_to_linear(std::min(1.0f, image.at(x, y, c)));
+          // Preview: the display-space composite (SH colours are display values, blended
+          // as a 3DGS rasteriser blends them) as linear colour associated with the
+          // coverage: un-premultiplied in display space, decoded, premultiplied again.
+          if (aov == Aov::Preview) {
+            const float a = std::clamp(coverage[l] / float(spp), 0.0f, 1.0f);
+            for (int c = 0; c < 3; ++c) {
+              const float straight = a > 1e-6f ? std::min(1.0f, image.at(x, y, c) / a) : 0.0f;
+              image.at(x, y, c) = a * srgb_to_linear(straight);
+            }
+          }
           // Normals averaged over samples are renormalised.
           if (aov == Aov::Normal && acc[l][3] > 0) {
             Vec3 nrm = normalize(Vec3(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2)));

@@ -61,21 +61,6 @@ std::string transforms_json(const std::vector<Camera>& cameras) {
 
 }  // namespace
 
-Image radiance_target_from_preview(const Image& preview) {
-  Image out = preview;
-  for (int y = 0; y < out.height; ++y)
-    for (int x = 0; x < out.width; ++x) {
-      const float a = std::clamp(out.at(x, y, 3), 0.0f, 1.0f);
-      out.at(x, y, 3) = a;
-      for (int c = 0; c < 3; ++c) {
-        // Display-space premultiplied -> straight -> linear -> associated.
-        const float straight = a > 1e-6f ? std::min(1.0f, linear_to_srgb(out.at(x, y, c)) / a) : 0.0f;
-        out.at(x, y, c) = a * srgb_to_linear(straight);
-      }
-    }
-  return out;
-}
-
 RadianceTargetReport render_radiance_targets(const SceneAccel& accel, const std::vector<Camera>& cameras,
                                              const std::string& dir, const RadianceTargetSettings& s) {
   if (cameras.empty()) throw Error(dir, "no cameras to render radiance targets from");
@@ -117,7 +102,7 @@ RadianceTargetReport render_radiance_targets(const SceneAccel& accel, const std:
         report.cancelled = true;
         return report;
       }
-      write_image(image.string(), radiance_target_from_preview(preview), Encoding::Data);
+      write_image(image.string(), preview, Encoding::Data);  // associated, as EXR stores it
       rendered = true;
     }
     (rendered ? report.rendered : report.reused)++;

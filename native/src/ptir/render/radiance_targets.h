@@ -2,7 +2,8 @@
 // inversion without photos (`ptir optimize --gaussians IN.ply` with no --dataset;
 // docs/relightable.md). Each view is the preview AOV (render/aov.h: the SH colours
 // composited front to back by the same walk the inversion traces, so the targets
-// agree with the geometry exactly) with its exact coverage as alpha.
+// agree with the geometry exactly; linear colour associated with its exact
+// coverage as alpha).
 //
 // The cache is a NeRF-layout dataset folder that load_dataset reads like any other:
 //   DIR/key.txt                 what the images depend on (the PLY, the cameras,
@@ -44,10 +45,5 @@ struct RadianceTargetReport {
 // have the same size. Throws ptir::Error naming the file on I/O errors.
 RadianceTargetReport render_radiance_targets(const SceneAccel& accel, const std::vector<Camera>& cameras,
                                              const std::string& dir, const RadianceTargetSettings& settings);
-
-// The preview AOV image (linear of a display-space composite, alpha = coverage)
-// as a target: colour un-premultiplied in display space, decoded to linear, and
-// associated with alpha again (as EXR stores it).
-Image radiance_target_from_preview(const Image& preview);
 
 }  // namespace ptir

@@ -102,6 +102,11 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
   return image;
 }
 
+void set_film_alpha(Image& rgba, bool transparent_film, bool environment_seen) {
+  if (transparent_film || !environment_seen || rgba.channels < 4) return;
+  for (size_t p = 0, n = size_t(rgba.width) * rgba.height; p < n; ++p) rgba.pixels[p * rgba.channels + 3] = 1.0f;
+}
+
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control,
                           const std::vector<Vec3>* sample_radiance, TileReduceStats* tile_stats,

@@ -32,6 +32,14 @@ Image render_path(const PathTracer& tracer, const Camera& camera, const Integrat
                   uint32_t first_sample = 0, std::vector<uint64_t>* sample_shadows = nullptr,
                   WalkStore* sample_walks = nullptr);
 
+// The film's alpha as an image file holds it (docs/alpha.md: RGBA is associated,
+// RGB premultiplied by A). A transparent film's RGB is premultiplied by the
+// coverage A already, and so is an opaque film's when the scene has no
+// environment (escaping rays add nothing). An opaque film that sees the
+// environment behind the objects is an opaque picture: A becomes 1, as Cycles
+// writes it (its coverage would claim a transparency the RGB does not have).
+void set_film_alpha(Image& rgba, bool transparent_film, bool environment_seen);
+
 // Path replay backpropagation of a whole image: d_image (same size as the image,
 // >= 3 channels: the adjoint dLoss/dI of each pixel's RGB) is pushed through every
 // sample of every pixel with a non-zero adjoint, with the same random numbers as
