@@ -115,32 +115,40 @@ def test_dog_up_from_its_sh(ptir):
     assert up_c["source"] == "sh" and angle_deg(up_c["up"], truth) < 15.0, up_c
 
 
+def plan_views(cli, ply, out, *extra):
+    """OUT/views.json of `ptir optimize --gaussians PLY` without --dataset (--estimate: one small view)."""
+    run = subprocess.run([str(cli), "optimize", "--gaussians", str(ply), "--out", str(out), "--estimate",
+                          "--orbit-size", "32", "--threads", "2"] + list(extra), capture_output=True, text=True,
+                         timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    return json.loads((Path(out) / "views.json").read_text())
+
+
+def elevations(views, up):
+    """The orbit cameras' elevations in degrees about `up`, seen from the bounds' centre."""
+    centre = np.asarray(views["bounds"]["centre"], float)
+    eyes = np.array([np.asarray(c["transform_matrix"], float)[:3, 3] for c in views["cameras"]]) - centre
+    return np.degrees(np.arcsin(eyes @ np.asarray(up, float) / np.linalg.norm(eyes, axis=1)))
+
+
 def test_turned_dog_orbits_about_its_own_up(ptir, cli, tmp_path):
     r = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # 90 degrees about x
     turned = tmp_path / "dog_turned.ply"
     rotate_inria_ply(DOG / "point_cloud_29999_clean.ply", turned, r)
     truth = r @ dog_true_up()
-    out = tmp_path / "out"
-    run = subprocess.run([str(cli), "optimize", "--gaussians", str(turned), "--out", str(out), "--estimate",
-                          "--orbit-size", "32", "--threads", "2"], capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, run.stderr[-3000:]
-    views = json.loads((out / "views.json").read_text())
+    views = plan_views(cli, turned, tmp_path / "out")
     assert views["up_axis"]["source"] == "sh", views["up_axis"]
     err = angle_deg(views["up_axis"]["up"], truth)
     print("turned plush dog: decided %s, true %s: %.1f deg" % (np.round(views["up_axis"]["up"], 3),
                                                                np.round(truth, 3), err))
     assert err < 15.0
-    centre = np.asarray(views["bounds"]["centre"], float)
-
-    def elevations(up):
-        eyes = np.array([np.asarray(c["transform_matrix"], float)[:3, 3] for c in views["cameras"]]) - centre
-        return np.degrees(np.arcsin(eyes @ up / np.linalg.norm(eyes, axis=1)))
-
-    el = elevations(truth)
+    el = elevations(views, truth)
     assert el.min() >= -30.0 - 15.0 and el.max() <= 75.0 + 15.0, (el.min(), el.max())
-    # What the orbit about world +z (the rule not applied) would have been: elevations about the truth
-    # far outside the range (+z is about 90 degrees from the turned truth).
-    assert angle_deg([0, 0, 1], truth) > 60.0
+    # The rule not applied (world +z as up, as before): the orbit sees the toy from under its paper.
+    el_z = elevations(plan_views(cli, turned, tmp_path / "out_z", "--up", "z"), truth)
+    print("  elevations about the true up: %.0f..%.0f deg with the rule, %.0f..%.0f about +z"
+          % (el.min(), el.max(), el_z.min(), el_z.max()))
+    assert el_z.min() < -30.0 - 15.0
 
 
 @pytest.mark.parametrize("name", ["guitar", "biker"])
