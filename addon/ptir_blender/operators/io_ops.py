@@ -158,8 +158,10 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
         layout.use_property_split = True
         col = layout.column(heading="Transform")
         col.prop(self, "axis_preset")
-        col.prop(self, "axis_forward")
-        col.prop(self, "axis_up")
+        axes = col.column()
+        axes.active = self.axis_preset == "AXES"  # a preset gives both (shown, greyed)
+        axes.prop(self, "axis_forward")
+        axes.prop(self, "axis_up")
         col.prop(self, "global_scale")
         col.prop(self, "frame")
         layout.prop(self, "display")
