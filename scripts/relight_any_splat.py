@@ -8,7 +8,10 @@
    the target; any extra flags with --optimize, e.g. "--iters 200" for a quick look). A finished
    result in DIR/result is reused; --resume continues a stopped one.
 2. One camera at a three-quarter view of the splats' robust bounds (DIR/result/views.json), at the
-   orbit's distance, 30 degrees up.
+   orbit's distance, 30 degrees up: up is the splats' up axis the command decided and recorded there
+   (views.json "up_axis": from --up, a cameras.json, the SH or the file's convention; docs/relightable.md),
+   so a trainer's PLY in its capture's frame (often -y up) stands on the floor. Give
+   --optimize "--up -y" when the decision is wrong.
 3. Panels, left to right: the splats as they were captured (their SH radiance composited, what
    Blender shows: `ptir render --aov preview`); then the recovered asset with a grey floor and a
    grey sphere beside it, under each new environment (`ptir relight`, 128 spp, 3 bounces).
@@ -38,14 +41,24 @@ def run(cmd):
     subprocess.run([str(c) for c in cmd], check=True)
 
 
-def three_quarter_camera(bounds, fov_x, width, height):
-    """A NeRF transforms document with one camera looking at the bounds' centre."""
+def horizontal_axes(up):
+    """(e1, e2): with up a right-handed orthonormal frame; +x and +y for +z up (scene/orbit_views.h's)."""
+    ref = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = ref - np.dot(ref, up) * up
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(up, e1)
+
+
+def three_quarter_camera(bounds, up, fov_x, width, height):
+    """A NeRF transforms document with one camera looking at the bounds' centre, 30 degrees above it
+    about `up` (a unit vector), its image upright."""
     centre, radius = np.asarray(bounds["centre"], float), float(bounds["radius"])
     dist = radius / math.sin(fov_x / 2.0) * 1.6  # room for the sphere beside it
     az, el = math.radians(-55.0), math.radians(30.0)
-    eye = centre + dist * np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+    e1, e2 = horizontal_axes(up)
+    eye = centre + dist * (math.cos(el) * (math.cos(az) * e1 + math.sin(az) * e2) + math.sin(el) * up)
     back = (eye - centre) / np.linalg.norm(eye - centre)
-    right = np.cross([0.0, 0.0, 1.0], back)
+    right = np.cross(up, back)
     right /= np.linalg.norm(right)
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
@@ -54,24 +67,38 @@ def three_quarter_camera(bounds, fov_x, width, height):
             "h": height, "frames": [{"file_path": "view", "transform_matrix": m.tolist()}]}
 
 
-def floor_and_sphere(bounds, path, right):
-    """An ASCII PLY: a floor under the bounds and a sphere of 0.35 their radius to the camera's right."""
-    lo, hi = np.asarray(bounds["lo"], float), np.asarray(bounds["hi"], float)
+def floor_height(ptir, ply, up):
+    """Where the splats stand along `up`: the 1st opacity-weighted percentile of their heights (opacity
+    >= 0.05, as the orbit's bounds: a stray splat under the object does not sink the floor)."""
+    field = ptir.load_gaussians(str(ply))
+    p, w = np.asarray(field.position, float), np.asarray(field.opacity, float)
+    keep = w >= 0.05
+    h, w = p[keep] @ up, w[keep]
+    order = np.argsort(h)
+    cum = np.cumsum(w[order])
+    return float(h[order][np.searchsorted(cum, 0.01 * cum[-1])])
+
+
+def floor_and_sphere(bounds, up, height, path, right):
+    """An ASCII PLY: a floor across `up` at `height` under the bounds and a sphere of 0.35 their radius
+    on it, to the camera's right."""
     centre, radius = np.asarray(bounds["centre"], float), float(bounds["radius"])
-    z0, s = lo[2], 4.0 * radius
-    verts = [(centre[0] - s, centre[1] - s, z0), (centre[0] + s, centre[1] - s, z0),
-             (centre[0] + s, centre[1] + s, z0), (centre[0] - s, centre[1] + s, z0)]
-    normals = [(0.0, 0.0, 1.0)] * 4  # vertex normals: the sphere shades smooth
+    s = 4.0 * radius
+    e1, e2 = horizontal_axes(up)
+    c0 = centre + (height - np.dot(centre, up)) * up  # the centre dropped onto the floor
+    verts = [tuple(c0 + s * (a * e1 + b * e2)) for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    normals = [tuple(up)] * 4  # vertex normals: the sphere shades smooth
     faces = [(0, 1, 2), (0, 2, 3)]
     r = 0.35 * radius
-    c = np.array([centre[0] + 1.25 * radius * right[0], centre[1] + 1.25 * radius * right[1], z0 + r])
+    side = np.asarray(right, float) - np.dot(right, up) * up
+    c = c0 + 1.25 * radius * side / max(np.linalg.norm(side), 1e-9) + r * up
     nu, nv = 24, 12
     base = len(verts)
     for j in range(nv + 1):
         th = math.pi * j / nv
         for i in range(nu):
             ph = 2.0 * math.pi * i / nu
-            n = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])
+            n = math.sin(th) * math.cos(ph) * e1 + math.sin(th) * math.sin(ph) * e2 + math.cos(th) * up
             verts.append(tuple(c + r * n))
             normals.append(tuple(n))
     for j in range(nv):
@@ -118,12 +145,18 @@ def main():
             ptir.write_image(str(path), np.ascontiguousarray(envmaps.make_envmap(name, 256, 128), np.float32))
             envs.append(path)
 
-    bounds = json.loads((result / "views.json").read_text())["bounds"]
+    views = json.loads((result / "views.json").read_text())
+    bounds = views["bounds"]
+    up = np.asarray(views.get("up_axis", {}).get("up", [0.0, 0.0, 1.0]), float)  # (older results: +z)
+    up /= np.linalg.norm(up)
+    print("relight_any_splat: up (%.3f, %.3f, %.3f) from %s" % (tuple(up) + (views.get("up_axis", {}).get(
+        "source", "an older result: +z"),)), flush=True)
     cams = out / "picture_camera.json"
-    camera = three_quarter_camera(bounds, math.radians(40.0), args.size, args.size)
+    camera = three_quarter_camera(bounds, up, math.radians(40.0), args.size, args.size)
     cams.write_text(json.dumps(camera))
     props = out / "floor_and_sphere.ply"
-    floor_and_sphere(bounds, props, np.asarray(camera["frames"][0]["transform_matrix"])[:3, 0])
+    floor_and_sphere(bounds, up, floor_height(ptir, args.ply, up), props,
+                     np.asarray(camera["frames"][0]["transform_matrix"])[:3, 0])
 
     baked = out / "captured.exr"
     run([cli, "render", "--gaussians", args.ply, "--cameras", cams, "--frame", 0, "--aov", "preview",

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
 #include "ptir/accel/scene_accel.h"
 #include "ptir/core/error.h"
@@ -13,6 +14,7 @@
 #include "ptir/render/radiance_targets.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/scene/gaussian_ply.h"
+#include "ptir/scene/splat_up_axis.h"
 #include "run_control.h"
 
 namespace ptir::cli {
@@ -24,6 +26,10 @@ void add_radiance_flags(CLI::App* cmd, RadianceStage* r) {
   cmd->add_option("--cameras", r->cameras,
                   "a 3DGS output's cameras.json (or its folder): render the targets from these poses instead of an orbit "
                   "(scenes, not only objects)")
+      ->group(group);
+  cmd->add_option("--up", r->up,
+                  "the splats' up axis: x, y, z, -x, -y, -z or X,Y,Z (default: decided from the data: the cameras, "
+                  "the SH, the file's convention; recorded in OUT/views.json)")
       ->group(group);
   cmd->add_option("--orbit-views", r->orbit.views, "virtual views around the splats (0: from the splat count, 24..96)")
       ->group(group);
@@ -80,21 +86,27 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
   std::string plan_text;
   if (!r.cameras.empty()) {
     cameras = capture_cameras(r.cameras, r.orbit.size);
-    plan_text = "{\"cameras_from\": \"" + r.cameras + "\", \"views\": " + std::to_string(cameras.size()) +
-                ", \"width\": " + std::to_string(cameras[0].width) + ", \"height\": " + std::to_string(cameras[0].height) + "}";
+    const nlohmann::json plan = {{"cameras_from", r.cameras}, {"views", cameras.size()}, {"width", cameras[0].width},
+                                 {"height", cameras[0].height}};
+    plan_text = with_up_axis(plan.dump(), decide_up_axis(field, r.up, cameras));
     if (!r.quiet)
       std::fprintf(stderr, "optimize: no --dataset: %zu views from %s at %dx%d, radiance from the splats\n", cameras.size(),
                    r.cameras.c_str(), cameras[0].width, cameras[0].height);
   } else {
-    const OrbitPlan plan = plan_orbit(field, r.orbit);
+    const UpAxis up = decide_up_axis(field, r.up, {});
+    OrbitOptions orbit = r.orbit;
+    orbit.up = up.up;
+    const OrbitPlan plan = plan_orbit(field, orbit);
     cameras = plan.cameras;
-    plan_text = orbit_plan_json(plan, r.gaussians);
+    plan_text = with_up_axis(orbit_plan_json(plan, r.gaussians), up);
     if (!r.quiet) {
       std::fprintf(stderr,
                    "optimize: no --dataset: %d orbit views %dx%d around the splats (radius %.3g about (%.3g, %.3g, %.3g), "
-                   "distance %.3g, elevation %.0f..%.0f deg), radiance from the splats (SH degree %d)\n",
+                   "distance %.3g, elevation %.0f..%.0f deg about up (%.2f, %.2f, %.2f) from %s), radiance from the "
+                   "splats (SH degree %d)\n",
                    plan.views, plan.size, plan.size, plan.bounds.radius, plan.bounds.centre.x, plan.bounds.centre.y,
-                   plan.bounds.centre.z, plan.distance, plan.elevation_min, plan.elevation_max, field.sh_degree);
+                   plan.bounds.centre.z, plan.distance, plan.elevation_min, plan.elevation_max, up.up.x, up.up.y, up.up.z,
+                   up.source.c_str(), field.sh_degree);
       if (plan.distance <= plan.bounds.radius)
         std::fprintf(stderr, "warning: --orbit-distance %.3g puts the cameras inside the splats' bounds: the targets "
                              "see the object from inside\n", r.orbit.distance_scale);

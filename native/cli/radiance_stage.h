@@ -17,6 +17,7 @@ namespace ptir::cli {
 struct RadianceStage {
   std::string gaussians, out;
   std::string cameras;    // --cameras: a 3DGS cameras.json (or its output folder); "" = orbit
+  std::string up;         // --up: the splats' up axis (scene/splat_up_axis.h); "" = decided from the data
   OrbitOptions orbit;     // --orbit-* flags
   int target_spp = 4;     // --target-spp (filter-jittered; docs/relightable.md)
   int max_side = 0;       // --orbit-size with --cameras: the long side of the targets (0: 800)

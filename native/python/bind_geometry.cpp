@@ -11,6 +11,7 @@
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/gaussians.h"
 #include "ptir/scene/mesh.h"
+#include "ptir/scene/splat_up_axis.h"
 #include "py_arrays.h"
 
 namespace py = pybind11;
@@ -46,6 +47,14 @@ void bind_geometry(py::module_& m) {
   m.def("save_gaussians", [](const std::string& path, const GaussianField& f) { save_gaussians(path, f); }, py::arg("path"),
         py::arg("field"), py::call_guard<py::gil_scoped_release>(),
         "Write the field: input properties unchanged plus material properties.");
+  m.def("splat_up_axis",
+        [](const GaussianField& f, const std::string& up, const std::vector<Camera>& cameras) {
+          const std::string text = up_axis_json(decide_up_axis(f, up, cameras));
+          return py::module_::import("json").attr("loads")(text);
+        },
+        py::arg("field"), py::arg("up") = "", py::arg("cameras") = std::vector<Camera>(),
+        "The splats' up axis as `ptir optimize` without --dataset decides it (scene/splat_up_axis.h): a dict "
+        "with 'up', 'source' and the cues measured.");
 
   py::class_<TriangleMesh>(m, "TriangleMesh")
       .def_readonly("name", &TriangleMesh::name)

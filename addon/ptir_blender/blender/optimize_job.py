@@ -296,9 +296,12 @@ def _with_common_args(job, args, settings):
 def _prepare_splats_only(context, settings, job_dir, cli_exe, out_dir, own_defaults):
     """`ptir optimize --gaussians splats.ply` without --dataset: the targets are rendered from the splats'
     own radiance (docs/relightable.md). The scene's meshes and lights take no part (the targets show the
-    splats alone); no geometry stage (the targets are the splats' own)."""
+    splats alone); no geometry stage (the targets are the splats' own). The splats go out in world space,
+    where the artist stood the object up (import Convention, or a rotation): Blender's +Z is their up
+    (`--up`), so the virtual views' elevations are measured about the object as it stands."""
     job, _, splats = _new_job(context, settings, job_dir, out_dir)
-    args = [cli_exe, "optimize", "--gaussians", splats, "--out", job.out_dir, "--bounces", settings.bounces,
+    args = [cli_exe, "optimize", "--gaussians", splats, "--out", job.out_dir, "--up", "0,0,1",
+            "--bounces", settings.bounces,
             "--env", settings.env, "--env-size", "%dx%d" % (settings.env_width, settings.env_height),
             "--seed", settings.seed]
     if not own_defaults:

@@ -17,7 +17,7 @@ import time
 
 import bpy
 import numpy as np
-from bpy.props import BoolProperty, CollectionProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper, axis_conversion, orientation_helper
 from mathutils import Matrix, Vector
 
@@ -56,6 +56,19 @@ def frame_views(context, objects):
     return centre, radius
 
 
+# The common conventions of splat PLYs, as (Forward, Up) of the file: "Axes" takes the Forward / Up
+# properties as set. A trainer's PLY (3DGS, gsplat, nerfstudio; SuperSplat and PlayCanvas keep that
+# frame) is in its COLMAP capture's frame, whose world is the first photo's camera: y down, z ahead;
+# glTF and the web viewers' scenes are Y up with -Z ahead; PTIR's and Blender's own files are Z up.
+AXIS_PRESETS = {"BLENDER": ("Y", "Z"), "TRAINER": ("Z", "-Y"), "Y_UP": ("-Z", "Y")}
+
+
+def _apply_axis_preset(self, context):
+    """Shows the preset's axes in the Forward / Up fields (execute uses the preset itself)."""
+    if self.axis_preset in AXIS_PRESETS:
+        self.axis_forward, self.axis_up = AXIS_PRESETS[self.axis_preset]
+
+
 @orientation_helper(axis_forward="Y", axis_up="Z")
 class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
     """Import 3D Gaussian splats from a .ply file (3DGS, SuperSplat compressed), with PTIR materials"""
@@ -73,6 +86,15 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
                                description="Show at most this many splats (a random subset; 0 = all)")
     display_size: FloatProperty(name="Splat Size", default=splat_object.DEFAULT_DISPLAY_SIZE, min=0.0,
                                 description="Ellipsoid radii in standard deviations")
+    axis_preset: EnumProperty(
+        name="Convention", default="AXES", update=_apply_axis_preset,
+        description="The file's axis convention: sets Forward / Up (stand the object up; Make Relightable "
+                    "takes Blender's Z as its up)",
+        items=[("AXES", "Forward / Up", "The Forward and Up axes as set below"),
+               ("BLENDER", "Z Up (Blender, PTIR)", "Files written by Blender, PTIR or the add-on: Z up"),
+               ("TRAINER", "-Y Up (3DGS, gsplat, nerfstudio, SuperSplat)",
+                "A trainer's PLY in its COLMAP capture's frame: -Y up, +Z ahead (the first photo's camera)"),
+               ("Y_UP", "Y Up (glTF, three.js, PlayCanvas)", "Y up, -Z ahead")])
     global_scale: FloatProperty(name="Scale", default=1.0, min=1e-6, soft_min=1e-3, soft_max=1e3,
                                 description="Scale of the object (a capture in other units: 0.01 for centimetres)")
     frame: BoolProperty(name="Frame in View", default=True,
@@ -80,8 +102,10 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
 
     def _matrix(self):
         """Object matrix: the file's axes (Forward / Up; trainers' captures are often Y-up or -Y-up) to
-        Blender's, times the scale. Applied as the object's transform, not baked into the splats."""
-        conv = axis_conversion(from_forward=self.axis_forward, from_up=self.axis_up).to_4x4()
+        Blender's, times the scale. Applied as the object's transform, not baked into the splats. A
+        Convention other than Forward / Up gives the axes itself (a script need not set both)."""
+        forward, up = AXIS_PRESETS.get(self.axis_preset, (self.axis_forward, self.axis_up))
+        conv = axis_conversion(from_forward=forward, from_up=up).to_4x4()
         return Matrix.Scale(self.global_scale, 4) @ conv
 
     def execute(self, context):
@@ -133,8 +157,11 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
         layout = self.layout
         layout.use_property_split = True
         col = layout.column(heading="Transform")
-        col.prop(self, "axis_forward")
-        col.prop(self, "axis_up")
+        col.prop(self, "axis_preset")
+        axes = col.column()
+        axes.active = self.axis_preset == "AXES"  # a preset gives both (shown, greyed)
+        axes.prop(self, "axis_forward")
+        axes.prop(self, "axis_up")
         col.prop(self, "global_scale")
         col.prop(self, "frame")
         layout.prop(self, "display")

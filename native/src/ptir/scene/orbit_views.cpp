@@ -29,6 +29,15 @@ float weighted_quantile(std::vector<std::pair<float, float>> vw, float fraction)
   return vw.back().first;
 }
 
+// The 1st..99th opacity-weighted percentile range of the splats' positions along `axis`.
+float robust_extent_along(const GaussianField& field, Vec3 axis) {
+  std::vector<std::pair<float, float>> vw;
+  for (size_t i = 0; i < field.size(); ++i)
+    if (field.opacity[i] >= kMinOpacity && is_finite(field.position[i]))
+      vw.emplace_back(dot(field.position[i], axis), field.opacity[i]);
+  return vw.empty() ? 0.0f : weighted_quantile(vw, 0.99f) - weighted_quantile(vw, 0.01f);
+}
+
 }  // namespace
 
 SplatBounds robust_splat_bounds(const GaussianField& field) {
@@ -68,14 +77,24 @@ SplatBounds robust_splat_bounds(const GaussianField& field) {
   return b;
 }
 
-Affine look_at(Vec3 eye, Vec3 target) {
+void horizontal_axes(Vec3 up, Vec3* e1, Vec3* e2) {
+  // World x projected off up (world y where up is along x).
+  const Vec3 ref = std::fabs(up.x) < 0.9f ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+  *e1 = normalize(ref - dot(ref, up) * up);
+  *e2 = cross(up, *e1);
+}
+
+Affine look_at(Vec3 eye, Vec3 target, Vec3 up) {
   const Vec3 back = normalize(eye - target);
-  Vec3 right = cross(Vec3(0, 0, 1), back);
-  if (length(right) < 1e-6f) right = Vec3(1, 0, 0);  // straight above or below
+  Vec3 right = cross(up, back);
+  if (length(right) < 1e-6f) {  // straight above or below: any horizontal right
+    Vec3 e2;
+    horizontal_axes(up, &right, &e2);
+  }
   right = normalize(right);
-  const Vec3 up = cross(back, right);
+  const Vec3 image_up = cross(back, right);
   Affine a;
-  a.linear = Mat3::from_cols(right, up, back);
+  a.linear = Mat3::from_cols(right, image_up, back);
   a.translation = eye;
   return a;
 }
@@ -86,8 +105,15 @@ OrbitPlan plan_orbit(const GaussianField& field, const OrbitOptions& o) {
   const double n = double(std::max<size_t>(field.size(), 1));
   plan.size = o.size > 0 ? o.size : std::clamp(16 * int(std::lround(std::sqrt(n) / 20.0)), 256, 640);
   plan.views = o.views > 0 ? o.views : std::clamp(int(std::lround(24.0 + 8.0 * std::log2(n / 1e4))), 24, 96);
+  if (!(is_finite(o.up) && std::fabs(length(o.up) - 1.0f) < 1e-3f)) throw Error("the orbit's up axis must be a unit vector");
+  plan.up = o.up;
+  Vec3 e1, e2;
+  horizontal_axes(o.up, &e1, &e2);
   const Vec3 ext = plan.bounds.hi - plan.bounds.lo;
-  const bool flat = ext.z < 0.25f * std::max(ext.x, ext.y);
+  const bool z_up = o.up.x == 0 && o.up.y == 0 && o.up.z == 1;  // the box's own extents
+  const bool flat = z_up ? ext.z < 0.25f * std::max(ext.x, ext.y)
+                         : robust_extent_along(field, o.up) <
+                               0.25f * std::max(robust_extent_along(field, e1), robust_extent_along(field, e2));
   plan.elevation_min = o.elevation_min > -999 ? o.elevation_min : (flat ? 10.0f : -30.0f);
   plan.elevation_max = o.elevation_max > -999 ? o.elevation_max : 75.0f;
   if (!(plan.elevation_min <= plan.elevation_max) || plan.elevation_min < -90 || plan.elevation_max > 90)
@@ -104,8 +130,8 @@ OrbitPlan plan_orbit(const GaussianField& field, const OrbitOptions& o) {
   for (int k = 0; k < plan.views; ++k) {
     const float s = s0 + (s1 - s0) * (float(k) + 0.5f) / float(plan.views);
     const float c = std::sqrt(std::max(0.0f, 1.0f - s * s)), phi = golden * float(k);
-    const Vec3 eye = plan.bounds.centre + plan.distance * Vec3(c * std::cos(phi), c * std::sin(phi), s);
-    const Affine a = look_at(eye, plan.bounds.centre);
+    const Vec3 eye = plan.bounds.centre + plan.distance * (c * std::cos(phi) * e1 + c * std::sin(phi) * e2 + s * o.up);
+    const Affine a = look_at(eye, plan.bounds.centre, o.up);
     float m[16] = {0};
     for (int r = 0; r < 3; ++r) {
       for (int col = 0; col < 3; ++col) m[r * 4 + col] = a.linear.m[r][col];
@@ -128,6 +154,7 @@ std::string orbit_plan_json(const OrbitPlan& plan, const std::string& source) {
   j["views"] = plan.views;
   j["size"] = plan.size;
   j["elevation_deg"] = {plan.elevation_min, plan.elevation_max};
+  j["up"] = v3(plan.up);
   j["fov_deg"] = plan.fov_deg;
   j["distance"] = plan.distance;
   nlohmann::json frames = nlohmann::json::array();
