@@ -36,15 +36,16 @@ CaptureStageResult run_capture_stage(const CaptureStage& c) {
   }
   dopt.split = "all";
   const std::unique_ptr<Dataset> all = load_dataset(c.dataset, dopt);
-  bool own_masks = false;
-  for (const DatasetView& v : all->views) own_masks = own_masks || !v.files.mask.empty();
-  CaptureAnalysisSettings s = c.s;
-  if (own_masks && s.subject == "auto") s.subject = "object";
-  CaptureAnalysis a = analyse_capture(load_gaussians(c.gaussians), *all, s);
-  if (own_masks) a.masks.clear();  // the capture's own masks stay
+  // A capture with its own masks was prepared by its user (or converted from a masked set): it is
+  // read as it is, as the same set in the NeRF layout would be (docs/captures.md, issue 38).
+  for (const DatasetView& v : all->views)
+    if (!v.files.mask.empty()) {
+      if (!c.quiet) std::fprintf(stderr, "capture: its own masks are used, its photos as they are\n");
+      return r;
+    }
+  CaptureAnalysis a = analyse_capture(load_gaussians(c.gaussians), *all, c.s);
   if (!c.quiet)
     for (const std::string& line : capture_analysis_lines(a)) std::fprintf(stderr, "%s\n", line.c_str());
-  if (own_masks && !c.quiet) std::fprintf(stderr, "capture: the capture's own masks are used\n");
   fs::remove_all(dir, ec);
   write_capture_analysis(a, *all, s, dir.string());
   r.calibration = cal.string();

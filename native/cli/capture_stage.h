@@ -24,7 +24,8 @@ struct CaptureStageResult {
   std::string background_env;  // OUT/capture/background_env.exr ("" for a scene)
 };
 
-// NeRF-style sets (rendered, masked) need none; a resumed run reuses what its first
+// NeRF-style sets (rendered, masked) and captures with their own masks need none (they are read as
+// they are); a resumed run reuses what its first
 // run wrote. Prints the analysis' lines unless quiet.
 CaptureStageResult run_capture_stage(const CaptureStage& c);
 

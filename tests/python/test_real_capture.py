@@ -43,8 +43,7 @@ def held_out_psnr(ptir, ply, test, masks):
         rgb = test.target(i)[0]
         m = ptir.read_image(str(masks / (name + ".png")), linear=False)[..., 0] > 0.5
         pv = scene.render_aov(test.cameras[i], "preview")
-        # The preview is straight colour over the coverage: as the check, the colour over black.
-        lin = pv[..., :3] * pv[..., 3:4]
+        lin = pv[..., :3]  # premultiplied by its coverage: the colour over black, as the check takes it
         g = (lin[m] * rgb[m]).sum(0) / np.maximum((lin[m] ** 2).sum(0), 1e-12)
         out.append(-10 * np.log10(np.mean((srgb(lin[m] * g) - srgb(rgb[m])) ** 2)))
     return float(np.mean(out))
