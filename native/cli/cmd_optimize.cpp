@@ -123,6 +123,7 @@ struct OptimizeCommand {
   bool env_detail = false;  // the environment started from the photos' background: OUT/env.exr gets their detail
   std::string subject = "auto";  // --subject: a real capture's splat is an object or the scene (capture_stage.h)
   std::shared_ptr<ScratchFolder> scratch;  // --estimate without --dataset: its probe target (outside OUT)
+  std::shared_ptr<PendingPlan> plan;       // without --dataset: a new plan, committed with the results
 };
 
 // The capture stage's view of the command (the input splats, the calibration so far).
@@ -319,12 +320,14 @@ int radiance_stage(OptimizeCommand& o, const CLI::App& cmd, const Communicator& 
   }
   int degree = 0;
   if (comm.rank() == 0) {
-    if (const int rc = run_radiance_stage(o.radiance, &o.dataset, &degree, &o.targets_left_s)) return rc;
+    if (const int rc = run_radiance_stage(o.radiance, &o.dataset, &degree, &o.targets_left_s, &o.plan)) return rc;
   } else {
     degree = load_gaussians(o.gaussians).sh_degree;
   }
-  comm.barrier();
-  o.dataset = o.estimate ? o.radiance.estimate_dir : (std::filesystem::path(o.out) / "radiance").string();
+  char staged = o.plan != nullptr;  // the targets in OUT/radiance, or staged (radiance_stage.h)
+  comm.broadcast(&staged, 1, 0);
+  o.dataset = o.estimate ? o.radiance.estimate_dir
+                         : (std::filesystem::path(o.out) / (staged ? kPlanStaging : "") / "radiance").string();
   if (degree == 0) {
     if (!o.quiet)
       std::fprintf(stderr, "note: the splats have SH degree 0 (no view-dependent colour): roughness and metallic are "
@@ -508,6 +511,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     return true;
   };
   const RunResult r = with_sigint_restored(previous, [&] { return run_optimizer(opt, ro); });
+  if (o.plan) o.plan->commit();  // the results are the new plan's: it goes in place with them
   if (opt.nonfinite_gradients() > 0 && !o.quiet)
     std::fprintf(stderr, "warning: %zu non-finite gradient entries were dropped\n", opt.nonfinite_gradients());
   if (r == RunResult::Cancelled) {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <optional>
+#include <memory>
 #include <fstream>
 #include <sstream>
 
@@ -153,28 +153,26 @@ void check_targets_cover(const RadianceStage& r, const RadianceTargetReport& rep
                                "(low opacities, or too small and sparse for the views): a trained 3DGS PLY covers its object");
 }
 
-// A new plan's staging folder (radiance_stage.h), removed when the stage ends
-// (committed, or failed: a full disk, targets that cannot train) unless kept: a
-// stopped run's targets stay for the next run to continue.
-class PlanStaging {
- public:
-  explicit PlanStaging(fs::path dir) : dir_(std::move(dir)) {}
-  ~PlanStaging() {
-    std::error_code ec;
-    if (!keep_) fs::remove_all(dir_, ec);
-  }
-  PlanStaging(const PlanStaging&) = delete;
-  PlanStaging& operator=(const PlanStaging&) = delete;
-  void keep() { keep_ = true; }
-
- private:
-  fs::path dir_;
-  bool keep_ = false;
-};
-
 }  // namespace
 
-int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s) {
+PendingPlan::PendingPlan(const std::string& out) : out_(out) {}
+
+PendingPlan::~PendingPlan() {
+  std::error_code ec;
+  if (!keep_) fs::remove_all(fs::path(out_) / kPlanStaging, ec);
+}
+
+void PendingPlan::commit() {
+  const fs::path out(out_), staging = out / kPlanStaging;
+  io::replace_folder((staging / "radiance").string(), (out / "radiance").string());
+  std::error_code ec;
+  fs::rename(staging / "views.json", out / "views.json", ec);
+  if (ec) throw Error((out / "views.json").string(), "cannot move the new plan in place: " + ec.message());
+  keep_ = false;  // the rest of the staging folder (the old targets) goes
+}
+
+int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s,
+                       std::shared_ptr<PendingPlan>* pending) {
   if (r.target_spp < 1) throw Error("--target-spp must be at least 1");
   const auto t0 = std::chrono::steady_clock::now();
   GaussianField field = load_gaussians(r.gaussians);
@@ -196,10 +194,10 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
   };
   // Where the targets go: the probe's view alone in the estimate's scratch folder; the
   // plan OUT/radiance holds (its key) in place; a new plan staged (radiance_stage.h).
-  const fs::path out(r.out), live = out / "radiance", staging = out / ".plan-staging";
+  const fs::path out(r.out), live = out / "radiance", staging = out / kPlanStaging;
   fs::path dir = live;
   const size_t all_views = cameras.size();
-  std::optional<PlanStaging> staged;
+  std::shared_ptr<PendingPlan> staged;
   if (r.estimate) {
     cameras.resize(1);
     dir = r.estimate_dir;
@@ -209,7 +207,7 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
     if (ec) throw Error(r.out, "cannot create the output folder: " + ec.message());
     if (read_text(live / "key.txt") != s.key) {
       dir = staging / "radiance";
-      staged.emplace(staging);
+      staged = std::make_shared<PendingPlan>(r.out);
       fs::create_directories(staging, ec);
       if (ec) throw Error(staging.string(), "cannot create the folder: " + ec.message());
       io::write_text_atomic((staging / "views.json").string(), plan_text);
@@ -226,7 +224,7 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
     rep = with_sigint_restored(previous, [&] { return render_radiance_targets(accel, cameras, dir.string(), s); });
   }
   if (rep.cancelled) {
-    if (staged) staged->keep();
+    if (staged) staged->keep();  // its targets are the next run's
     std::fprintf(stderr, "ptir: interrupted while rendering the radiance targets; %d views are cached in %s (run the same "
                  "command again to continue)\n", rep.rendered + rep.reused, dir.string().c_str());
     return 130;
@@ -236,15 +234,9 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
                                     double(all_views - 1)
                               : 0.0;
   if (!r.estimate) {
-    check_targets_cover(r, rep, cameras.size());
-    if (staged) {  // the new plan whole: its targets, then its views.json, in place of the old
-      io::replace_folder(dir.string(), live.string());
-      std::error_code ec;
-      fs::rename(staging / "views.json", out / "views.json", ec);
-      if (ec) throw Error((out / "views.json").string(), "cannot move the new plan in place: " + ec.message());
-      dir = live;
-    }
+    check_targets_cover(r, rep, cameras.size());  // (a staged plan goes with the error)
   }
+  if (pending) *pending = staged;  // committed with the run's results
   if (!r.quiet)
     std::fprintf(stderr, "radiance: %d views rendered, %d reused from %s (%s)\n", rep.rendered, rep.reused,
                  dir.string().c_str(),

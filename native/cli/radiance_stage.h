@@ -5,18 +5,21 @@
 // radiance once into OUT/radiance/ (render/radiance_targets.h: cached, resumable)
 // and hands the optimiser that folder as its dataset.
 //
-// The plan and its targets change together or not at all: a plan that differs
-// from the one in OUT/radiance/ (its key) is rendered into OUT/.plan-staging/
-// (views.json and radiance/; a run stopped there continues it) and replaces
-// OUT/views.json and OUT/radiance/ only once every target is there
-// (io/atomic_folder.h), so a full disk or an error midway leaves the result's
-// own plan beside it. Targets that no pixel of reaches the inversion's mask
+// The plan, its targets and the results change together or not at all: a plan
+// that differs from the one in OUT/radiance/ (its key) is rendered into
+// OUT/.plan-staging/ (views.json and radiance/), the run trains on it there, and
+// it replaces OUT/views.json and OUT/radiance/ (io/atomic_folder.h) once the
+// run has written its results (PendingPlan). A full disk or an error anywhere
+// before leaves the previous plan beside the previous results (the optimiser's
+// own outputs roll back: io/output_rollback.h); a run stopped or killed leaves
+// the staged plan for the next run to continue. Targets that no pixel of reaches the inversion's mask
 // (alpha 0.99 nowhere: splats too transparent) fail the command naming the PLY:
 // the run would learn nothing and write the untrained materials.
 #pragma once
 
 #include <CLI/CLI.hpp>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -67,10 +70,34 @@ void apply_radiance_defaults(OptimizeOptions& opt, const CLI::App& cmd);
 // --cameras would be replaced by the plan.
 std::vector<std::string> radiance_input_files(const RadianceStage& r);
 
+// Where a new plan is staged, inside OUT.
+constexpr const char* kPlanStaging = ".plan-staging";
+
+// A new plan staged in OUT/.plan-staging/: commit() puts it in place of
+// OUT/radiance/ and OUT/views.json (after the run's results are written, also
+// when Ctrl-C stopped it with its outputs); without a commit (a failure) the
+// staging folder goes with the object, unless keep() (a stopped stage).
+class PendingPlan {
+ public:
+  explicit PendingPlan(const std::string& out);
+  ~PendingPlan();
+  PendingPlan(const PendingPlan&) = delete;
+  PendingPlan& operator=(const PendingPlan&) = delete;
+  void commit();
+  void keep() { keep_ = true; }
+
+ private:
+  std::string out_;
+  bool keep_ = false;
+};
+
 // Renders (or reuses) the targets. Returns 0 with *dataset = OUT/radiance (with
 // --estimate: the estimate's folder) and
 // *sh_degree = the PLY's SH degree, or 130 when Ctrl-C stopped it (the views
 // rendered so far stay cached for the next run).
-int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s = nullptr);
+// *pending: the new plan to commit with the results (OUT/.plan-staging/radiance is
+// then *dataset), or null where OUT/radiance/ holds this plan.
+int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s = nullptr,
+                       std::shared_ptr<PendingPlan>* pending = nullptr);
 
 }  // namespace ptir::cli

@@ -140,7 +140,18 @@ def test_a_full_disk_keeps_the_ply_only_plan_whole(cli, dataset, small_fs):  # n
     r = ply_only(cli, dataset / "g.ply", out, "--iters", "1", "--orbit-views", "12")
     assert r.returncode == 1, r.stderr[-2000:]
     assert snapshot(out) == before  # was: the new plan's views.json and radiance/ beside the old result
-    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    assert not (out / ".plan-staging").exists()
+    # Room for a 5-view plan's targets, not for the results after them: the same.
+    (small_fs / "filler").unlink()
+    page = lambda n: -(-n // 4096) * 4096  # noqa: E731  (tmpfs allocates pages)
+    plan = sum(page(len(v)) for k, v in before.items() if k.startswith("radiance/")) + page(len(before["views.json"]))
+    results = sum(page(len(before[k])) for k in ("checkpoint.bin", "gaussians.ply"))
+    print("plan", plan, "results", results)
+    fill(small_fs, leave=2 * plan + results // 2)
+    r = ply_only(cli, dataset / "g.ply", out, "--iters", "1", "--orbit-views", "5")
+    assert r.returncode == 1 and "5 views rendered" in r.stderr, r.stderr[-2000:]
+    assert snapshot(out) == before  # the plan goes in place with the results, or not at all
+    assert not (out / ".plan-staging").exists()
 
 
 def test_a_failed_eval_keeps_the_previous_evaluation(cli, dataset, small_fs):  # noqa: F811
