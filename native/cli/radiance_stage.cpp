@@ -233,10 +233,8 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
     *remaining_s = r.estimate ? std::chrono::duration<double>(std::chrono::steady_clock::now() - t_render).count() *
                                     double(all_views - 1)
                               : 0.0;
-  if (!r.estimate) {
-    check_targets_cover(r, rep, cameras.size());  // (a staged plan goes with the error)
-  }
-  if (pending) *pending = staged;  // committed with the run's results
+  if (!r.estimate) check_targets_cover(r, rep, cameras.size());  // (a staged plan goes with the error)
+  *pending = staged;  // committed with the run's results
   if (!r.quiet)
     std::fprintf(stderr, "radiance: %d views rendered, %d reused from %s (%s)\n", rep.rendered, rep.reused,
                  dir.string().c_str(),

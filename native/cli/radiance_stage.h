@@ -91,13 +91,13 @@ class PendingPlan {
   bool keep_ = false;
 };
 
-// Renders (or reuses) the targets. Returns 0 with *dataset = OUT/radiance (with
-// --estimate: the estimate's folder) and
-// *sh_degree = the PLY's SH degree, or 130 when Ctrl-C stopped it (the views
-// rendered so far stay cached for the next run).
-// *pending: the new plan to commit with the results (OUT/.plan-staging/radiance is
-// then *dataset), or null where OUT/radiance/ holds this plan.
-int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s = nullptr,
-                       std::shared_ptr<PendingPlan>* pending = nullptr);
+// Renders (or reuses) the targets. Returns 0 with *dataset = the targets' folder,
+// *sh_degree = the PLY's SH degree and *pending = the new plan to commit with the
+// results (*dataset is then OUT/.plan-staging/radiance), or null where OUT/radiance
+// holds this plan (or --estimate: *dataset is its folder); or 130 when Ctrl-C
+// stopped it (the views rendered so far stay cached for the next run). Throws
+// Error naming the PLY when the targets cannot train (radiance_stage.h, above).
+int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s,
+                       std::shared_ptr<PendingPlan>* pending);
 
 }  // namespace ptir::cli

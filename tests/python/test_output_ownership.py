@@ -79,6 +79,9 @@ def test_one_writer_per_output_folder(cli, dataset, tmp_path):  # noqa: F811
         # eval of the result being written, and fit into it, wait their turn too.
         r = run(cli, "fit", "--dataset", dataset, "--gaussians", dataset / "g.ply", "--out", out, "--iters", "1")
         assert r.returncode == 1 and "pid %d" % first.pid in r.stderr, r.stderr
+        r = run(cli, "eval", "--dataset", dataset, "--split", "train", "--result", out, "--spp", "1")
+        assert r.returncode == 1 and "pid %d" % first.pid in r.stderr, r.stderr
+        assert not (out / "eval").exists()
     finally:
         first.kill()  # kill -9: the kernel drops its lock
         first.wait()
