@@ -67,7 +67,11 @@ int run_eval(const EvalOptions& options, const CLI::App& cmd) {
   Inputs in{{}, {o.dataset, o.result}, {o.scene}, {o.dataset}};
   for (const eval::RelightEnv& r : s.relight) in.files.push_back(r.path);
   guard_outputs(in, {{}, {out}}, o.force);
-  if (comm.rank() == 0) remove_stale_outputs({out}, o.quiet, /*with_subfolders=*/true);
+  std::unique_ptr<io::OutputLock> lock;  // the result's one writer (eval/ is replaced whole at the end)
+  if (comm.rank() == 0) {
+    lock = lock_output_folder(o.result, "ptir eval");
+    remove_stale_outputs({out}, o.quiet, /*with_subfolders=*/true);
+  }
   s.comm = &comm;
   s.spp = o.spp;
   s.bounces = o.bounces;

@@ -61,6 +61,8 @@ int run_fit(const FitCommand& o, const CLI::App& cmd) {
   }
   check_fit_stage(stage);
   guard_outputs({{o.stage.gaussians}, {o.stage.dataset}, {}, {o.stage.dataset}}, {{}, {o.stage.out}}, o.force);
+  guard_result_folder(o.stage.out, o.force);
+  const auto lock = lock_output_folder(o.stage.out, "ptir fit");
   remove_stale_outputs({o.stage.out}, o.stage.quiet);
   return run_fit_stage(stage);
 }

@@ -34,8 +34,9 @@
 // setup_s is what a real run spends before its first iteration (loading the
 // dataset and Gaussians, building the BVH, the probe itself, which a real run
 // also does): the add-on's Optimise panel shows total_s before starting.
-// Without --dataset it renders the first radiance target only (into
-// OUT/radiance_estimate/) and counts that view's time for each of the others.
+// Without --dataset it renders the first radiance target only (into a temp
+// folder: nothing is written in OUT) and counts that view's time for each other.
+// One writer per --out (output_guard.h); never a dataset's folder.
 //
 // --scene adds the scene file's meshes and lights (its Gaussians must be given
 // with --gaussians instead; its environment is replaced by the recovered one; its
@@ -48,6 +49,7 @@
 // --resume continues from the checkpoint with any N. A stop from outside ends the
 // job at once with a line naming the last checkpoint (job_stop.h).
 #include <tbb/global_control.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -120,6 +122,8 @@ struct OptimizeCommand {
   RadianceStage radiance;  // no --dataset: targets from the splats' own radiance (radiance_stage.h)
   bool env_detail = false;  // the environment started from the photos' background: OUT/env.exr gets their detail
   std::string subject = "auto";  // --subject: a real capture's splat is an object or the scene (capture_stage.h)
+  std::shared_ptr<ScratchFolder> scratch;  // --estimate without --dataset: its probe target (outside OUT)
+  std::shared_ptr<PendingPlan> plan;       // without --dataset: a new plan, committed with the results
 };
 
 // The capture stage's view of the command (the input splats, the calibration so far).
@@ -301,12 +305,6 @@ int geometry_stage(OptimizeCommand& o, const Communicator& comm, double fit_seco
 // the targets do not change with the view: roughness and metallic stay at their
 // priors (their learning rates are 0), and the run says so.
 int radiance_stage(OptimizeCommand& o, const CLI::App& cmd, const Communicator& comm) {
-  // Defaults of its own (docs/relightable.md: a 100K-splat object in minutes on 2
-  // cores): random 128-pixel crops of the virtual views, 16 spp, 400 iterations.
-  if (cmd.count("--iters") == 0) o.opt.iters = 400;
-  if (cmd.count("--spp") == 0) o.opt.spp = 16;
-  if (cmd.count("--crop") == 0) o.opt.crop = 128;
-  if (cmd.count("--neutral-light") == 0) o.opt.neutral_light = true;
   o.radiance.gaussians = o.gaussians;
   o.radiance.out = o.out;
   o.radiance.quiet = o.quiet || comm.rank() != 0;
@@ -314,14 +312,22 @@ int radiance_stage(OptimizeCommand& o, const CLI::App& cmd, const Communicator& 
   std::error_code ec;
   if (o.resume && !std::filesystem::exists(std::filesystem::path(o.out) / "checkpoint.bin", ec))
     o.resume = false;  // stopped before the first checkpoint: the cached targets are the progress
+  if (o.estimate) {  // the probe's target in a scratch folder: the estimate writes nothing in OUT
+    long pid = long(::getpid());
+    comm.broadcast(&pid, sizeof pid, 0);
+    o.scratch = std::make_shared<ScratchFolder>(pid);
+    o.radiance.estimate_dir = o.scratch->path();
+  }
   int degree = 0;
   if (comm.rank() == 0) {
-    if (const int rc = run_radiance_stage(o.radiance, &o.dataset, &degree, &o.targets_left_s)) return rc;
+    if (const int rc = run_radiance_stage(o.radiance, &o.dataset, &degree, &o.targets_left_s, &o.plan)) return rc;
   } else {
     degree = load_gaussians(o.gaussians).sh_degree;
   }
-  comm.barrier();
-  o.dataset = (std::filesystem::path(o.out) / (o.estimate ? "radiance_estimate" : "radiance")).string();
+  char staged = o.plan != nullptr;  // the targets in OUT/radiance, or staged (radiance_stage.h)
+  comm.broadcast(&staged, 1, 0);
+  o.dataset = o.estimate ? o.radiance.estimate_dir
+                         : (std::filesystem::path(o.out) / (staged ? kPlanStaging : "") / "radiance").string();
   if (degree == 0) {
     if (!o.quiet)
       std::fprintf(stderr, "note: the splats have SH degree 0 (no view-dependent colour): roughness and metallic are "
@@ -343,8 +349,16 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
   if (o.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
-  guard_outputs({{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}, {o.dataset}}, {{}, {o.out}}, o.force);
-  if (comm.rank() == 0 && !o.estimate) remove_stale_outputs({o.out}, o.quiet);
+  Inputs in{{o.gaussians, o.opt.env_init}, {o.dataset, o.prior}, {o.scene}, {o.dataset}};
+  for (const std::string& f : radiance_input_files(o.radiance)) in.files.push_back(f);
+  guard_outputs(in, {{}, {o.out}}, o.force);
+  std::unique_ptr<io::OutputLock> lock;  // one writer per folder; --estimate writes nothing in OUT
+  if (comm.rank() == 0 && !o.estimate) {
+    guard_result_folder(o.out, o.force);
+    lock = lock_output_folder(o.out, "ptir optimize");
+    remove_stale_outputs({o.out}, o.quiet);
+  }
+  if (o.dataset.empty()) apply_radiance_defaults(o.opt, cmd);  // first: a resumed budget's spp goes over them
   // A time budget (optimize_budget.h): given, or kept by the run --resume continues.
   BudgetState budget;
   if (!o.budget.empty()) {
@@ -375,7 +389,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     // is larger than the batch), unless given: its iterations then cost the same at any photo size.
     // --iters runs keep whole views (the measured defaults; docs/performance.md#time-to-quality).
     if (!cmd.count("--views-per-iter")) o.opt.views_per_iter = 0;
-    if (!cmd.count("--crop")) o.opt.crop = -1;
+    if (!cmd.count("--crop") && !o.dataset.empty()) o.opt.crop = -1;  // (without --dataset: its 128 crops)
     // And the resolution pyramid (optim/view_pyramid.h), for both stages: the first
     // three quarters on views reduced to at most kBudgetCoarsePixels.
     if (!cmd.count("--coarse-pixels")) o.opt.coarse_pixels = kBudgetCoarsePixels;
@@ -415,11 +429,14 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
   std::shared_ptr<const Dataset> data;
   std::unique_ptr<Optimizer> optimizer = make_optimizer(o, cmd, &data);
   Optimizer& opt = *optimizer;
-  if (o.estimate)  // with a budget: the inversion's share of it (a geometry stage would take up to kFitShare)
-    return comm.rank() == 0 ? print_estimate(opt, t_start,
-                                             budget.budget_s * (o.fit_iters > 0 && !o.dataset.empty() ? 1.0 - kFitShare : 1.0),
-                                             o.targets_left_s)
-                            : 0;
+  if (o.estimate) {  // with a budget: the inversion's share of it (a geometry stage would take up to kFitShare)
+    const int rc = comm.rank() == 0 ? print_estimate(opt, t_start,
+                                                     budget.budget_s * (o.fit_iters > 0 && !o.dataset.empty() ? 1.0 - kFitShare : 1.0),
+                                                     o.targets_left_s)
+                                    : 0;
+    comm.barrier();  // every rank done with the scratch folder before it goes
+    return rc;
+  }
   if (budget.budget_s > 0.0) budget = plan_optimizer_budget(opt, budget, t_start, o.quiet);
   opt.set_communicator(comm);
   if (!o.quiet)
@@ -494,6 +511,7 @@ int run_optimize(const OptimizeCommand& options, const CLI::App& cmd) {
     return true;
   };
   const RunResult r = with_sigint_restored(previous, [&] { return run_optimizer(opt, ro); });
+  if (o.plan) o.plan->commit();  // the results are the new plan's: it goes in place with them
   if (opt.nonfinite_gradients() > 0 && !o.quiet)
     std::fprintf(stderr, "warning: %zu non-finite gradient entries were dropped\n", opt.nonfinite_gradients());
   if (r == RunResult::Cancelled) {

@@ -222,6 +222,7 @@ int run_relight(const RelightOptions& o, const CLI::App& cmd) {
   Inputs in{{ply.string(), o.cameras, o.env}, {o.result}, {o.scene}, {}};
   in.files.insert(in.files.end(), o.meshes.begin(), o.meshes.end());
   guard_outputs(in, {{}, {o.output}}, o.force);
+  const auto lock = lock_output_folder(o.output, "ptir relight");
   remove_stale_outputs({o.output}, o.quiet);
   const std::array<double, 3> scale = albedo_scale_of(o);
 

@@ -17,6 +17,11 @@
 namespace ptir::cli {
 
 namespace {
+std::string budget_text(double seconds) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g s", seconds);
+  return b;
+}
 std::string budget_path(const std::string& out_dir) { return (std::filesystem::path(out_dir) / "budget.json").string(); }
 }  // namespace
 
@@ -37,7 +42,8 @@ BudgetState read_budget_state(const std::string& out_dir) {
   } catch (const std::exception& e) {
     throw Error(path, std::string("not a budget record (budget_s, spent_s, spp): ") + e.what());
   }
-  if (!(b.budget_s > 0.0) || !(b.spent_s >= 0.0) || b.spp < 0 || b.coarse_spp < 0)
+  if (!(b.budget_s >= kMinBudgetSeconds && b.budget_s <= kMaxBudgetSeconds) || !(b.spent_s >= 0.0 && b.spent_s <= 1e9) ||
+      b.spp < 0 || b.coarse_spp < 0)
     throw Error(path, "budget_s, spent_s, spp or coarse_spp out of range");
   return b;
 }
@@ -62,13 +68,17 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
   const IterationEstimate est = estimate_iteration(opt);
   int iterations = 0;
   if (b.spp > 0) {
-    iterations = left > 0.0 ? int(left / std::max(1e-9, est.seconds)) : 0;
+    iterations = iterations_within(left, std::max(1e-9, est.seconds));
   } else {
     const BudgetPlan p = plan_budget(std::max(0.0, left), est, opt.settings());
     iterations = left > 0.0 ? p.iterations : 0;
     opt.set_spp(p.spp);
     opt.set_coarse_spp(p.coarse_spp);
   }
+  if (iterations == 0 && opt.iteration() == 0)  // an untrained result is no result
+    throw Error("--budget " + budget_text(b.budget_s) + ": no iteration fits in it (" + budget_text(since_start) +
+                " went on loading and preparing, " + budget_text(b.spent_s) + " earlier, " + budget_text(kOutputReserve) +
+                " are kept for the outputs): give a larger budget (--estimate prints what a run needs)");
   opt.set_iterations(opt.iteration() + iterations);
   b.spp = opt.settings().integrator.spp;
   b.coarse_spp = opt.settings().coarse_spp;

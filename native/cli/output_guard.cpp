@@ -1,5 +1,6 @@
 #include "output_guard.h"
 
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -105,6 +106,32 @@ bool lands_in_dataset(const std::string& out, bool folder, const fs::path& root)
   return !is_result_folder(existing, root);
 }
 
+// A result folder of ours at `dir` (anything optimize, fit or eval wrote: their
+// checkpoint, log, plan, budget, metrics; or a result eval reads).
+bool is_our_result(const fs::path& dir) {
+  std::error_code ec;
+  for (const char* name : {"checkpoint.bin", "log.csv", "settings.json", "budget.json", "views.json", "metrics.json"})
+    if (fs::exists(dir / name, ec)) return true;
+  return fs::is_regular_file(dir / "gaussians.ply", ec) && fs::is_regular_file(dir / "env.exr", ec);
+}
+
+// What makes `dir` a dataset (photos or poses of someone's capture), or "" when nothing does.
+std::string dataset_marker(const fs::path& dir) {
+  std::error_code ec;
+  for (const char* sub : {"images", "sparse"})
+    if (fs::is_directory(dir / sub, ec)) return std::string(sub) + "/";
+  if (fs::is_regular_file(dir / "cameras.json", ec) && fs::exists(dir / "cfg_args", ec)) return "cameras.json and cfg_args";
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    std::string ext = it->path().extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (name.rfind("transforms", 0) == 0 && ext == ".json") return name;
+    if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".dng")
+      return "photos (" + name + ")";
+  }
+  return "";
+}
+
 [[noreturn]] void refuse(const std::string& output, const std::string& why) {
   throw Error(output, why + "; refusing to overwrite inputs (choose another output, or pass --force)");
 }
@@ -144,6 +171,19 @@ void guard_outputs(const Inputs& inputs, const Outputs& outputs, bool force) {
       if (same_entry(dir, folder_of(in)))
         refuse(dir, "holds the input file " + in + " (outputs would be written beside and over the inputs)");
   }
+}
+
+void guard_result_folder(const std::string& dir, bool force) {
+  std::error_code ec;
+  if (force || dir.empty() || !fs::is_directory(dir, ec) || is_our_result(dir)) return;
+  const std::string marker = dataset_marker(dir);
+  if (!marker.empty())
+    refuse(dir, "holds a dataset's files (" + marker + "), not a result of ours: the result (gaussians.ply, "
+                "checkpoints) would be written among them");
+}
+
+std::unique_ptr<io::OutputLock> lock_output_folder(const std::string& dir, const std::string& command) {
+  return std::make_unique<io::OutputLock>(dir, command);
 }
 
 void remove_stale_outputs(const std::vector<std::string>& folders, bool quiet, bool with_subfolders) {

@@ -24,8 +24,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include <memory>
 #include <string>
 #include <vector>
+
+#include "ptir/io/output_lock.h"
 
 namespace ptir::cli {
 
@@ -47,6 +50,20 @@ void add_force_flag(CLI::App* cmd, bool& force);
 // Throws ptir::Error naming the output and the input it would overwrite (and
 // --force) unless `force`.
 void guard_outputs(const Inputs& inputs, const Outputs& outputs, bool force);
+
+// A command's own result folder (optimize and fit --out): new, empty, or a result
+// of ours (output_guard.cpp: is_our_result), never a folder of someone's photos or
+// poses -- transforms*.json, images/, sparse/, a 3DGS output's cameras.json and
+// cfg_args, or photos at its top -- which the result's fixed names (gaussians.ply,
+// checkpoint.bin) would land among, even when it is not passed as --dataset.
+// Throws ptir::Error naming the folder and what it holds, unless `force`.
+void guard_result_folder(const std::string& dir, bool force);
+
+// One writer per output folder (io/output_lock.h): every command that writes a
+// folder (optimize, fit, eval, relight) holds its lock for as long as it runs.
+// Creates `dir` if missing; throws ptir::Error naming the folder and the process
+// that holds it. The lock goes with the returned object (and with the process).
+[[nodiscard]] std::unique_ptr<io::OutputLock> lock_output_folder(const std::string& dir, const std::string& command);
 
 // Removes temps of our naming (io/atomic_file.h) whose process is gone from
 // each folder (and, with `with_subfolders`, its immediate subfolders), so a run

@@ -18,7 +18,11 @@ TEST(BudgetPlan, DurationsParseWithUnits) {
   EXPECT_DOUBLE_EQ(parse_duration("90s", "--budget"), 90.0);
   EXPECT_DOUBLE_EQ(parse_duration("10m", "--budget"), 600.0);
   EXPECT_DOUBLE_EQ(parse_duration("1.5h", "--budget"), 5400.0);
-  for (const char* bad : {"", "m", "-3m", "0", "10 m", "10d", "nan", "inf"}) {
+  EXPECT_DOUBLE_EQ(parse_duration("1s", "--budget"), 1.0);
+  EXPECT_DOUBLE_EQ(parse_duration("720h", "--budget"), 30.0 * 86400.0);
+  // Issue 54: out of 1 s .. 30 days, hex, blanks (strtod took all three).
+  for (const char* bad : {"", "m", "-3m", "0", "10 m", "10d", "nan", "inf", "1e9h", "2147483648s", "1e-300s", "0.5s",
+                          "721h", "0x10", " 5m", "1e400"}) {
     try {
       parse_duration(bad, "--budget");
       FAIL() << "accepted '" << bad << "'";
@@ -26,6 +30,22 @@ TEST(BudgetPlan, DurationsParseWithUnits) {
       EXPECT_NE(std::string(e.what()).find("--budget"), std::string::npos) << e.what();
     }
   }
+}
+
+TEST(BudgetPlan, IterationCountsNeverOverflow) {
+  EXPECT_EQ(iterations_within(10.0, 0.5), 20);
+  EXPECT_EQ(iterations_within(-1.0, 0.5), 0);
+  EXPECT_EQ(iterations_within(10.0, 0.0), 0);
+  EXPECT_EQ(iterations_within(1e300, 1e-9), kMaxBudgetIterations);  // was int(2e308): INT_MIN, then 1 iteration
+  EXPECT_EQ(iterations_within(30.0 * 86400.0, 1e-9), kMaxBudgetIterations);
+  EXPECT_EQ(iterations_within(std::nan(""), 1.0), 0);
+  // The plan and the pacer at a 30-day budget and a microsecond iteration: the cap, not a wrapped count.
+  IterationEstimate e;
+  e.seconds = 1e-6;
+  OptimizerSettings s;
+  EXPECT_EQ(plan_budget(30.0 * 86400.0, e, s).iterations, kMaxBudgetIterations);
+  const BudgetPacer pacer(30.0 * 86400.0);
+  EXPECT_EQ(pacer.replan(10, 10, 1e-5, 1.0, 100), kMaxBudgetIterations);
 }
 
 namespace {

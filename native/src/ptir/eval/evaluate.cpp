@@ -17,6 +17,7 @@
 #include "ptir/eval/tensoir_albedo.h"
 #include "ptir/eval/relight.h"
 #include "ptir/io/atomic_file.h"
+#include "ptir/io/atomic_folder.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/row_bands.h"
@@ -241,8 +242,14 @@ void build_tracer(EvalRun& run) {
   run.as.spp = s.aov_spp;
   run.as.seed = s.seed;
   run.as.interaction = run.is.interaction;
-  run.out = fs::path(s.result) / "eval";
-  make_folder(run.out);
+  // Written whole into a staging folder, then in place of RESULT/eval (evaluate.h);
+  // rank 0 alone writes. A staging folder left by a killed run goes first.
+  run.out = fs::path(s.result) / kEvalStaging;
+  if (s.comm->rank() == 0) {
+    std::error_code ec;
+    fs::remove_all(run.out, ec);
+    make_folder(run.out);
+  }
   run.n_views = run.data->size();
   run.sheet_n = std::min(run.n_views, size_t(std::max(0, s.sheet_views)));
 }
@@ -285,7 +292,7 @@ void evaluate_view(EvalRun& run, size_t i) {
   const PathTracer& tracer = *run.tracer;
   const Camera& cam = run.data->views[i].camera;
   const fs::path vdir = run.out / view_folder(i);
-  make_folder(vdir);
+  if (s.comm->rank() == 0) make_folder(vdir);
   const auto t0 = Clock::now();
   std::shared_ptr<const TrainingImage> gt = run.data->target(i);
   // A capture without masks is unbounded: its photos show the environment behind the Gaussians, and
@@ -535,20 +542,30 @@ EvalReport evaluate_unguarded(const EvalSettings& s) {
   EvalReport rep;
   rep.metrics = metrics_json(run, sheet_files, seconds_since(t_start));
   rep.markdown = report_markdown(run, rep.metrics);
-  rep.out_dir = run.out.string();
   io::write_text_atomic((run.out / "metrics.json").string(), rep.metrics.dump(1) + "\n");
   io::write_text_atomic((run.out / "metrics.md").string(), rep.markdown);
+  rep.out_dir = (fs::path(s.result) / "eval").string();
+  io::replace_folder(run.out.string(), rep.out_dir);
   return rep;
 }
 
 }  // namespace
 
 EvalReport evaluate(const EvalSettings& s) {
+  // A failed evaluation leaves RESULT/eval as it was, and no staging folder.
+  auto drop_staging = [&] {
+    std::error_code ec;
+    if (s.comm->rank() == 0) fs::remove_all(fs::path(s.result) / kEvalStaging, ec);
+  };
   try {
     return evaluate_unguarded(s);
   } catch (const fs::filesystem_error& e) {
+    drop_staging();
     // Any filesystem failure not already reported (readers, writers) names its path.
     throw Error(e.path1().empty() ? s.result : e.path1().string(), e.code().message());
+  } catch (...) {
+    drop_staging();
+    throw;
   }
 }
 

@@ -25,6 +25,11 @@
 // contact sheets OUT/eval/sheet_<quantity>.png (rows = views, columns = ground
 // truth | ours | error heat map; see metrics.md for the error scales).
 //
+// The folder is written whole: into RESULT/.eval-staging, which replaces
+// RESULT/eval only once metrics.json is in it (io/atomic_folder.h), so a failure
+// (a full disk, an unreadable ground truth, a kill) leaves the previous
+// evaluation as it was, never new renders beside old metrics.
+//
 // Data-parallel runs (`mpirun -np N ptir eval`; EvalSettings::comm): every render
 // is dealt to the ranks in row bands and gathered (render/row_bands.h); rank 0
 // alone writes and scores, and returns the report (the other ranks return an
@@ -46,6 +51,9 @@
 #include "ptir/scene/dataset.h"
 
 namespace ptir::eval {
+
+// Where an evaluation is written before it replaces RESULT/eval.
+constexpr const char* kEvalStaging = ".eval-staging";
 
 struct RelightEnv {
   std::string name;  // rgba_<name>.png / rgba_<name>.exr

@@ -8,6 +8,7 @@
 #include <system_error>
 
 #include "ptir/io/atomic_file.h"
+#include "ptir/io/output_lock.h"
 
 namespace fs = std::filesystem;
 
@@ -15,7 +16,8 @@ namespace ptir::io {
 
 namespace {
 
-bool is_temp(const std::string& name) { return name.find(".ptir-tmp-") != std::string::npos; }
+// Temps, and the folder's lock (output_lock.h): neither is the run's output.
+bool is_temp(const std::string& name) { return name.find(".ptir-tmp-") != std::string::npos || name == kOutputLockName; }
 
 std::vector<std::string> top_files(const std::string& dir) {
   std::vector<std::string> names;

@@ -1,6 +1,7 @@
 #include "ptir/optim/budget_plan.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 
@@ -11,15 +12,29 @@ namespace ptir {
 double parse_duration(const std::string& text, const std::string& what) {
   const char* s = text.c_str();
   char* end = nullptr;
-  const double v = std::strtod(s, &end);
+  // A decimal number (digits, a point, an exponent) and a unit: strtod alone would
+  // also take leading blanks, hex, "inf" and "nan".
+  const bool decimal = !text.empty() && (std::isdigit(static_cast<unsigned char>(text[0])) || text[0] == '.') &&
+                       text.find_first_of("xXpP") == std::string::npos;
+  const double v = decimal ? std::strtod(s, &end) : 0.0;
   const std::string unit(end == nullptr ? "" : end);
   double scale = 0.0;
   if (unit.empty() || unit == "s") scale = 1.0;
   else if (unit == "m" || unit == "min") scale = 60.0;
   else if (unit == "h") scale = 3600.0;
-  if (end == s || scale == 0.0 || !std::isfinite(v) || !(v > 0.0))
+  if (!decimal || end == s || scale == 0.0 || !std::isfinite(v) || !(v > 0.0))
     throw Error(what + " must be a positive duration such as 90s, 10m or 1.5h, got '" + text + "'");
-  return v * scale;
+  const double seconds = v * scale;
+  if (!(seconds >= kMinBudgetSeconds && seconds <= kMaxBudgetSeconds))
+    throw Error(what + " must be between 1 s and 30 days (720h), got '" + text + "'" +
+                (seconds < kMinBudgetSeconds ? " (under a second: no iteration would run)" : ""));
+  return seconds;
+}
+
+int iterations_within(double seconds, double per_iteration) {
+  if (!(seconds > 0.0) || !(per_iteration > 0.0) || !std::isfinite(seconds)) return 0;
+  const double n = std::floor(seconds / per_iteration);  // may be inf for a tiny per_iteration
+  return n >= double(kMaxBudgetIterations) ? kMaxBudgetIterations : int(n);
 }
 
 namespace {
@@ -44,7 +59,7 @@ double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s,
 BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const OptimizerSettings& s) {
   BudgetPlan p;
   auto iterations_at = [&](int spp, int coarse) {
-    return int(std::floor(seconds / std::max(1e-9, iteration_seconds(e, s, spp, coarse))));
+    return iterations_within(seconds, std::max(1e-9, iteration_seconds(e, s, spp, coarse)));
   };
   // The most samples that still give (nearly) kReferenceIterations, on the ladder of
   // kSppRungs (one phase, without the pyramid: the rungs' fine spp); below its first
@@ -64,7 +79,7 @@ int BudgetPacer::replan(int done, int done_here, double elapsed_s, double now_s,
   if (done_here < 3 || elapsed_s <= 0.0) return total;  // the first iterations warm caches up
   const double rate = elapsed_s / double(done_here);
   const double left = end_s_ - now_s;
-  const int want = done + std::max(0, int(std::floor(left / rate)));
+  const int want = done + std::min(iterations_within(left, rate), kMaxBudgetIterations - std::max(0, done));
   if (std::abs(want - total) <= std::max(1, total / 100) && want >= done) return total;
   return std::max(done, want);
 }

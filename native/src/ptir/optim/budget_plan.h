@@ -23,8 +23,19 @@
 
 namespace ptir {
 
-// "90", "90s", "10m", "1.5h" -> seconds; throws Error naming `what` on anything else.
+// "90", "90s", "10m", "1.5h" -> seconds, between kMinBudgetSeconds and kMaxBudgetSeconds;
+// throws Error naming `what` on anything else (a malformed number, hex, inf, nan, a
+// duration out of the range: `1e-300s` would plan nothing, `1e9h` overflowed the count).
 double parse_duration(const std::string& text, const std::string& what);
+constexpr double kMinBudgetSeconds = 1.0;
+constexpr double kMaxBudgetSeconds = 30.0 * 24.0 * 3600.0;  // 30 days
+
+// The budget's arithmetic, checked: the whole iterations of `per_iteration` seconds that
+// fit in `seconds`, 0 where none does (or either is not a positive finite number), at most
+// kMaxBudgetIterations (far above any plan: 30 days at 0.26 s per iteration), so a count
+// never overflows an int, nor does `done` plus it.
+constexpr int kMaxBudgetIterations = 10000000;
+int iterations_within(double seconds, double per_iteration);
 
 constexpr int kReferenceIterations = 800;  // the default run's count (METHOD §6)
 // The plan's ladder, cheapest first: (the pyramid's coarse phase's spp, the fine

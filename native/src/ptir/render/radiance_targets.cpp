@@ -25,13 +25,22 @@ std::string read_text(const fs::path& p) {
   return ss.str();
 }
 
-// A cached view is reused when its header has the camera's size.
-bool cached(const fs::path& image, const Camera& cam) {
+// The largest alpha of an RGBA target.
+float max_alpha_of(const Image& target) {
+  float a = 0.0f;
+  for (size_t p = 3; p < target.pixels.size(); p += 4) a = std::max(a, target.pixels[p]);
+  return a;
+}
+
+// A cached view is reused when its header has the camera's size; *alpha: its largest alpha.
+bool cached(const fs::path& image, const Camera& cam, float* alpha) {
   std::error_code ec;
   if (!fs::is_regular_file(image, ec)) return false;
   try {
     const Image probe = read_image(image.string(), Encoding::Data);
-    return probe.width == cam.width && probe.height == cam.height && probe.channels == 4;
+    if (probe.width != cam.width || probe.height != cam.height || probe.channels != 4) return false;
+    *alpha = max_alpha_of(probe);
+    return true;
   } catch (const Error&) {
     return false;  // a damaged file is rendered again
   }
@@ -90,7 +99,8 @@ RadianceTargetReport render_radiance_targets(const SceneAccel& accel, const std:
     std::snprintf(name, sizeof name, "view_%03zu.exr", i);
     const fs::path image = train / name;
     bool rendered = false;
-    if (!cached(image, cameras[i])) {
+    float alpha = 0.0f;
+    if (!cached(image, cameras[i], &alpha)) {
       Image preview;
       try {
         preview = render_aov(accel, cameras[i], Aov::Preview, as, control);
@@ -103,8 +113,10 @@ RadianceTargetReport render_radiance_targets(const SceneAccel& accel, const std:
         return report;
       }
       write_image(image.string(), preview, Encoding::Data);  // associated, as EXR stores it
+      alpha = max_alpha_of(preview);
       rendered = true;
     }
+    report.max_alpha = std::max(report.max_alpha, alpha);
     (rendered ? report.rendered : report.reused)++;
     if (s.progress && !s.progress(int(i) + 1, int(cameras.size()), rendered)) {
       report.cancelled = true;

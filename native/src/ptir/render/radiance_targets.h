@@ -38,6 +38,7 @@ struct RadianceTargetSettings {
 struct RadianceTargetReport {
   int rendered = 0, reused = 0;
   bool cancelled = false;
+  float max_alpha = 0.0f;  // the largest alpha (coverage) of any pixel of any view, rendered or reused
 };
 
 // Renders (or reuses) every camera's target into `dir` and writes its
