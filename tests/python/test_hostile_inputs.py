@@ -15,6 +15,7 @@ import resource
 import struct
 import subprocess
 import zlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -97,6 +98,16 @@ def test_an_image_header_past_the_memory_budget_is_refused_naming_the_file(cli, 
     assert str(bad) in r.stderr and "%dx%d" % (size, size) in r.stderr and "memory budget" in r.stderr, r.stderr
     assert "ulimit -v" in r.stderr and "bad_alloc" not in r.stderr, r.stderr
     assert not (tmp_path / "out.exr").exists()
+
+
+def test_an_exr_data_window_past_the_side_limit_is_refused_before_openexr_allocates(cli, scene_dir, tmp_path):
+    """fuzz_texture's finding: a 165-byte EXR declaring a 14-million-pixel-wide data window, for which
+    OpenEXR allocated its line buffers on opening (10 s to free them under ASan)."""
+    seed = Path(__file__).resolve().parents[1] / "fuzz" / "corpus" / "texture" / "timeout_exr_data_window_14m"
+    bad = tmp_path / "wide.exr"
+    bad.write_bytes(seed.read_bytes()[1:])  # (the first byte is the harness's extension choice)
+    r = run(cli, "render", scene_dir(material={"base_color": {"texture": str(bad)}}), "-o", tmp_path / "o.exr", "-q")
+    assert r.returncode == 1 and str(bad) in r.stderr and "dataWindow declares 14286849x1" in r.stderr, r.stderr
 
 
 # --- per-splat materials outside [0, 1] ----------------------------------------------------------
