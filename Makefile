@@ -80,7 +80,7 @@ test: test-native test-python
 FUZZ_BUILD ?= build-fuzz
 FUZZ_SECONDS ?= 600
 FUZZ_SMOKE_RUNS ?= 5000
-FUZZ_TARGETS := serve scene_json ply colmap nerfstudio image
+FUZZ_TARGETS := serve scene_json ply colmap nerfstudio image texture cameras_json orbit budget
 
 fuzz-build: setup
 	CC=clang CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPTIR_FUZZ=ON \

@@ -8,7 +8,10 @@
 // what is queued as cancelled and ends the process with status 0. Every line is
 // answered, whatever it holds (serve_requests.h; docs/robustness.md).
 //
-//   ptir serve [--threads N] [-q] [--max-memory GIB]
+// Outputs go only under the folder given with --out (default: the working
+// directory): serve_session.h.
+//
+//   ptir serve [--threads N] [-q] [--max-memory GIB] [--out DIR]
 #include <tbb/global_control.h>
 
 #include <condition_variable>
@@ -38,6 +41,7 @@ struct ServeOptions {
   int threads = 0;
   bool quiet = false;
   double max_memory_gib = 0.0;
+  std::string out;
 };
 
 // Reads stdin until the end, "quit" or `stop`, queueing each line's request
@@ -85,10 +89,10 @@ int run_serve(const ServeOptions& o) {
   std::optional<tbb::global_control> limit;
   if (o.threads < 0) throw Error("--threads must be positive");
   if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  ServeSession session(ServeLimits{o.max_memory_gib, 0}, o.out);  // (a bad --out ends here, before "ready")
   RequestQueue queue;
   ReaderThread reader;
   reader.thread = std::thread(read_requests, &queue, &reader.stop);
-  ServeSession session(ServeLimits{o.max_memory_gib, 0});
   send(json{{"ready", true}, {"protocol", 1}});
   while (std::optional<QueuedRequest> item = queue.next()) {
     const json& request = item->request;
@@ -125,6 +129,9 @@ Runner add_serve_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "limit worker threads (0: all)");
   cmd->add_flag("-q,--quiet", o->quiet, "no per-request log lines on stderr");
   add_max_memory_flag(cmd, o->max_memory_gib);
+  cmd->add_option("--out", o->out,
+                  "the folder render outputs go in: requests name files under it, and replace only files this "
+                  "session wrote (default: the working directory)");
   return [o] { return run_serve(*o); };
 }
 

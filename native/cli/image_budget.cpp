@@ -1,27 +1,14 @@
 #include "image_budget.h"
 
-#include <unistd.h>
-
-#include <cstdio>
-
 #include "ptir/core/error.h"
+#include "ptir/io/memory_budget.h"
 
 namespace ptir::cli {
 
 namespace {
 
 constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
-
-double physical_memory_bytes() {
-  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
-  return pages > 0 && page > 0 ? double(pages) * double(page) : 8.0 * kGiB;  // unknown: assume 8 GiB
-}
-
-std::string gib_text(double bytes) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.1f GiB", bytes / kGiB);
-  return b;
-}
+using io::gib_text;
 
 }  // namespace
 
@@ -30,7 +17,7 @@ void add_max_memory_flag(CLI::App* cmd, double& gib) {
       ->check(CLI::NonNegativeNumber);
 }
 
-double memory_budget_bytes(double gib) { return gib > 0 ? gib * kGiB : 0.5 * physical_memory_bytes(); }
+double memory_budget_bytes(double gib) { return gib > 0 ? gib * kGiB : io::memory_budget().bytes; }
 
 void check_image_budget(int64_t width, int64_t height, double max_memory_gib, const std::string& what) {
   if (width <= 0 || height <= 0) return;
@@ -43,10 +30,11 @@ void check_image_budget(int64_t width, int64_t height, double max_memory_gib, co
   if (pixels > kMaxImagePixels)
     throw Error(what, need + ", and the engine handles at most " + std::to_string(kMaxImagePixels) + " pixels");
   const double budget = memory_budget_bytes(max_memory_gib);
+  const io::MemoryBudget machine = io::memory_budget();
   if (double(pixels) * kRenderBytesPerPixel > budget)
     throw Error(what, need + ", more than the budget of " + gib_text(budget) +
                           (max_memory_gib > 0 ? " (--max-memory)"
-                                              : " (half of this machine's " + gib_text(physical_memory_bytes()) +
+                                              : " (half of " + machine.source + ", " + gib_text(machine.limit) +
                                                     "; raise it with --max-memory GIB)"));
 }
 

@@ -5,8 +5,8 @@
 //
 // Decision: the estimate is 48 bytes per pixel (the float RGBA image, the copy
 // write_image converts, and the 8-bit/RGB-only copy the CLI makes for PNGs);
-// the default budget is half the machine's physical memory, raised or lowered
-// with --max-memory GIB.
+// the default budget is io::memory_budget() (half the memory this process can
+// have: io/memory_budget.h), raised or lowered with --max-memory GIB.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -14,16 +14,18 @@
 #include <cstdint>
 #include <string>
 
+#include "ptir/io/memory_budget.h"
+
 namespace ptir::cli {
 
 constexpr double kRenderBytesPerPixel = 48.0;
-constexpr int64_t kMaxImageSide = 65536;             // the Camera's limit (scene/camera.cpp)
+constexpr int64_t kMaxImageSide = io::kMaxImageSide;  // the Camera's limit (scene/camera.cpp)
 constexpr int64_t kMaxImagePixels = int64_t(1) << 31;  // 2 Gpx: 32-bit pixel counts downstream
 
 // Adds --max-memory GIB (0: half the machine's memory) to a command.
 void add_max_memory_flag(CLI::App* cmd, double& gib);
 
-// The budget in bytes: `gib` GiB when > 0, else half the physical memory.
+// The budget in bytes: `gib` GiB when > 0, else io::memory_budget().
 double memory_budget_bytes(double gib);
 
 // Throws ptir::Error("<what>: ...") when a width x height render does not fit.

@@ -24,6 +24,21 @@ json invalid(const json& id, const std::string& error, RequestLine* out) {
 
 }  // namespace
 
+// Every key of a request is one its command reads (a typo is an error, as in scene files).
+void check_keys(const json& request, const std::string& cmd, std::initializer_list<const char*> keys) {
+  for (auto it = request.begin(); it != request.end(); ++it) {
+    if (it.key() == "cmd" || it.key() == "id") continue;
+    bool known = false;
+    for (const char* k : keys) known = known || it.key() == k;
+    if (!known) {
+      std::string list;
+      for (const char* k : keys) list += std::string(list.empty() ? "" : ", ") + k;
+      throw Error("request: " + cmd + " has no field \"" + it.key() + "\"" +
+                  (list.empty() ? std::string(" (it takes none)") : " (it takes " + list + ")"));
+    }
+  }
+}
+
 json recover_id(const std::string& line) {
   static const std::regex pattern(R"re("id"[ \t]*:[ \t]*(-?[0-9]{1,18})[ \t]*([,}]|$))re");
   std::smatch m;
@@ -103,6 +118,17 @@ void RequestQueue::push(QueuedRequest item) {
   if (closed_) return;
   const json& request = item.request;
   const std::string cmd = item.error.empty() ? request.at("cmd").get<std::string>() : "";  // checked by parse_request_line
+  if (cmd == "cancel" || cmd == "quit") {  // applied here, at once: their fields are checked here too
+    try {
+      check_keys(request, cmd, cmd == "cancel" ? std::initializer_list<const char*>{"target"}
+                                               : std::initializer_list<const char*>{});
+    } catch (const Error& e) {  // answered in order, like any request, and not applied
+      item.error = e.what();
+      queue_.push_back(std::move(item));
+      ready_.notify_one();
+      return;
+    }
+  }
   if (cmd == "cancel") {
     const json& t = request.contains("target") ? request.at("target") : json();
     std::string error;
@@ -117,10 +143,12 @@ void RequestQueue::push(QueuedRequest item) {
     }
     const int64_t target = t.get<int64_t>();
     if (running_id_ == target) cancel_running_ = true;
-    else cancelled_.insert(target);  // still queued (or done: then nothing happens)
+    else if (queued_.count(target)) cancelled_.insert(target);  // answered as cancelled when its turn comes
+    // else: answered already; a later request that reuses the id is not this one
     return;
   }
-  if (request.contains("id") && request.at("id").is_number_integer()) {
+  const bool has_id = request.contains("id") && request.at("id").is_number_integer();
+  if (has_id) {
     if (seen_.size() > (1u << 20)) seen_.clear();  // a bound on a very long session's memory
     seen_.insert(request.at("id").get<int64_t>());
   }
@@ -130,6 +158,7 @@ void RequestQueue::push(QueuedRequest item) {
     ready_.notify_one();
     return;
   }
+  if (has_id) queued_.insert(request.at("id").get<int64_t>());
   queue_.push_back(std::move(item));
   ready_.notify_one();
 }
@@ -153,7 +182,11 @@ std::optional<QueuedRequest> RequestQueue::next() {
   QueuedRequest r = std::move(queue_.front());
   queue_.pop_front();
   running_id_.reset();
-  if (r.request.contains("id") && r.request.at("id").is_number_integer()) running_id_ = r.request.at("id").get<int64_t>();
+  if (r.request.contains("id") && r.request.at("id").is_number_integer()) {
+    running_id_ = r.request.at("id").get<int64_t>();
+    const auto q = queued_.find(*running_id_);
+    if (q != queued_.end()) queued_.erase(q);
+  }
   // After quit / the end of input, what is still queued is answered as cancelled.
   const bool cancelled = running_id_ && cancelled_.erase(*running_id_) > 0;
   cancel_running_ = closed_ || cancelled;

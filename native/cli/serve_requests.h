@@ -9,7 +9,11 @@
 //    is answered {"ok": false, "error": ...} on the id the line carries, read
 //    from its text when it does not parse ("id": <integer>), else on no id;
 //  - "cancel" names a request id seen in this session (an unknown one is an
-//    error, never remembered for a later request);
+//    error, never remembered for a later request); it stops that request when
+//    it runs or is queued, and does nothing once it has been answered (a later
+//    request that reuses the id runs);
+//  - every field of a request is one its command reads ("cancel" takes
+//    "target", "quit" none): a typo is an error, never ignored;
 //  - "quit" and the end of input stop the running request at once.
 #pragma once
 
@@ -17,6 +21,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <initializer_list>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -37,6 +42,10 @@ struct RequestLine {
   bool ok() const { return error.empty(); }
 };
 RequestLine parse_request_line(const std::string& line);
+
+// Throws Error("request: CMD has no field ...") unless every key of `request`
+// (besides "cmd" and "id") is one of `keys`.
+void check_keys(const nlohmann::json& request, const std::string& cmd, std::initializer_list<const char*> keys);
 
 // The integer after the first "id": in a line that did not parse (null if none).
 nlohmann::json recover_id(const std::string& line);
@@ -87,6 +96,7 @@ class RequestQueue {
   bool closed_ = false;
   std::optional<int64_t> running_id_;
   std::unordered_set<int64_t> seen_, cancelled_;
+  std::unordered_multiset<int64_t> queued_;  // ids of the requests in queue_
   std::atomic<bool> cancel_running_{false};
 };
 

@@ -12,10 +12,12 @@
 
 #include "image_budget.h"
 #include "output_guard.h"
+#include "serve_requests.h"
 #include "ptir/core/error.h"
 #include "ptir/io/input_file.h"
 #include "ptir/io/atomic_file.h"
 #include "ptir/io/image.h"
+#include "ptir/material/material_range.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/render_path.h"
 #include "ptir/scene/camera.h"
@@ -75,21 +77,6 @@ void matrix_of(const json& m, const char* what, float out[16]) {
     const double d = x.is_number() ? x.get<double>() : 0.0;
     if (!x.is_number() || !std::isfinite(d) || std::fabs(d) > 3.0e38) throw Error(message);
     out[i] = float(d);
-  }
-}
-
-// Every key of a request is one its command reads (a typo is an error, as in scene files).
-void check_keys(const json& request, const std::string& cmd, std::initializer_list<const char*> keys) {
-  for (auto it = request.begin(); it != request.end(); ++it) {
-    if (it.key() == "cmd" || it.key() == "id") continue;
-    bool known = false;
-    for (const char* k : keys) known = known || it.key() == k;
-    if (!known) {
-      std::string list;
-      for (const char* k : keys) list += std::string(list.empty() ? "" : ", ") + k;
-      throw Error("request: " + cmd + " has no field \"" + it.key() + "\"" +
-                  (list.empty() ? std::string(" (it takes none)") : " (it takes " + list + ")"));
-    }
   }
 }
 
@@ -178,6 +165,14 @@ json build_parts(const PathTracer& tracer) {
 }
 
 }  // namespace
+
+ServeSession::ServeSession(ServeLimits limits, const std::string& out_dir) : limits_(limits) {
+  namespace fs = std::filesystem;
+  const fs::path root = out_dir.empty() ? fs::current_path() : fs::path(out_dir);
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) throw Error(root.string(), "serve --out: not a folder");
+  out_root_ = fs::canonical(root);
+}
 
 const PathTracer& ServeSession::tracer() const {
   if (!tracer_) throw Error("no scene loaded (send \"load\" first)");
@@ -328,14 +323,16 @@ json ServeSession::splat_materials(const json& request, uint64_t* bytes_in) {
   const size_t n = request.contains("indices") ? indices.size() : size_t(count);
   size_t width = 0;
   for (const std::string& c : channels) width += c == "albedo" ? 3 : 1;
-  std::vector<float> v = read_floats(string_of(request, "file"), n * width);
+  const std::string file = string_of(request, "file");
+  std::vector<float> v = read_floats(file, n * width);
   *bytes_in += v.size() * sizeof(float);
-  for (size_t i = 0; i < v.size(); ++i)  // +inf or NaN would render NaN pixels
-    if (!std::isfinite(v[i]) || v[i] < 0.0f)
-      throw Error(string_of(request, "file"), "value " + std::to_string(i) + " is " + std::to_string(v[i]) +
-                                                  " (material values are finite and not negative)");
   auto target = [&](size_t i) { return size_t(offset) + (indices.empty() ? i : size_t(indices[i])); };
   const float* p = v.data();
+  for (const std::string& c : channels)  // the PLY reader's rule (material_range.h): NaN pixels otherwise
+    for (size_t i = 0; i < n; ++i)
+      for (int k = 0; k < (c == "albedo" ? 3 : 1); ++k, ++p)
+        check_material_value(*p, file, c == "albedo" ? "albedo_" + std::to_string(k) : c, target(i));
+  p = v.data();
   for (const std::string& c : channels) {  // (all values are read and checked before any is written)
     if (c == "albedo")
       for (size_t i = 0; i < n; ++i, p += 3) f.albedo[target(i)] = Vec3(p[0], p[1], p[2]);
@@ -405,7 +402,7 @@ json ServeSession::render(const json& request, const std::atomic<bool>* cancel,
       outputs.push_back(it.value().get<std::string>());
     }
   }
-  guard_request_outputs(outputs);  // before the render: a refused output costs nothing
+  outputs = guard_request_outputs(outputs);  // before the render: a refused output costs nothing
   RenderControl control;
   control.cancel = cancel;
   // Progress lines at most 4 times a second (render_path calls this under its lock).
@@ -419,8 +416,7 @@ json ServeSession::render(const json& request, const std::atomic<bool>* cancel,
   PathStats stats;
   Image image = render_path(pt, camera, settings, control, &stats, nullptr, transparent, first);
   set_film_alpha(image, transparent, scene_->environment.present());  // as `ptir render` writes it
-  if (ends_with_exr(output)) write_image(output, image, Encoding::Colour);
-  else write_raw(output, image);
+  write_output(outputs[0], image, Encoding::Colour);
   json reply = {{"width", camera.width}, {"height", camera.height}, {"spp", settings.spp}, {"first_sample", first},
                 {"paths", stats.paths}, {"bytes_out", image.pixels.size() * sizeof(float)}};
   if (request.contains("aovs")) {
@@ -430,13 +426,11 @@ json ServeSession::render(const json& request, const std::atomic<bool>* cancel,
     as.seed = settings.seed;
     as.filter = settings.filter;
     as.interaction = settings.interaction;
-    for (auto it = aovs.begin(); it != aovs.end(); ++it) {
+    size_t k = 1;  // outputs[k]: this AOV's file (in the order of "aovs")
+    for (auto it = aovs.begin(); it != aovs.end(); ++it, ++k) {
       const Aov aov = parse_aov(it.key());
       Image a = render_aov(pt.accel(), camera, aov, as, control);
-      if (!it.value().is_string()) throw Error("request: aovs." + it.key() + " must be a file name");
-      const std::string path = it.value().get<std::string>();
-      if (ends_with_exr(path)) write_image(path, a, aov_encoding(aov));
-      else write_raw(path, a);
+      write_output(outputs[k], a, aov_encoding(aov));
       reply["aov_channels"][it.key()] = a.channels;
     }
   }
@@ -455,18 +449,45 @@ void ServeSession::check_size(const Camera& camera, int spp) const {
 
 // The rule of every command (output_guard.h): no output over the loaded scene's
 // files (the scene file and every file it names), nor over anything but a
-// regular file.
-void ServeSession::guard_request_outputs(const std::vector<std::string>& outputs) const {
+// regular file; then the session's own (serve_session.h): under the output
+// folder, and no existing file but one this session wrote. Returns the paths to
+// write (links resolved).
+std::vector<std::string> ServeSession::guard_request_outputs(const std::vector<std::string>& outputs) const {
+  namespace fs = std::filesystem;
+  std::vector<std::string> resolved;
   for (const std::string& out : outputs) {
     if (out.empty()) throw Error("request: an output file name is empty");
-    if (std::filesystem::exists(out) && !std::filesystem::is_regular_file(out))
+    if (out.find('\0') != std::string::npos) throw Error("request: an output file name holds a NUL character");
+    const fs::path full = fs::path(out).is_absolute() ? fs::path(out) : out_root_ / out;
+    std::error_code ec;
+    if (fs::exists(full, ec) && !fs::is_regular_file(full, ec))
       throw Error(out, "exists and is not a regular file; refusing to write over it");
+    resolved.push_back(fs::weakly_canonical(full, ec).string());
+    if (ec) throw Error(out, "cannot resolve the output path: " + ec.message());
   }
   Inputs in;
   if (!scene_path_.empty()) in.scenes.push_back(scene_path_);
   Outputs out;
-  out.files = outputs;
+  out.files = resolved;
   guard_outputs(in, out, /*force=*/false);
+  for (size_t i = 0; i < resolved.size(); ++i) {
+    const fs::path p(resolved[i]);
+    const auto rel = p.lexically_relative(out_root_);
+    if (rel.empty() || *rel.begin() == ".." || rel == ".")
+      throw Error(outputs[i], "is outside this session's output folder " + out_root_.string() +
+                                  " (serve --out): refusing to write it");
+    std::error_code ec;
+    if (fs::exists(p, ec) && !written_.count(resolved[i]))
+      throw Error(outputs[i], "exists and was not written by this session: refusing to replace it");
+  }
+  return resolved;
+}
+
+// An output (resolved by guard_request_outputs): EXR by extension, else raw floats.
+void ServeSession::write_output(const std::string& path, const Image& image, Encoding encoding) {
+  if (ends_with_exr(path)) write_image(path, image, encoding);
+  else write_raw(path, image);
+  written_.insert(path);
 }
 
 json ServeSession::status() const {

@@ -12,13 +12,16 @@
 
 #include <atomic>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "ptir/io/image.h"
 #include "ptir/scene/scene.h"
 #include "ptir/transport/path_tracer.h"
 
@@ -32,9 +35,14 @@ struct ServeLimits {
   uint64_t max_samples = 0;
 };
 
+// Where a session writes (docs/engine_protocol.md): only under `out_dir`, the
+// folder its client gives at start (`serve --out`; the add-on's session folder;
+// empty: the working directory). A relative output name is taken in it; an
+// absolute one, or one whose ".." or links lead out of it, is refused; and an
+// existing file is replaced only when this session wrote it.
 class ServeSession {
  public:
-  explicit ServeSession(ServeLimits limits = {}) : limits_(limits) {}
+  explicit ServeSession(ServeLimits limits = {}, const std::string& out_dir = "");
 
   // Answers one request (never throws: errors become {"ok": false, "error": ...}).
   // cancel: raised by the request reader while this request runs (a "cancel" line).
@@ -54,13 +62,16 @@ class ServeSession {
   const PathTracer& tracer() const;
 
   void check_size(const Camera& camera, int spp) const;
-  void guard_request_outputs(const std::vector<std::string>& outputs) const;
+  std::vector<std::string> guard_request_outputs(const std::vector<std::string>& outputs) const;
+  void write_output(const std::string& path, const Image& image, Encoding encoding);
 
   ServeLimits limits_;
   std::unique_ptr<Scene> scene_;
   std::unique_ptr<PathTracer> tracer_;
   std::string scene_path_;
   uint64_t builds_ = 0;  // acceleration structures built (one per load)
+  std::filesystem::path out_root_;           // the output folder, links resolved
+  std::unordered_set<std::string> written_;  // the files this session wrote (resolved paths)
 };
 
 }  // namespace ptir::cli

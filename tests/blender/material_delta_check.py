@@ -36,7 +36,8 @@ def view():
     return {"c2w": c2w.reshape(-1).tolist(), "fx": f, "fy": f, "cx": W / 2, "cy": H / 2, "width": W, "height": H}
 
 
-def render(session, path):
+def render(session, name):
+    path = session.file(name)  # in the session's folder: the only place its engine writes
     r = session.engine.call({"cmd": "render", "view": view(), "spp": 4, "output": path})
     h.check(r["ok"], "render: %s" % r)
     return np.fromfile(path, np.float32).reshape(H, W, 4)
@@ -49,7 +50,7 @@ def sync(session, changed=None):
 
 
 def main():
-    work = h.argv()[0]
+    h.argv()  # WORK_DIR: unused since each session's engine writes only in its own folder
     cli = render_engine.cli_path()
     obj = bpy.data.objects["Suzanne Splats"]
     bpy.context.view_layer.objects.active = obj
@@ -62,7 +63,7 @@ def main():
     engine_sync._SESSION = live  # the operator pushes to the module's session
     live.ensure(cli)
     h.check(sync(live)["load"], "first sync loads")
-    before = render(live, os.path.join(work, "before.raw"))
+    before = render(live, "before.raw")
     sent0 = dict(live.engine.sent_bytes)
     r1 = bpy.ops.ptir.edit_material(channel="ALBEDO", operation="SET", color=(0.9, 0.05, 0.05), vertex_group="part")
     r2 = bpy.ops.ptir.edit_material(channel="ROUGHNESS", operation="SCALE", value=0.5)
@@ -77,12 +78,12 @@ def main():
     h.check(r3 == {"FINISHED"}, "edit: %s" % r3)
     follow_shown = sync(live, changed={obj.name})
     sent = {k: v - sent0.get(k, 0) for k, v in live.engine.sent_bytes.items() if v - sent0.get(k, 0) > 0}
-    after = render(live, os.path.join(work, "after.raw"))
+    after = render(live, "after.raw")
 
     fresh = engine_sync.EngineSession()
     fresh.ensure(cli)
     h.check(sync(fresh)["load"], "fresh session loads")
-    reference = render(fresh, os.path.join(work, "reference.raw"))
+    reference = render(fresh, "reference.raw")
     stats = {"splats": n, "edited_by_index": len(members), "sent": sent, "follow_up": follow["sent"],
              "follow_up_displayed": follow_shown["sent"],
              "max_diff_vs_fresh_load": float(np.abs(after - reference).max()),

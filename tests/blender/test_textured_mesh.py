@@ -61,7 +61,7 @@ def serve_renders(scene, doc, scene_path, tmp, sphere_material, spp=4):
     sphere's textured material, after one with constants), RGB at spp."""
     from ptir_blender.io.engine_process import EngineProcess
     cam = doc["cameras"][0]
-    engine = EngineProcess(str(ac.CLI))
+    engine = EngineProcess(str(ac.CLI), out_dir=str(tmp))
     try:
         assert engine.call({"cmd": "load", "scene": str(scene_path)})["ok"]
 

@@ -8,7 +8,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 C = os.path.join(HERE, "corpus") + "/"
 DATA = os.path.join(HERE, "..", "data") + "/"
-for t in ("serve", "scene_json", "ply", "colmap", "nerfstudio", "image"):
+for t in ("serve", "scene_json", "ply", "colmap", "nerfstudio", "image", "texture", "cameras_json", "orbit", "budget"):
     os.makedirs(C + t, exist_ok=True)
 
 lines = [
@@ -121,3 +121,53 @@ if build:
         for name, shape in (("rgba.exr", (3, 4, 4)), ("rgb.exr", (2, 2, 3))):
             ptir.write_image(os.path.join(d, name), np.random.default_rng(3).random(shape, np.float32))
             open(C + "image/" + name, "wb").write(b"\x01" + open(os.path.join(d, name), "rb").read())
+
+
+# Textures (first byte as for images; bit 1: sRGB): headers declaring 30000^2 grey (138 bytes: the
+# reproducer of issue 54) and 26000^2 RGB, refused against the memory budget; a small real one.
+def png_header_only(w, h, colour_type):
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour_type, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\x00" * 64)) + chunk(b"IEND", b""))
+
+
+def exr_header_only(w, h):
+    """A scanline EXR of 3 half channels whose data window declares w x h, with no pixels."""
+    def attr(name, kind, data):
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
+    chl = b"".join(c.encode() + b"\0" + struct.pack("<iB3xii", 1, 0, 1, 1) for c in "BGR") + b"\0"
+    box = struct.pack("<iiii", 0, 0, w - 1, h - 1)
+    hdr = (attr("channels", "chlist", chl) + attr("compression", "compression", b"\0")
+           + attr("dataWindow", "box2i", box) + attr("displayWindow", "box2i", box)
+           + attr("lineOrder", "lineOrder", b"\0") + attr("pixelAspectRatio", "float", struct.pack("<f", 1))
+           + attr("screenWindowCenter", "v2f", struct.pack("<ff", 0, 0))
+           + attr("screenWindowWidth", "float", struct.pack("<f", 1)) + b"\0")
+    return b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + hdr + struct.pack("<Q", 0) * 4
+
+
+open(C + "texture/huge_grey.png", "wb").write(b"\x00" + png_header_only(30000, 30000, 0))
+open(C + "texture/huge_rgb_srgb.png", "wb").write(b"\x02" + png_header_only(26000, 26000, 2))
+open(C + "texture/huge.exr", "wb").write(b"\x01" + exr_header_only(30000, 30000))
+open(C + "texture/rgb.png", "wb").write(b"\x02" + png(4, 3, [(i * 53) % 256 for i in range(36)]))
+
+# cameras.json (3DGS): two cameras, one with an off-centre principal point.
+rot = [[1, 0, 0], [0, -1, 0], [0, 0, -1]]
+open(C + "cameras_json/two.json", "w").write(json.dumps([
+    {"id": 0, "img_name": "a", "width": 64, "height": 48, "position": [0, 0, 3], "rotation": rot, "fx": 60, "fy": 60},
+    {"id": 1, "img_name": "b", "width": 64, "height": 48, "position": [3, 0, 0], "rotation": rot, "fx": 60.5,
+     "fy": 60.5, "cx": 30.5, "cy": 25}]))
+
+# PLY-only plans (first byte: the orbit's options): 48 splats with materials, and one floater at 1e30.
+mat_props = props + ["albedo_0", "albedo_1", "albedo_2", "roughness", "metallic"]
+body = plain_ply(48, names=mat_props)
+vals = np.frombuffer(body[body.index(b"end_header\n") + 11:], np.float32).reshape(48, len(mat_props)).copy()
+vals[:, len(props):] = 0.5
+hdr48 = body[:body.index(b"end_header\n") + 11]
+open(C + "orbit/materials.ply", "wb").write(b"\x00" + hdr48 + vals.tobytes())
+vals[7, 0] = 1e30
+open(C + "orbit/floater.ply", "wb").write(b"\x21" + hdr48 + vals.tobytes())
+
+# Budget strings.
+for i, text in enumerate(["90", "90s", "10m", "1.5h", "2min", "1e9h", "2147483648s", "1e-300s", " 5m"]):
+    open(C + "budget/seed%d" % i, "w").write(text)

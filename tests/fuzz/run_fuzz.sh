@@ -20,9 +20,10 @@ for t in "$@"; do
   # -timeout: one input may take 10 s (a render of the serve target is capped far below);
   # -rss_limit_mb: a reader that allocates past 2 GiB for a small file is a finding.
   # Leaks in third-party code are suppressed by frame name (lsan.supp), which needs full
-  # stacks through the uninstrumented libraries: the slow unwinder for the OIIO target.
+  # stacks through the uninstrumented libraries: the slow unwinder for the OIIO targets.
   # (Its memory: ASan's quarantine kept small, as OIIO interns every string it reads, for good.)
-  unwind=""; [ "$t" = image ] && unwind=":fast_unwind_on_malloc=0:quarantine_size_mb=16:malloc_context_size=12"
+  unwind=""
+  case "$t" in image|texture) unwind=":fast_unwind_on_malloc=0:quarantine_size_mb=16:malloc_context_size=12" ;; esac
   if ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1$unwind LSAN_OPTIONS=suppressions=$here/lsan.supp \
      UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
      nice -n 5 "$build/fuzz/fuzz_$t" $budget -timeout=10 -rss_limit_mb=2048 \

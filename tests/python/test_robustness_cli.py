@@ -137,7 +137,7 @@ def test_render_on_a_full_disk_keeps_the_old_file(cli, wall, small_fs, ext):
 def test_serve_on_a_full_disk_answers_an_error(cli, wall, small_fs):
     from test_serve_hardening import Raw
     old = small_fs / "old.exr"
-    e = Raw(cli)
+    e = Raw(cli, out=small_fs)
     assert e.call({"cmd": "load", "scene": str(wall["scene"])})["ok"]
     assert e.call({"cmd": "render", "camera_name": "front", "output": str(old), "width": 96, "height": 64})["ok"]
     before = old.read_bytes()

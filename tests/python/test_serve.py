@@ -30,7 +30,7 @@ def served(cli, wall_scene, tmp_path):
     }
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(scene))
-    engine = EngineProcess(str(cli))
+    engine = EngineProcess(str(cli), out_dir=str(tmp_path))
     reply = engine.call({"cmd": "load", "scene": str(path)})
     assert reply["gaussians"] == 81 and reply["meshes"] == 1 and reply["lights"] == 1
     yield engine, path, scene

@@ -32,8 +32,9 @@ def scene_file(wall_scene, tmp_path):
 class Raw:
     """A serve process fed raw bytes; replies read line by line."""
 
-    def __init__(self, cli, *args):
-        self.proc = subprocess.Popen([str(cli), "serve", "-q", *args], stdin=subprocess.PIPE,
+    def __init__(self, cli, *args, out=None):
+        out_args = ["--out", str(out)] if out is not None else []
+        self.proc = subprocess.Popen([str(cli), "serve", "-q", *out_args, *args], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         self.buf = b""
         assert self.line(30)["ready"]
@@ -83,7 +84,7 @@ class Raw:
 
 @pytest.fixture()
 def engine(cli, wall_scene, tmp_path):
-    e = Raw(cli, "--max-memory", "0.5")
+    e = Raw(cli, "--max-memory", "0.5", out=tmp_path)
     path = scene_file(wall_scene, tmp_path)
     assert e.call({"cmd": "load", "scene": str(path), "id": 1})["ok"]
     yield e, path
@@ -143,7 +144,7 @@ def test_infinite_materials_are_refused(engine, tmp_path):
         v[7] = bad
         v.tofile(f)
         r = e.call({"cmd": "splat_materials", "offset": 0, "count": 81, "file": str(f), "id": 3})
-        assert not r["ok"] and str(f) in r["error"] and "value 7" in r["error"], r
+        assert not r["ok"] and str(f) in r["error"] and "'albedo_1' is" in r["error"] and "Gaussian 2," in r["error"], r
     assert np.isfinite(render(e, tmp_path / "after.raw")).all()
 
 
@@ -172,6 +173,67 @@ def test_cancel_only_for_ids_seen(engine, tmp_path):
     e.write(b'{"cmd": "cancel", "target": 500, "id": 21}\n')
     assert e.call({"cmd": "status", "id": 22})["id"] == 22
 
+
+def test_a_cancel_of_a_finished_request_does_not_cancel_a_later_one_with_its_id(engine, tmp_path):
+    """Issue 54: the cancel of an answered request was remembered, and the next request reusing its id (a
+    load) was answered "cancelled"."""
+    e, path = engine
+    assert render(e, tmp_path / "first.raw", rid=40)[..., :3].mean() > 0.01
+    assert e.call({"cmd": "status", "id": 41})["ok"]  # 40 is answered and another request has run since
+    e.write(b'{"cmd": "cancel", "target": 40, "id": 42}\n')
+    r = e.call({"cmd": "load", "scene": str(path), "id": 40})
+    assert r["ok"] and not r.get("cancelled"), r
+    assert render(e, tmp_path / "again.raw", rid=40)[..., :3].mean() > 0.01
+
+
+def test_cancel_and_quit_refuse_fields_they_do_not_read(engine, tmp_path):
+    e, _ = engine
+    r = e.call({"cmd": "cancel", "target": 1, "targte": 2, "id": 50})
+    assert not r["ok"] and r["id"] == 50 and '"targte"' in r["error"] and "target" in r["error"], r
+    r = e.call({"cmd": "quit", "now": True, "id": 51})
+    assert not r["ok"] and r["id"] == 51 and '"now"' in r["error"] and "takes none" in r["error"], r
+    assert e.call({"cmd": "status", "id": 52})["ok"]  # neither was applied: the session still answers
+    assert e.proc.poll() is None
+
+
+def test_renders_go_only_under_the_output_folder(cli, wall_scene, tmp_path):
+    """Issue 54: a request's output "../../../../etc/passwd" replaced the system's file. serve --out DIR:
+    outputs only under DIR (relative names taken in it), nothing outside it (absolute, "..", a link), and
+    no existing file replaced unless this session wrote it."""
+    out = tmp_path / "session"
+    out.mkdir()
+    outside = tmp_path / "outside.raw"
+    outside.write_bytes(b"keep me")
+    (out / "link").symlink_to(tmp_path)
+    mine = out / "theirs.raw"
+    mine.write_bytes(b"not the engine's")
+    e = Raw(cli, out=out)
+    assert e.call({"cmd": "load", "scene": str(scene_file(wall_scene, tmp_path)), "id": 1})["ok"]
+    depth = "../" * (len(out.parts) + 2) + str(outside).lstrip("/")
+    for name in (depth, "../outside.raw", str(outside), "link/outside.raw", "sub/../../outside.raw"):
+        r = e.call({"cmd": "render", "camera_name": "cam", "output": name, "id": 2})
+        assert not r["ok"] and "outside this session's output folder" in r["error"] and name in r["error"], r
+        r = e.call({"cmd": "render", "camera_name": "cam", "output": "ok.raw", "aovs": {"depth": name}, "id": 3})
+        assert not r["ok"] and "outside" in r["error"], r
+    r = e.call({"cmd": "render", "camera_name": "cam", "output": str(mine), "id": 4})
+    assert not r["ok"] and "not written by this session" in r["error"], r
+    assert outside.read_bytes() == b"keep me" and mine.read_bytes() == b"not the engine's"
+    assert not (out / "ok.raw").exists()
+    # Its own files: written, and written again (a progressive pass reuses its file).
+    for _ in range(2):
+        r = e.call({"cmd": "render", "camera_name": "cam", "output": "first.raw", "id": 5,
+                    "aovs": {"depth": str(out / "first_depth.raw")}})
+        assert r["ok"], r
+    assert (out / "first.raw").stat().st_size == H * W * 16 and (out / "first_depth.raw").exists()
+    assert e.close() == 0
+    # A second session does not replace the first one's files.
+    e = Raw(cli, out=out)
+    assert e.call({"cmd": "load", "scene": str(scene_file(wall_scene, tmp_path)), "id": 1})["ok"]
+    r = e.call({"cmd": "render", "camera_name": "cam", "output": "first.raw", "id": 6})
+    assert not r["ok"] and "not written by this session" in r["error"], r
+    assert e.close() == 0
+    p = subprocess.run([str(cli), "serve", "--out", str(outside)], input=b"", capture_output=True, timeout=30)
+    assert p.returncode == 1 and str(outside) in p.stderr.decode() and "not a folder" in p.stderr.decode()
 
 @pytest.mark.parametrize("how", ["quit", "eof"])
 def test_quit_and_end_of_input_stop_a_long_render_within_a_second(engine, tmp_path, how):
@@ -267,7 +329,7 @@ def test_ten_thousand_bad_lines_then_a_bit_identical_render(cli, wall_scene, tmp
             line = mutate(rng, base[int(rng.integers(0, len(base)))])
         if line.strip(b" \t\r"):
             lines.append(line)
-    e = Raw(cli)
+    e = Raw(cli, out=tmp_path)
     assert e.call({"cmd": "load", "scene": str(path)})["ok"]
     replies = []
 
@@ -293,7 +355,7 @@ def test_ten_thousand_bad_lines_then_a_bit_identical_render(cli, wall_scene, tmp
             request = json.loads(line)
             if request["cmd"] in STATEFUL:
                 applied.append(request)
-    fresh = Raw(cli)
+    fresh = Raw(cli, out=tmp_path)
     assert fresh.call({"cmd": "load", "scene": str(path)})["ok"]
     for request in applied:
         assert fresh.call(request)["ok"]

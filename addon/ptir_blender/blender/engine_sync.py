@@ -117,7 +117,8 @@ class EngineSession:
             self.stop()
             self.folder = engine_process.bulk_dir()
             self.engine = engine_process.EngineProcess(cli_path, threads=threads,
-                                                       log_path=os.path.join(self.folder, "engine.log"))
+                                                       log_path=os.path.join(self.folder, "engine.log"),
+                                                       out_dir=self.folder)  # its renders go here only
             self.state = None
             return True
 

@@ -5,10 +5,10 @@ world, acceleration structure); the viewport and F12 send it requests and read
 its replies (docs/engine_protocol.md). A native crash ends that process only:
 Blender sees `alive()` turn false and starts a new one.
 
-    engine = EngineProcess(cli_path)
+    engine = EngineProcess(cli_path, out_dir=folder)  # outputs only under `folder`
     rid = engine.send({"cmd": "load", "scene": "/tmp/x/scene.json"})
     reply = engine.wait(rid, timeout=60)            # {"ok": true, "gaussians": ...}
-    rid = engine.send({"cmd": "render", "view": {...}, "spp": 1, "output": "/dev/shm/.../p.raw"})
+    rid = engine.send({"cmd": "render", "view": {...}, "spp": 1, "output": folder + "/p.raw"})
     engine.reply(rid)                               # None until it has come (non-blocking)
 
 Requests are answered in order; a long render also sends interim progress lines
@@ -80,10 +80,14 @@ class EngineProcess:
     are asked for (reply, wait, send), on the asking thread, never on a thread of its own (pipe_lines.py
     says why). The lock makes that safe from two threads (the viewport's and a final render's)."""
 
-    def __init__(self, cli_path, threads=0, log_path=None, start_timeout=30.0):
+    def __init__(self, cli_path, threads=0, log_path=None, start_timeout=30.0, out_dir=None):
+        """out_dir: the folder the engine writes its render outputs in (`serve --out`): requests name files
+        under it, and the engine replaces only files it wrote itself (default: the working directory)."""
         args = [cli_path, "serve"]
         if threads > 0:
             args += ["--threads", str(int(threads))]
+        if out_dir:
+            args += ["--out", str(out_dir)]
         self.args = args
         self._lock = threading.Lock()
         self._replies = {}

@@ -123,14 +123,15 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
         r = scene.render
         width, height = scene_file.render_size(r.resolution_x, r.resolution_y, r.resolution_percentage)
         settings = scene.ptir_render
-        job_dir = tempfile.mkdtemp(prefix="ptir_render_")
+        job = {}  # the job's folder, made in the engine's session folder (the only place it writes)
         keep = keep_files()
         try:
-            self._render(depsgraph, scene, settings, width, height, job_dir)
+            self._render(depsgraph, scene, settings, width, height, job)
         finally:
-            if keep:
+            job_dir = job.get("dir")
+            if job_dir and keep:
                 print("ptir render: job files kept in %s" % job_dir)
-            else:
+            elif job_dir:
                 shutil.rmtree(job_dir, ignore_errors=True)
             if bpy.app.background:
                 engine_sync.shutdown()
@@ -147,14 +148,16 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
         if bpy.app.background:
             print("ptir render: error: " + message, flush=True)
 
-    def _render(self, depsgraph, scene, settings, width, height, job_dir):
+    def _render(self, depsgraph, scene, settings, width, height, job):
         self.update_stats("", "PTIR: updating the engine's scene")
         session = engine_sync.session()
-        output = os.path.join(job_dir, "render.exr")
-        aovs = {a: os.path.join(job_dir, a + ".raw") for _, a, *_ in AOV_PASSES} if settings.aov_passes else {}
         try:
             with session.lock:
                 session.ensure(cli_path(), threads=settings.threads)
+                job_dir = job["dir"] = tempfile.mkdtemp(prefix="render_", dir=session.folder)
+                output = os.path.join(job_dir, "render.exr")
+                aovs = ({a: os.path.join(job_dir, a + ".raw") for _, a, *_ in AOV_PASSES} if settings.aov_passes
+                        else {})
                 sync = session.sync(depsgraph, integrator_settings(settings), exact=True)
                 warnings = []
                 camera = scene_export.camera_entry(scene.camera, scene, warnings) if scene.camera else None

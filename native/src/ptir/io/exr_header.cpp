@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "ptir/core/error.h"
+#include "ptir/io/memory_budget.h"
 
 namespace ptir::io {
 
@@ -52,6 +53,20 @@ bool preview_fits(const std::vector<unsigned char>& v) {
   if (v.size() < 8) return false;
   return 8 + 4 * uint64_t(le32(v.data())) * uint64_t(le32(v.data() + 4)) == v.size();
 }
+// The data window (xMin, yMin, xMax, yMax): OpenEXR allocates its line buffers
+// for the declared width when it opens the file, before read_image can check the
+// size against the memory budget (fuzz_texture: a 166-byte file declaring a
+// width of 14 million). Sides past the engine's limit are refused here.
+void check_data_window(std::ifstream& in, const std::string& path) {
+  unsigned char b[16];
+  if (!in.read(reinterpret_cast<char*>(b), 16)) throw Error(path, "OpenEXR header: the file ends inside 'dataWindow'");
+  const int64_t w = int64_t(int32_t(le32(b + 8))) - int32_t(le32(b)) + 1;
+  const int64_t h = int64_t(int32_t(le32(b + 12))) - int32_t(le32(b + 4)) + 1;
+  if (w < 1 || h < 1 || w > kMaxImageSide || h > kMaxImageSide)
+    throw Error(path, "OpenEXR header: dataWindow declares " + std::to_string(w) + "x" + std::to_string(h) +
+                          ", outside 1.." + std::to_string(kMaxImageSide) + " pixels a side");
+}
+
 }  // namespace
 
 void check_exr_header(const std::string& path, uint64_t file_size) {
@@ -99,6 +114,8 @@ void check_exr_header(const std::string& path, uint64_t file_size) {
         if (!(type == "chlist" ? chlist_fits(value) : preview_fits(value)))
           throw Error(path, "OpenEXR header: attribute '" + name + "' (" + type + ") does not fill its declared " +
                                 std::to_string(size) + " bytes exactly");
+      } else if (name == "dataWindow" && type == "box2i") {
+        check_data_window(in, path);
       } else {
         in.seekg(std::streamoff(size), std::ios::cur);
       }

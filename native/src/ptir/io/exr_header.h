@@ -4,7 +4,9 @@
 // fuzz_image). Here every attribute of every part's header must fit in the file,
 // and the types OpenEXR reads field by field (box2i, chlist, float, ...) must
 // declare the size it reads: otherwise its reading falls out of step with the
-// header and takes bytes inside a value for another attribute's size.
+// header and takes bytes inside a value for another attribute's size. The data
+// window's sides must be 1..65536 pixels (memory_budget.h): OpenEXR allocates its
+// line buffers for the declared width when it opens the file.
 #pragma once
 
 #include <cstdint>

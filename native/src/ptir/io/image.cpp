@@ -12,6 +12,7 @@
 #include "ptir/io/atomic_file.h"
 #include "ptir/io/exr_header.h"
 #include "ptir/io/input_file.h"
+#include "ptir/io/memory_budget.h"
 
 namespace ptir {
 
@@ -115,10 +116,7 @@ Image read_image(const std::string& path, Encoding encoding, bool* stored_as_byt
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) throw Error(path, "image has no pixels");
   // The header's size is checked before anything is allocated (a 60-byte file may declare 10^10 pixels).
-  if (spec.width > 65536 || spec.height > 65536 || spec.nchannels > 64 ||
-      uint64_t(spec.width) * uint64_t(spec.height) * uint64_t(spec.nchannels) > (uint64_t(1) << 31))
-    throw Error(path, "image declares " + std::to_string(spec.width) + "x" + std::to_string(spec.height) + "x" +
-                          std::to_string(spec.nchannels) + ", past the limit of 65536 pixels a side and 2^31 values");
+  io::check_decode_size(path, spec.width, spec.height, spec.nchannels);
   Image image(spec.width, spec.height, spec.channelnames);
   if (int(image.channel_names.size()) != spec.nchannels) image = Image(spec.width, spec.height, std::vector<std::string>(spec.nchannels, "?"));
   // A short or corrupt file is an error, never an image with its tail missing:

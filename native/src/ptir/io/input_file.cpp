@@ -27,6 +27,11 @@ std::string mib(uint64_t bytes) { return std::to_string((bytes + (1 << 20) - 1) 
 }  // namespace
 
 uint64_t check_regular_file(const std::string& path, const std::string& what) {
+  if (path.find('\0') != std::string::npos) {  // the system would open the name cut at the NUL
+    std::string shown;
+    for (char c : path) shown += c == '\0' ? std::string("\\0") : std::string(1, c);
+    throw Error(shown, "cannot open " + what + ": the name holds a NUL character");
+  }
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0)
     throw Error(path, "cannot open " + what + ": " + (errno == ENOENT ? std::string("file not found (No such file or directory)")

@@ -28,7 +28,7 @@ Ray Camera::generate_ray(float px, float py) const {
 
 Camera Camera::resized(int w, int h) const {
   if (w <= 0 || h <= 0 || w > 65536 || h > 65536)
-    throw Error(name, "image size must be positive (got " + std::to_string(w) + "x" + std::to_string(h) + ")");
+    throw Error(name, "image size must be 1..65536 pixels a side (got " + std::to_string(w) + "x" + std::to_string(h) + ")");
   const int fw = full_width > 0 ? full_width : width, fh = full_height > 0 ? full_height : height;
   const float sx = float(w) / float(fw), sy = float(h) / float(fh);
   Camera c = *this;
@@ -78,7 +78,7 @@ void set_pose(Camera& cam, const float m[16]) {
 
 void check_size(const std::string& name, int width, int height) {
   if (width <= 0 || height <= 0 || width > 65536 || height > 65536)
-    throw Error(name, "image size must be positive (got " + std::to_string(width) + "x" + std::to_string(height) + ")");
+    throw Error(name, "image size must be 1..65536 pixels a side (got " + std::to_string(width) + "x" + std::to_string(height) + ")");
 }
 
 }  // namespace

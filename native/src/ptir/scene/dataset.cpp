@@ -14,6 +14,7 @@
 #include "ptir/scene/capture_calibration.h"
 #include "ptir/io/exr_header.h"
 #include "ptir/io/input_file.h"
+#include "ptir/io/memory_budget.h"
 #include "ptir/scene/json_limits.h"
 #include "ptir/scene/dataset_layouts.h"
 
@@ -69,10 +70,7 @@ RawImage read_raw(const std::string& path) {
   if (!in) throw Error(path, "cannot read image: " + OIIO::geterror());
   const OIIO::ImageSpec& s = in->spec();
   if (s.width <= 0 || s.height <= 0 || s.nchannels <= 0) throw Error(path, "image has no pixels");
-  if (s.width > 65536 || s.height > 65536 || s.nchannels > 64 ||
-      uint64_t(s.width) * uint64_t(s.height) * uint64_t(s.nchannels) > (uint64_t(1) << 31))  // before allocating
-    throw Error(path, "image declares " + size_text(s.width, s.height) + "x" + std::to_string(s.nchannels) +
-                          ", past the limit of 65536 pixels a side and 2^31 values");
+  io::check_decode_size(path, s.width, s.height, s.nchannels);  // before allocating
   RawImage r;
   r.width = s.width;
   r.height = s.height;

@@ -7,7 +7,9 @@
 // Images come from <source_path>/<images>/<img_name>.<ext>. The principal point is
 // the image centre, as 3DGS renders (its Gaussians were fitted that way), unless the
 // entry has cx, cy (forks with off-centre projection write them).
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -85,18 +87,46 @@ double number(const nlohmann::json& e, const char* key, const std::string& path,
   return e[key].get<double>();
 }
 
+// An image side: a whole number of pixels in [1, 65536] (the Camera's limit).
+int image_side(const nlohmann::json& e, const char* key, const std::string& path, const std::string& where) {
+  const double v = number(e, key, path, where);
+  if (!(v >= 1 && v <= 65536 && v == std::floor(v)))
+    throw Error(path, where + " '" + key + "' is " + e[key].dump() + ": an image side is a whole number of 1..65536 pixels");
+  return int(v);
+}
+
+// A focal length in pixels (finite, > 0) or a principal point coordinate: absent
+// is the image centre (INRIA's 3DGS), present is a finite number within ten image
+// sides of the centre (Blender's lens shift range), so the view sees its target.
+double focal(const nlohmann::json& e, const char* key, const std::string& path, const std::string& where) {
+  const double v = number(e, key, path, where);
+  if (!(v > 0 && std::isfinite(v) && v < 1e30))
+    throw Error(path, where + " '" + key + "' is " + e[key].dump() + ": a focal length is a positive number of pixels");
+  return v;
+}
+double principal(const nlohmann::json& e, const char* key, int side, int longest, const std::string& path,
+                 const std::string& where) {
+  if (!e.contains(key)) return 0.5 * side;
+  if (!e[key].is_number())
+    throw Error(path, where + " '" + key + "' is " + e[key].dump() + ", not a number (pixels from the left/top edge)");
+  const double v = e[key].get<double>();
+  if (!(std::fabs(v - 0.5 * side) <= 10.0 * longest))
+    throw Error(path, where + " '" + key + "' is " + e[key].dump() + ": the principal point must lie within ten image " +
+                          "sides of the image centre (" + nlohmann::json(0.5 * side).dump() + ")");
+  return v;
+}
+
 // The lens and pose of one cameras.json entry.
 void parse_3dgs_pose(const nlohmann::json& e, const std::string& cams_path, const std::string& where, CaptureView& v) {
-  const int w = int(number(e, "width", cams_path, where)), h = int(number(e, "height", cams_path, where));
+  const int w = image_side(e, "width", cams_path, where), h = image_side(e, "height", cams_path, where);
   v.lens.model = "PINHOLE";
   v.lens.width = w;
   v.lens.height = h;
-  v.lens.fx = number(e, "fx", cams_path, where);
-  v.lens.fy = number(e, "fy", cams_path, where);
+  v.lens.fx = focal(e, "fx", cams_path, where);
+  v.lens.fy = focal(e, "fy", cams_path, where);
   // Centred, as INRIA's 3DGS renders; forks that fit an off-centre principal point write cx, cy.
-  v.lens.cx = e.contains("cx") && e["cx"].is_number() ? e["cx"].get<double>() : 0.5 * w;
-  v.lens.cy = e.contains("cy") && e["cy"].is_number() ? e["cy"].get<double>() : 0.5 * h;
-  if (!(w > 0 && h > 0 && v.lens.fx > 0 && v.lens.fy > 0)) throw Error(cams_path, where + " has a non-positive size or focal length");
+  v.lens.cx = principal(e, "cx", w, std::max(w, h), cams_path, where);
+  v.lens.cy = principal(e, "cy", h, std::max(w, h), cams_path, where);
   const auto& pos = e.value("position", nlohmann::json());
   const auto& rot = e.value("rotation", nlohmann::json());
   if (!pos.is_array() || pos.size() != 3 || !rot.is_array() || rot.size() != 3)

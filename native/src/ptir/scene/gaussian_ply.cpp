@@ -1,7 +1,7 @@
 // 3DGS PLY <-> GaussianField: finds the INRIA properties by name, checks them,
 // activates them (exp scale, sigmoid opacity, normalised quaternion), reorders the
-// SH, and reads the optional PTIR material properties. Saving writes every input
-// property back unchanged plus the eight material properties.
+// SH, and reads the optional PTIR material properties (in [0, 1]: material_range.h).
+// Saving writes every input property back unchanged plus the eight material properties.
 #include "ptir/scene/gaussian_ply.h"
 
 #include <algorithm>
@@ -12,6 +12,7 @@
 
 #include "ptir/core/error.h"
 #include "ptir/io/ply_compressed.h"
+#include "ptir/material/material_range.h"
 
 namespace ptir {
 
@@ -190,17 +191,20 @@ GaussianField gaussians_from_ply(io::PlyFile ply, const std::string& path) {
   f.albedo.assign(n, Vec3(kDefaultAlbedo));
   if (optional_group(v, numbered("albedo_", 3), path)) {
     const Column a[3] = {{v, "albedo_0", path}, {v, "albedo_1", path}, {v, "albedo_2", path}};
-    for (size_t i = 0; i < n; ++i) f.albedo[i] = Vec3(a[0](i), a[1](i), a[2](i));
+    for (size_t i = 0; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) check_material_value(a[c](i), path, "albedo_" + std::to_string(c), i);
+      f.albedo[i] = Vec3(a[0](i), a[1](i), a[2](i));
+    }
   }
   f.roughness.assign(n, kDefaultRoughness);
   if (v.get("roughness")) {
     const Column r(v, "roughness", path);
-    for (size_t i = 0; i < n; ++i) f.roughness[i] = r(i);
+    for (size_t i = 0; i < n; ++i) check_material_value(f.roughness[i] = r(i), path, "roughness", i);
   }
   f.metallic.assign(n, kDefaultMetallic);
   if (v.get("metallic")) {
     const Column m(v, "metallic", path);
-    for (size_t i = 0; i < n; ++i) f.metallic[i] = m(i);
+    for (size_t i = 0; i < n; ++i) check_material_value(f.metallic[i] = m(i), path, "metallic", i);
   }
   // Fixed Principled inputs, only when the file has them (else Blender's defaults).
   f.specular.clear();

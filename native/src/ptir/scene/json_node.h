@@ -188,6 +188,9 @@ struct Node {
     Node n = (*this)[key];
     std::string p = n.string();
     if (p.empty()) n.fail("must not be empty");
+    // The system cuts a name at its first NUL ("good.png\u0000x" would open good.png).
+    if (p.find('\0') != std::string::npos)
+      n.fail("holds a NUL character at position " + std::to_string(p.find('\0')) + ": not a file name");
     return ctx.resolve(p);
   }
 };

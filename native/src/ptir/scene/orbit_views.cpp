@@ -38,6 +38,29 @@ float robust_extent_along(const GaussianField& field, Vec3 axis) {
   return vw.empty() ? 0.0f : weighted_quantile(vw, 0.99f) - weighted_quantile(vw, 0.01f);
 }
 
+// Cameras stand up to ~130 radii away (a 1 degree field of view): their squared
+// distances must stay finite in float (3.4e38), with room to spare.
+constexpr float kMaxOrbitRadius = 1e15f;
+
+std::string text(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", v);
+  return b;
+}
+
+std::string text(Vec3 v) { return "(" + text(v.x) + ", " + text(v.y) + ", " + text(v.z) + ")"; }
+
+// Why the robust sphere is too large: its positions (a floater the percentiles
+// keep: with under 100 splats they are the extremes) or the splats' own size.
+std::string too_large_to_orbit(const SplatBounds& b, float splat) {
+  const std::string tail = ": too large to place cameras around (the limit is a radius of " + text(kMaxOrbitRadius) + ")";
+  if (!(3.0f * splat <= 0.5f * kMaxOrbitRadius))
+    return "the splats' median largest scale is " + text(splat) + " (log-scale " + text(std::log(double(splat))) + ")" +
+           tail;
+  return "the splats' positions span " + text(b.lo) + " to " + text(b.hi) + " (the 1st and 99th opacity-weighted " +
+         "percentiles of " + std::to_string(b.counted) + " splats; a floater far from the others?)" + tail;
+}
+
 }  // namespace
 
 SplatBounds robust_splat_bounds(const GaussianField& field) {
@@ -71,9 +94,11 @@ SplatBounds robust_splat_bounds(const GaussianField& field) {
     dist.emplace_back(0.0f, 1.0f);
     size.emplace_back(max_component(field.scale[kept[0]]), 1.0f);
   }
-  b.radius = weighted_quantile(dist, 0.99f) + 3.0f * weighted_quantile(size, 0.5f);
-  if (!(b.radius > 0) || !std::isfinite(b.radius))
-    throw Error(field.source_path.empty() ? "gaussians" : field.source_path, "the splats have no extent to orbit");
+  const float spread = weighted_quantile(dist, 0.99f), splat = weighted_quantile(size, 0.5f);
+  b.radius = spread + 3.0f * splat;
+  const std::string source = field.source_path.empty() ? "gaussians" : field.source_path;
+  if (!(b.radius <= kMaxOrbitRadius)) throw Error(source, too_large_to_orbit(b, splat));
+  if (!(b.radius > 0)) throw Error(source, "the splats have no extent to orbit (every one at one point, of zero size)");
   return b;
 }
 
@@ -124,6 +149,9 @@ OrbitPlan plan_orbit(const GaussianField& field, const OrbitOptions& o) {
   plan.fov_deg = o.fov_deg;
   const float half = 0.5f * o.fov_deg * kDeg;
   plan.distance = plan.bounds.radius / std::sin(half) * 1.15f * o.distance_scale;
+  if (!(std::fabs(plan.distance) <= 1e18f))
+    throw Error("the orbit's distance " + text(plan.distance) + " (radius " + text(plan.bounds.radius) +
+                " x --orbit-distance " + text(o.distance_scale) + ") is out of range: place cameras with --cameras");
   // Golden-angle spiral, uniform in sin(elevation) over the range.
   const float s0 = std::sin(plan.elevation_min * kDeg), s1 = std::sin(plan.elevation_max * kDeg);
   const float golden = 180.0f * kDeg * (3.0f - std::sqrt(5.0f));

@@ -12,6 +12,7 @@
 #include "ptir/core/fnv1a.h"
 #include "ptir/core/error.h"
 #include "ptir/io/atomic_file.h"
+#include "ptir/io/memory_budget.h"
 
 namespace ptir {
 
@@ -92,6 +93,7 @@ std::string undistorted_image(const std::string& src, const LensModel& lens, con
   if (spec.width != lens.width || spec.height != lens.height)
     throw Error(src, "image is " + std::to_string(spec.width) + "x" + std::to_string(spec.height) + ", its camera is " +
                          std::to_string(lens.width) + "x" + std::to_string(lens.height));
+  io::check_decode_size(src, spec.width, spec.height, spec.nchannels);  // before allocating
   const auto base = spec.format.basetype;
   const bool is_float = base == OIIO::TypeDesc::FLOAT || base == OIIO::TypeDesc::HALF || base == OIIO::TypeDesc::DOUBLE;
   const OIIO::TypeDesc out_type = is_float ? OIIO::TypeDesc::FLOAT
