@@ -107,14 +107,14 @@ def test_the_geometry_stage_creates_no_coverage_outside_the_users_splat(short_ru
         assert a1[outside].mean() < 0.02 and (a1[outside] > 0.5).mean() < 0.005, (i, a1[outside].mean())
 
 
-def test_the_environment_seen_directly_is_held_and_detailed(short_run, ptir):
+def test_the_environment_seen_directly_starts_the_light_and_details_it(short_run, ptir):
     out, _, log = short_run
     start = ptir.read_image(str(out / "capture" / "background_env.exr"))
     seen = start[..., 3] > 0.5
     assert 0.2 < seen.mean() < 0.9, seen.mean()
-    # The settings say the seen texels were held; the output map is the fine one with the photos' detail.
+    # The settings say the light started from it; the output map is the fine one with the photos' detail.
     settings = json.loads((out / "settings.json").read_text())
-    assert settings["env_init"].endswith("(seen texels fixed)"), settings["env_init"]
+    assert settings["env_init"].endswith("background_env.exr"), settings["env_init"]
     env = ptir.read_image(str(out / "env.exr"))
     fine = ptir.read_image(str(out / "capture" / "background_seen.exr"))
     assert env.shape[:2] == fine.shape[:2] and env.shape[1] >= 1024
