@@ -47,7 +47,7 @@ CaptureStageResult run_capture_stage(const CaptureStage& c) {
   if (!c.quiet)
     for (const std::string& line : capture_analysis_lines(a)) std::fprintf(stderr, "%s\n", line.c_str());
   fs::remove_all(dir, ec);
-  write_capture_analysis(a, *all, s, dir.string());
+  write_capture_analysis(a, *all, c.s, dir.string());
   r.calibration = cal.string();
   if (a.background.width > 0) r.background_env = env.string();
   return r;

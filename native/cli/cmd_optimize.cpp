@@ -96,7 +96,7 @@ const std::set<std::string> kCommonOptions = {
     "--help", "--help-all", "--dataset", "--gaussians", "--scene", "--out", "--fit-iters", "--iters", "--spp",
     "--bounces", "--env", "--env-size", "--env-init", "--seed", "--brdf", "--resume", "--threads",
     "--checkpoint-every", "--images", "--holdout", "--optimize-metallic", "--learn-exposure", "--estimate",
-    "--quiet", "--force", "--budget", "--subject"};
+    "--quiet", "--force", "--budget"};
 
 // The command's own options around the set-up shared with the Python module.
 struct OptimizeCommand {
