@@ -8,6 +8,19 @@
 
 namespace ptir {
 
+namespace {
+
+// The field's linear colour over black at pixel i: its display colour (composited in display
+// space, as a trainer's rasteriser does) made straight, decoded, and weighted by the coverage
+// again (the preview AOV's convention, render/aov.h).
+float linear_colour(const SplatImage& fwd, size_t i, int c) {
+  const float o = fwd.opacity.pixels[i];
+  if (!(o > 0.0f)) return 0.0f;
+  return o * srgb_to_linear(std::clamp(fwd.colour.pixels[3 * i + size_t(c)] / o, 0.0f, 1.0f));
+}
+
+}  // namespace
+
 HeldOutScore held_out_radiance_psnr(const GaussianField& field, const Dataset& test) {
   HeldOutScore s;
   if (test.size() == 0) return s;
@@ -24,7 +37,7 @@ HeldOutScore held_out_radiance_psnr(const GaussianField& field, const Dataset& t
     for (int c = 0; c < 3; ++c) {
       double rt = 0.0, rr = 0.0;
       for (size_t i : in) {
-        const double r = srgb_to_linear(std::clamp(fwd.colour.pixels[3 * i + size_t(c)], 0.0f, 1.0f));
+        const double r = linear_colour(fwd, i, c);
         rt += r * double(photo->rgb.pixels[3 * i + size_t(c)]);
         rr += r * r;
       }
@@ -33,7 +46,7 @@ HeldOutScore held_out_radiance_psnr(const GaussianField& field, const Dataset& t
     double se = 0.0;
     for (size_t i : in)
       for (int c = 0; c < 3; ++c) {
-        const float r = srgb_to_linear(std::clamp(fwd.colour.pixels[3 * i + size_t(c)], 0.0f, 1.0f));
+        const float r = linear_colour(fwd, i, c);
         const float a = linear_to_srgb(std::clamp(float(gain[size_t(c)] * r), 0.0f, 1.0f));
         const float b = linear_to_srgb(std::clamp(photo->rgb.pixels[3 * i + size_t(c)], 0.0f, 1.0f));
         se += double(a - b) * double(a - b);
