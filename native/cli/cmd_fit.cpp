@@ -23,6 +23,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "capture_stage.h"
 #include "fit_stage.h"
 #include "optimize_budget.h"
 #include "output_guard.h"
@@ -60,10 +61,23 @@ int run_fit(const FitCommand& o, const CLI::App& cmd) {
     stage.no_densify = true;
   }
   check_fit_stage(stage);
+  // A real capture's photos measured against the splats first (capture_stage.h; the add-on's
+  // optimise flow runs this command as its geometry stage): an object's coverage masks them.
+  CaptureStage capture;
+  capture.dataset = stage.dataset;
+  capture.gaussians = stage.gaussians;
+  capture.out = stage.out;
+  capture.capture = stage.capture;
+  capture.resume = stage.resume;
+  capture.quiet = stage.quiet;
   guard_outputs({{o.stage.gaussians}, {o.stage.dataset}, {}, {o.stage.dataset}}, {{}, {o.stage.out}}, o.force);
   guard_result_folder(o.stage.out, o.force);
   const auto lock = lock_output_folder(o.stage.out, "ptir fit");
   remove_stale_outputs({o.stage.out}, o.stage.quiet);
+  if (!o.stage.dataset.empty()) {
+    const CaptureStageResult r = run_capture_stage(capture);
+    if (!r.calibration.empty()) stage.capture.calibration = r.calibration;
+  }
   return run_fit_stage(stage);
 }
 

@@ -3,8 +3,9 @@
     blender -b ... -P addon_real_capture_check.py -- CAPTURE_DIR PLY WORK_DIR
 
 Imports the user's PLY, points the Optimise panel at the capture folder and optimises with short
-settings: `ptir optimize` runs the capture in place (one process, its own geometry stage), the panel
-learns the subject, the results come back onto the splats. Prints "REAL_CAPTURE: {json}".
+settings: the geometry stage (`ptir fit`) and the inversion both measure the capture against the splats
+(the object's coverage masks the photos), the panel learns the subject, the results come back onto the
+splats. Prints "REAL_CAPTURE: {json}".
 """
 
 import json
@@ -34,10 +35,10 @@ def main():
     s.splat_object = splats
     s.fit_iterations, s.iterations, s.spp, s.crop, s.bounces = 30, 2, 1, 64, 1
     s.output_dir = os.path.join(work, "out")
+    os.makedirs(os.path.join(work, "job"), exist_ok=True)
     job = optimize_job.prepare(bpy.context, s, os.path.join(work, "job"), os.environ["PTIR_CLI"],
                                out_dir=s.output_dir)
-    stats = {"fit_in_optimize": job.fit_in_optimize, "separate_fit": bool(job.fit_args),
-             "fit_iters": job.args[job.args.index("--fit-iters") + 1]}
+    stats = {"fit_stage": bool(job.fit_args)}
     before = splat_object.read_data_from_object(splats).albedo.copy()
     r = bpy.ops.ptir.optimize()
     h.check(r == {"FINISHED"}, "optimise: %s" % s.status)
@@ -46,6 +47,9 @@ def main():
     stats["albedo_changed"] = float(np.abs(after - before).mean())
     with open(os.path.join(s.output_dir, "settings.json")) as f:
         stats["cli_subject"] = json.load(f)["capture"]["subject"]
+    # The geometry stage (`ptir fit`) masked the photos by the splat's coverage: it grew no blobs.
+    with open(os.path.join(s.output_dir, "fit", "capture", "calibration.json")) as f:
+        stats["fit_subject"] = json.load(f)["subject"]
     print("REAL_CAPTURE: " + json.dumps(stats), flush=True)
 
 

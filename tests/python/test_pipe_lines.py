@@ -70,22 +70,16 @@ def test_engine_without_a_thread(cli, tmp_path):
     assert not engine.alive()
 
 
-def test_optimize_progress_of_a_real_capture_names_its_subject_and_spans_both_stages():
-    """A real capture's one `ptir optimize` process: the capture line names the subject for the panel, its
-    own geometry stage fills the bar's first FIT_SHARE, the inversion the rest."""
+def test_optimize_progress_of_a_real_capture_names_its_subject():
+    """The capture stage's first line (`ptir fit` and `ptir optimize` on a real capture) names the subject
+    for the Optimise panel; the iterations' progress is read as before."""
     p = cli_mod.Progress()
-    lines = ["capture: an object against a background (the splat covers 21 % of the median photo): ...",
-             "fit: 15105 Gaussians (at most 22657), 73 train views 750x500, 30 iterations, seed 0",
-             "iter 15/30  loss 0.04787 (image 0.04785 mask 0.00020 normal 0.00000)  15105 Gaussians  4.64 s/iter  ETA 1m9s",
-             "optimize: 15105 Gaussians, 73 train views 750x500, 2 iterations, 1 spp, 1 bounces (indirect: field)",
-             "iter 1/2  loss 0.10163 (image 0.10163 tv 0.00000 prior 0.00000)  1.99 s/iter  ETA 2.0s  [IMG_3510]"]
-    fractions = []
-    for line in lines:
-        cli_mod.parse_optimize_progress(line, p)
-        fractions.append(p.fraction)
+    assert cli_mod.parse_optimize_progress(
+        "capture: an object against a background (the splat covers 21 % of the median photo): ...", p)
     assert p.subject == "object against a background"
-    assert abs(fractions[2] - 0.5 * cli_mod.FIT_SHARE) < 1e-9
-    assert abs(fractions[4] - (cli_mod.FIT_SHARE + 0.5 * (1 - cli_mod.FIT_SHARE))) < 1e-9
-    q = cli_mod.Progress()  # a run without the capture stage keeps its plain fraction
-    cli_mod.parse_optimize_progress(lines[4], q)
-    assert q.subject == "" and abs(q.fraction - 0.5) < 1e-9
+    cli_mod.parse_optimize_progress("iter 1/2  loss 0.10163 (image 0.10163 tv 0.00000 prior 0.00000)  1.99 s/iter  "
+                                    "ETA 2.0s  [IMG_3510]", p)
+    assert abs(p.fraction - 0.5) < 1e-9 and p.subject == "object against a background"
+    q = cli_mod.Progress()
+    cli_mod.parse_optimize_progress("capture: a scene (the splat covers 97 % of the median photo)", q)
+    assert q.subject == "scene"

@@ -69,7 +69,6 @@ class OptimizeJob:
         self.warnings = []
         self.fit_args = []          # the geometry stage's command line (empty: no fit)
         self.fit_dir = ""
-        self.fit_in_optimize = False  # a real capture: `ptir optimize` runs the capture and geometry stages itself
         self.budget_s = 0.0         # a time preset's seconds for the whole run (0: Custom)
 
 
@@ -239,17 +238,8 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_
     gaussians = splats
     budget = preset_seconds(settings)
     job.budget_s = budget
-    # A real capture (COLMAP, nerfstudio, 3DGS output) read in place: `ptir optimize` runs it whole, its
-    # capture stage (the splat as an object against the photos' background, the photos' exposure and
-    # colours: docs/captures.md) and its geometry stage with the held-out check, in one process.
-    in_place_capture = settings.source == "DATASET" and dataset_dir == src_dir and \
-        not capture_cameras.is_nerf_folder(src_dir, split)
-    fit = wants_fit(settings, bpy.path.abspath(settings.dataset_dir) if settings.source == "DATASET" else None, split,
-                    has_meshes=bool(job.mesh_entries))
-    if fit and in_place_capture and not job.mesh_entries:
-        job.fit_in_optimize = True
-        job.fit_dir = os.path.join(job.out_dir, "fit")
-    elif fit:
+    if wants_fit(settings, bpy.path.abspath(settings.dataset_dir) if settings.source == "DATASET" else None, split,
+                 has_meshes=bool(job.mesh_entries)):
         job.fit_dir = os.path.join(job.out_dir, "fit")
         gaussians = os.path.join(job.fit_dir, "gaussians.ply")
         job.fit_args = [cli_exe, "fit", "--dataset", dataset_dir, "--split", split, "--gaussians", splats,
@@ -263,12 +253,10 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_
             "--out", job.out_dir,
             "--bounces", settings.bounces, "--env", settings.env,
             "--env-size", "%dx%d" % (settings.env_width, settings.env_height), "--seed", settings.seed,
-            "--fit-iters", settings.fit_iterations if job.fit_in_optimize else 0]
-    # (else the flow's own fit stage above decides, with its progress.) The bounce light from the splats'
-    # SH where that fit makes them what the photos saw (`ptir optimize --indirect`; its "auto" sees only its
-    # own fit stage, and whether its check kept the fitted splats).
-    if not job.fit_in_optimize:
-        args += ["--indirect", "field" if job.fit_args else "path"]
+            "--fit-iters", 0]  # the flow's own fit stage (above) decides, with its progress
+    # The bounce light from the splats' SH where that fit makes them what the photos saw
+    # (`ptir optimize --indirect`; its "auto" sees only its own fit stage).
+    args += ["--indirect", "field" if job.fit_args else "path"]
     if budget:  # a time preset: what the fit leaves of it, samples and iterations planned by the engine
         args += ["--budget", "%.0fs" % ((1.0 - FIT_SHARE) * budget if job.fit_args else budget)]
     else:  # (a budget takes the engine's automatic batch: patches across the views)
@@ -332,19 +320,6 @@ def _to_local_normals(normal, matrix):
     return nrm.astype(np.float32)
 
 
-def _fit_kept(fit_dir):
-    """Whether `ptir optimize`'s own geometry stage ran and its check kept the fitted splats (FIT/check.json)."""
-    if not os.path.isfile(os.path.join(fit_dir, "gaussians.ply")):
-        return False
-    try:
-        with open(os.path.join(fit_dir, "check.json")) as f:
-            return json.load(f).get("kept") != "input"
-    except FileNotFoundError:
-        return True  # no held-out photos to check against: the fitted splats were used
-    except (OSError, ValueError) as e:
-        raise OptimizeError("cannot read the geometry check %s: %s" % (os.path.join(fit_dir, "check.json"), e))
-
-
 def load_results(job, pack_environment):
     """Reads and checks the optimiser's outputs; changes nothing in Blender."""
     r = Results()
@@ -354,7 +329,7 @@ def load_results(job, pack_environment):
         raise OptimizeError("the optimiser wrote no %s" % ply)
     d = splat_ply.read_splat_ply(ply)
     r.count = job.count
-    if job.fit_args or (job.fit_in_optimize and _fit_kept(job.fit_dir)):
+    if job.fit_args:
         # The optimiser ran on the fitted splats (world space): they become the object's, in its frame.
         fitted = os.path.join(job.fit_dir, "gaussians.ply")
         n_fit = len(splat_ply.read_splat_ply(fitted)) if os.path.isfile(fitted) else -1

@@ -93,14 +93,12 @@ class Progress:
         self.targets = False   # optimize without --dataset: radiance targets were rendered first
         self.estimate = ""     # optimize's own duration estimate ("4m05s"), once printed
         self.subject = ""      # a real capture's splat: "object against a background" or "scene"
-        self.stage = ""        # "fit" while optimize runs its own geometry stage, then "optimize"
 
 
 _RENDER_RE = re.compile(r"\]\s*([0-9.]+)%\s+([0-9.]+)s\s+ETA\s+([0-9.]+)s")
 _TARGET_RE = re.compile(r"^radiance: view\s+(\d+)/(\d+) rendered")
 _EST_RE = re.compile(r"^optimize: estimated ([0-9.]+) s/iter, (\S+) for (\d+) iterations")
 TARGET_SHARE = 0.1  # of the progress bar, for the radiance targets (no --dataset) before the iterations
-FIT_SHARE = 0.4  # of the progress bar, for optimize's own geometry stage (a real capture) before the inversion
 _OPT_RE = re.compile(r"^iter\s+(\d+)/(\d+)\s+loss\s+([-+0-9.eEinfa]+).*?([0-9.]+)\s*s/iter\s+ETA\s+(\S+)")
 
 
@@ -124,10 +122,6 @@ def parse_optimize_progress(line, progress):
     if line.startswith("capture: a scene"):
         progress.subject, progress.text = "scene", "capture: scene"
         return True
-    if line.startswith("fit: ") and not progress.stage:
-        progress.stage = "fit"
-    elif line.startswith("optimize: ") and " Gaussians, " in line:
-        progress.stage = "optimize"
     line = line.strip()
     m = _TARGET_RE.search(line)
     if m:
@@ -155,11 +149,7 @@ def parse_optimize_progress(line, progress):
     progress.fraction = min(1.0, it / max(1, total))
     if getattr(progress, "targets", False):
         progress.fraction = TARGET_SHARE + (1.0 - TARGET_SHARE) * progress.fraction
-    if progress.stage == "fit":  # optimize's own geometry stage first (a real capture), then the inversion
-        progress.fraction *= FIT_SHARE
-    elif progress.stage == "optimize" and progress.subject:
-        progress.fraction = FIT_SHARE + (1.0 - FIT_SHARE) * progress.fraction
-    progress.text = ("fit " if progress.stage == "fit" else "") + "iteration %d/%d, loss %.5f, %.2f s/iter, ETA %s" % (it, total, progress.loss,
+    progress.text = "iteration %d/%d, loss %.5f, %.2f s/iter, ETA %s" % (it, total, progress.loss,
                                                                        progress.seconds_per_iteration, progress.eta)
     return True
 
