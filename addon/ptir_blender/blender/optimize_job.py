@@ -184,34 +184,10 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_
         return _prepare_splats_only(context, settings, job_dir, cli_exe, out_dir, own_defaults)
     job, obj, splats = _new_job(context, settings, job_dir, out_dir)
 
-    # Views.
     split = settings.split.strip() or "train"
-    views_dir = os.path.join(job_dir, "views")
-    if settings.source == "DATASET":
-        src_dir = bpy.path.abspath(settings.dataset_dir)
-        if not src_dir or not os.path.isdir(src_dir):
-            raise OptimizeError("dataset folder '%s' does not exist" % settings.dataset_dir)
-        transforms = os.path.join(src_dir, "transforms_%s.json" % split)
-        if np.allclose(job.matrix, np.eye(4), atol=0.0, rtol=0.0):
-            dataset_dir = src_dir  # any layout the engine reads (NeRF, COLMAP, 3DGS output, nerfstudio)
-        else:
-            _check_views_can_follow(obj, job.matrix)
-            if not capture_cameras.is_nerf_folder(src_dir, split):
-                # A capture in another layout: its cameras (pinhole, undistorted photos) as a NeRF file to move.
-                # Masks and EXIF exposure are not carried by that file.
-                transforms = os.path.join(views_dir, "capture_%s.json" % split)
-                os.makedirs(views_dir, exist_ok=True)
-                capture_cameras.export_cameras(cli_exe, src_dir, transforms, split)
-                job.warnings.append("the capture's cameras follow the moved object; its masks and EXIF exposure are "
-                                    "not used (optimise with the object at the identity to use them)")
-            dataset_file.transform_dataset(transforms, os.path.join(views_dir, "transforms_%s.json" % split),
-                                           job.matrix)
-            dataset_dir = views_dir
-    else:
-        dataset_file.write_views(os.path.join(views_dir, "transforms_%s.json" % split),
-                                 _camera_views(context.scene, job.warnings))
-        dataset_dir = views_dir
-
+    src_dir = bpy.path.abspath(settings.dataset_dir) if settings.source == "DATASET" else ""
+    if settings.source == "DATASET" and (not src_dir or not os.path.isdir(src_dir)):
+        raise OptimizeError("dataset folder '%s' does not exist" % settings.dataset_dir)
     # Meshes and lights of the scene (without the splats; the environment is what gets recovered).
     scene_json = None
     want_meshes = bool(settings.optimize_meshes)
@@ -234,6 +210,44 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_
             raise OptimizeError("Mesh Materials is on but no material of a visible mesh is ticked")
         if scene_json is None:
             raise OptimizeError("Mesh Materials is on but the scene has no meshes")
+
+    # A real capture (COLMAP, nerfstudio, 3DGS output) is read in place, in the object's own frame (the
+    # capture's: the artist may have stood it up or moved it), unless meshes of the scene (in world space)
+    # take part with the object moved: its masks, EXIF and the capture stage (the splat as an object
+    # against the photos' background, the photos' exposure and colours: docs/captures.md) then apply.
+    identity = bool(np.allclose(job.matrix, np.eye(4), atol=0.0, rtol=0.0))
+    in_place_capture = settings.source == "DATASET" and not capture_cameras.is_nerf_folder(src_dir, split) and \
+        (identity or not job.mesh_entries)
+    # Views.
+    views_dir = os.path.join(job_dir, "views")
+    if settings.source == "DATASET":
+        transforms = os.path.join(src_dir, "transforms_%s.json" % split)
+        if in_place_capture and not identity:
+            # The capture's frame is the object's own (its file's, as imported; the artist may have stood it up):
+            # its splats go in that frame and the results come back in it.
+            splat_ply.write_splat_ply(splats, splat_object.read_data_from_object(obj),
+                                      comment="PTIR optimisation input: Blender object %s (its own frame)" % obj.name)
+            job.matrix = np.eye(4)
+            dataset_dir = src_dir
+        elif identity:
+            dataset_dir = src_dir  # any layout the engine reads (NeRF, COLMAP, 3DGS output, nerfstudio)
+        else:
+            _check_views_can_follow(obj, job.matrix)
+            if not capture_cameras.is_nerf_folder(src_dir, split):
+                # A capture in another layout: its cameras (pinhole, undistorted photos) as a NeRF file to move.
+                # Masks and EXIF exposure are not carried by that file.
+                transforms = os.path.join(views_dir, "capture_%s.json" % split)
+                os.makedirs(views_dir, exist_ok=True)
+                capture_cameras.export_cameras(cli_exe, src_dir, transforms, split)
+                job.warnings.append("the capture's cameras follow the moved object; its masks and EXIF exposure are "
+                                    "not used (optimise with the object at the identity to use them)")
+            dataset_file.transform_dataset(transforms, os.path.join(views_dir, "transforms_%s.json" % split),
+                                           job.matrix)
+            dataset_dir = views_dir
+    else:
+        dataset_file.write_views(os.path.join(views_dir, "transforms_%s.json" % split),
+                                 _camera_views(context.scene, job.warnings))
+        dataset_dir = views_dir
 
     gaussians = splats
     budget = preset_seconds(settings)
