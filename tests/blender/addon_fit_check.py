@@ -116,7 +116,7 @@ def fit_and_optimise(spec, splats, work, name, stats):
     # A capture is read in the object's own frame, moved or not (optimize_job.prepare): the fitted PLY holds
     # the object's own coordinates.
     err = float(np.abs(d.position.astype(np.float64) - fitted.position).max())
-    h.check(err < 1e-4, "object splats = the fitted PLY through the object transform (max %.2g)" % err)
+    h.check(err < 1e-4, "object splats = the fitted PLY in the object's own frame (max %.2g)" % err)
     h.check(np.abs(d.albedo - 0.77).max() > 0.01, "albedo written back (%s)" % name)
     first, last, rows = epoch_losses(os.path.join(out, "fit", "log.csv"))
     h.check(rows == FIT_ITERS, "the fit ran its %d iterations (%d)" % (FIT_ITERS, rows))
