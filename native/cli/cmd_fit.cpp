@@ -63,13 +63,7 @@ int run_fit(const FitCommand& o, const CLI::App& cmd) {
   check_fit_stage(stage);
   // A real capture's photos measured against the splats first (capture_stage.h; the add-on's
   // optimise flow runs this command as its geometry stage): an object's coverage masks them.
-  CaptureStage capture;
-  capture.dataset = stage.dataset;
-  capture.gaussians = stage.gaussians;
-  capture.out = stage.out;
-  capture.capture = stage.capture;
-  capture.resume = stage.resume;
-  capture.quiet = stage.quiet;
+  const CaptureStage capture{stage.dataset, stage.gaussians, stage.out, stage.capture, {}, stage.resume, stage.quiet};
   guard_outputs({{o.stage.gaussians}, {o.stage.dataset}, {}, {o.stage.dataset}}, {{}, {o.stage.out}}, o.force);
   guard_result_folder(o.stage.out, o.force);
   const auto lock = lock_output_folder(o.stage.out, "ptir fit");

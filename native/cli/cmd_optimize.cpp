@@ -128,14 +128,8 @@ struct OptimizeCommand {
 
 // The capture stage's view of the command (the input splats, the calibration so far).
 CaptureStage capture_stage_of(const OptimizeCommand& o) {
-  CaptureStage c;
-  c.dataset = o.dataset;
-  c.gaussians = o.gaussians;
-  c.out = o.out;
-  c.capture = o.capture;
+  CaptureStage c{o.dataset, o.gaussians, o.out, o.capture, {}, o.resume, o.quiet};
   c.s.subject = o.subject;
-  c.resume = o.resume;
-  c.quiet = o.quiet;
   char extra = 0;
   if (std::sscanf(o.env_size.c_str(), "%dx%d%c", &c.s.env_width, &c.s.env_height, &extra) != 2 || c.s.env_width < 1 ||
       c.s.env_height < 1)
