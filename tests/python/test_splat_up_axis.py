@@ -116,9 +116,10 @@ def test_dog_up_from_its_sh(ptir):
 
 
 def plan_views(cli, ply, out, *extra):
-    """OUT/views.json of `ptir optimize --gaussians PLY` without --dataset (--estimate: one small view)."""
-    run = subprocess.run([str(cli), "optimize", "--gaussians", str(ply), "--out", str(out), "--estimate",
-                          "--orbit-size", "32", "--threads", "2"] + list(extra), capture_output=True, text=True,
+    """OUT/views.json of `ptir optimize --gaussians PLY` without --dataset (32-pixel views, one iteration:
+    --estimate writes nothing in OUT)."""
+    run = subprocess.run([str(cli), "optimize", "--gaussians", str(ply), "--out", str(out), "--iters", "1",
+                          "--spp", "1", "--orbit-size", "32", "--threads", "2"] + list(extra), capture_output=True, text=True,
                          timeout=600)
     assert run.returncode == 0, run.stderr[-3000:]
     return json.loads((Path(out) / "views.json").read_text())
