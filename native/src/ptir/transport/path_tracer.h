@@ -1,4 +1,4 @@
-// The path tracer over Gaussians and meshes (METHOD §4): equivalent surface
+// The path tracer over Gaussians and meshes (docs/method.md §4): equivalent surface
 // interactions, the simplified Disney BRDF, next-event estimation of every light
 // with MIS (power heuristic) against BRDF sampling at every vertex, stochastic
 // transmittance shadow rays through the Gaussians, the chi_pass continuation
@@ -52,7 +52,7 @@ class PathTracer {
   Vec3 sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                        float* coverage = nullptr, PathStats* stats = nullptr, uint64_t* shadow_bits = nullptr) const;
 
-  // Path replay backpropagation of one sample (METHOD §6): replays the path with
+  // Path replay backpropagation of one sample (docs/method.md §6): replays the path with
   // the same random numbers, starting from the primal radiance adjoint.L and
   // subtracting every contribution as it is passed, and accumulates the adjoints
   // of the materials met (redistributed to the contributing Gaussians with their
