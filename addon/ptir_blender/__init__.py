@@ -48,8 +48,8 @@ else:
 
 def _upgrade_file_data(*_):
     """Data of files saved by older versions brought up to date (the splat display's node group)."""
-    from .blender import splat_object
-    splat_object.upgrade_display()
+    from .blender import splat_display
+    splat_display.upgrade_display()
     return None  # (also a one-shot timer)
 
 
