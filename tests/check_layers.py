@@ -103,36 +103,58 @@ def write(root, rel, text):
         f.write(text)
 
 
+def not_caught(root, cases, check_tree):
+    """The labels of {label: (file, text)} whose file, written into the tree alone, check_tree(root) does not
+    report (each case's file is put back as it was afterwards)."""
+    missed = []
+    for label, (rel, text) in cases.items():
+        path = os.path.join(root, rel)
+        old = open(path).read() if os.path.exists(path) else None
+        write(root, rel, text)
+        if not check_tree(root):
+            missed.append(label)
+        if old is None:
+            os.remove(path)
+        else:
+            write(root, rel, old)
+    return missed
+
+
+def run_self_test(files, cases, check_tree, name, passed):
+    """A clean tree of `files` must pass check_tree; each of `cases` added to it must fail it."""
+    failures = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for rel, text in files.items():
+            write(tmp, rel, text)
+        clean = check_tree(tmp)
+        if clean:
+            failures.append(f"clean tree reported: {clean}")
+        failures += [f"{label} not caught" for label in not_caught(tmp, cases, check_tree)]
+    for f in failures:
+        print(f"{name} FAILED:", f)
+    if not failures:
+        print(passed)
+    return 1 if failures else 0
+
+
 def self_test():
     """The checker must fail on each kind of back-edge and pass on a clean tree."""
     layers = ["math", "io", "lights+material", "scene"]
-    failures = []
-    with tempfile.TemporaryDirectory() as tmp:
-        write(tmp, "ptir/math/vec.h", "#pragma once\n")
-        write(tmp, "ptir/io/image.h", '#include "ptir/math/vec.h"\n#include <vector>\n')
-        write(tmp, "ptir/lights/env.h", '#include "ptir/io/image.h"\n#include "ptir/material/brdf.h"\n')
-        write(tmp, "ptir/material/brdf.h", '#include "ptir/lights/env.h"\n')  # same layer: allowed
-        write(tmp, "ptir/scene/scene.h", '#include "ptir/lights/env.h"\n#include "camera.h"\n')
-        write(tmp, "ptir/scene/camera.h", "#pragma once\n")
-        clean = check(tmp, layers)
-        if clean:
-            failures.append(f"clean tree reported: {clean}")
-        cases = {
-            "absolute": ("ptir/io/dataset.cpp", '#include "ptir/scene/camera.h"\n'),
-            "relative": ("ptir/io/dataset.cpp", '#include "../scene/camera.h"\n'),
-            "unknown folder": ("ptir/io/x.cpp", '#include "ptir/extra/y.h"\n'),
-        }
-        for label, (rel, text) in cases.items():
-            write(tmp, rel, text)
-            found = check(tmp, layers)
-            os.remove(os.path.join(tmp, rel))
-            if not found:
-                failures.append(f"{label} back-edge not caught")
-    for f in failures:
-        print("self-test FAILED:", f)
-    if not failures:
-        print("self-test passed: a clean tree passes; absolute, relative and unknown-folder back-edges fail")
-    return 1 if failures else 0
+    files = {
+        "ptir/math/vec.h": "#pragma once\n",
+        "ptir/io/image.h": '#include "ptir/math/vec.h"\n#include <vector>\n',
+        "ptir/lights/env.h": '#include "ptir/io/image.h"\n#include "ptir/material/brdf.h"\n',
+        "ptir/material/brdf.h": '#include "ptir/lights/env.h"\n',  # same layer: allowed
+        "ptir/scene/scene.h": '#include "ptir/lights/env.h"\n#include "camera.h"\n',
+        "ptir/scene/camera.h": "#pragma once\n",
+    }
+    cases = {
+        "absolute back-edge": ("ptir/io/dataset.cpp", '#include "ptir/scene/camera.h"\n'),
+        "relative back-edge": ("ptir/io/dataset.cpp", '#include "../scene/camera.h"\n'),
+        "unknown-folder back-edge": ("ptir/io/x.cpp", '#include "ptir/extra/y.h"\n'),
+    }
+    return run_self_test(files, cases, lambda root: check(root, layers), "self-test",
+                         "self-test passed: a clean tree passes; absolute, relative and unknown-folder back-edges fail")
 
 
 # ------------------------------------------------------------------ the add-on
@@ -245,40 +267,16 @@ def circles(graph):
 
 def addon_self_test():
     """The add-on check must fail on bpy in io/, an upward import and a circle, and pass a clean tree."""
-    failures = []
-    with tempfile.TemporaryDirectory() as tmp:
-        write(tmp, "__init__.py", "from .operators import ops\n")
-        write(tmp, "errors.py", "class E(Exception): pass\n")
-        write(tmp, "io/__init__.py", "")
-        write(tmp, "io/cli.py", "import os\nfrom ..errors import E\n")
-        write(tmp, "blender/__init__.py", "")
-        write(tmp, "blender/a.py", "import bpy\nfrom ..io import cli\nfrom . import b\n")
-        write(tmp, "blender/b.py", "import bpy\n")
-        write(tmp, "operators/__init__.py", "")
-        write(tmp, "operators/ops.py", "from ..blender import a\n")
-        clean = check_addon(tmp)
-        if clean:
-            failures.append(f"clean add-on reported: {clean}")
-        cases = {
-            "bpy in io/": ("io/x.py", "def f():\n    import bpy.types\n"),
-            "arrow back up": ("io/y.py", "from ..blender import a\n"),
-            "circle": ("blender/b.py", "def f():\n    from .a import g\n"),
-        }
-        for label, (rel, text) in cases.items():
-            path = os.path.join(tmp, rel)
-            old = open(path).read() if os.path.exists(path) else None
-            write(tmp, rel, text)
-            if not check_addon(tmp):
-                failures.append(f"{label} not caught")
-            if old is None:
-                os.remove(path)
-            else:
-                write(tmp, rel, old)
-    for f in failures:
-        print("add-on self-test FAILED:", f)
-    if not failures:
-        print("add-on self-test passed: a clean add-on passes; bpy in io/, an upward import and a circle fail")
-    return 1 if failures else 0
+    package = "from .operators import ops\n"
+    files = {"__init__.py": package, "errors.py": "class E(Exception): pass\n",
+             "io/__init__.py": "", "io/cli.py": "import os\nfrom ..errors import E\n",
+             "blender/__init__.py": "", "blender/a.py": "import bpy\nfrom ..io import cli\nfrom . import b\n",
+             "blender/b.py": "import bpy\n", "operators/__init__.py": "", "operators/ops.py": "from ..blender import a\n"}
+    cases = {"bpy in io/": ("io/x.py", "def f():\n    import bpy.types\n"),
+             "arrow back up": ("io/y.py", "from ..blender import a\n"),
+             "circle": ("blender/b.py", "def f():\n    from .a import g\n")}
+    return run_self_test(files, cases, check_addon, "add-on self-test",
+                         "add-on self-test passed: a clean add-on passes; bpy in io/, an upward import and a circle fail")
 
 
 def main():
@@ -291,26 +289,24 @@ def main():
     if a.self_test:
         return self_test() | addon_self_test()
     if a.addon:
-        problems = check_addon(a.addon)
-        for p in problems:
-            print(p)
-        if problems:
-            print(f"{len(problems)} add-on import problem(s)")
-            return 1
-        print(f"add-on layering holds: {' -> '.join(ADDON_LAYERS)}; io/ imports no Blender module; no import circle")
-        return 0
+        return report(check_addon(a.addon), "add-on import problem(s)",
+                      f"add-on layering holds: {' -> '.join(ADDON_LAYERS)}; io/ imports no Blender module; "
+                      "no import circle")
     if not a.src or not a.layers:
         ap.error("--src and --layers are required")
     layers = [l for l in re.split(r"[;,]", a.layers) if l]
-    problems = check(a.src, layers)
+    return report(check(a.src, layers), "layering problem(s)", f"layering holds: {' -> '.join(layers)}")
+
+
+def report(problems, what, holds):
+    """Prints the problems (and their count) or that the layering holds; the exit status."""
     for p in problems:
         print(p)
     if problems:
-        print(f"{len(problems)} layering problem(s)")
+        print(f"{len(problems)} {what}")
         return 1
-    print(f"layering holds: {' -> '.join(layers)}")
+    print(holds)
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())
