@@ -64,6 +64,13 @@ def test_optimize_command_lines():
     assert engine_client.inversion_args(inv, budget, True, 115.0)[inv.index("--budget") + 1] == "10s"
     only = engine_client.splats_only_args("ptir", s, "/g.ply", "/out", own_defaults=True)
     assert "--iters" not in only and only[:4] == ["ptir", "optimize", "--gaussians", "/g.ply"]
+    assert engine_client.relightable_overrides(50, 0, 12, 0) == ["--iters", "50", "--orbit-views", "12"]
+    # The estimate's probes: the inversion on the fit's input; a few fit iterations into a scratch folder.
+    est = engine_client.estimate_args(inv, fit)
+    assert est[-1] == "--estimate" and est[est.index("--gaussians") + 1] == "/g.ply"
+    probe = engine_client.fit_probe_args(fit, "/scratch", 8)
+    assert probe[probe.index("--out") + 1] == "/scratch" and probe[probe.index("--iters") + 1] == "8"
+    assert probe[-4:] == ["--checkpoint-every", "0", "-q", "--force"] and fit[fit.index("--iters") + 1] == "500"
 
 
 def test_the_engine_parses_the_command_lines(cli, tmp_path):

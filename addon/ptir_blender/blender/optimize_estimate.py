@@ -67,10 +67,7 @@ def measure(context, settings, cli_exe):
     try:
         t0 = time.monotonic()
         job = optimize_job.prepare(context, settings, job_dir, cli_exe)
-        args = job.args + ["--estimate"]
-        if job.fit_args:  # the fitted splats do not exist yet: probe the inversion on the fit's input
-            args = engine_client.with_arg(args, "--gaussians", engine_client.arg_value(job.fit_args, "--gaussians"))
-        probe = engine_client.run_to_end(args)
+        probe = engine_client.run_to_end(engine_client.estimate_args(job.args, job.fit_args))
         wall = time.monotonic() - t0
         line = next((l for l in probe.lines if l.startswith('{"estimate"')), None)
         if probe.proc.returncode != 0 or line is None:
@@ -90,9 +87,8 @@ def _measure_fit(job, job_dir):
     """(setup seconds, seconds per fit iteration) of the job's geometry stage, from a few real
     iterations of its own command line into a scratch folder."""
     out = os.path.join(job_dir, "fit_probe")
-    args = engine_client.with_arg(engine_client.with_arg(job.fit_args, "--out", out), "--iters", FIT_PROBE_ITERS)
     t0 = time.monotonic()
-    probe = engine_client.run_to_end(args + ["--checkpoint-every", "0", "-q", "--force"])
+    probe = engine_client.run_to_end(engine_client.fit_probe_args(job.fit_args, out, FIT_PROBE_ITERS))
     wall = time.monotonic() - t0
     log = os.path.join(out, "log.csv")
     if probe.proc.returncode != 0 or not os.path.isfile(log):

@@ -171,6 +171,28 @@ def inversion_args(args, budget_s, fitted, elapsed_s):
     return args
 
 
+def relightable_overrides(iterations, samples, views, size):
+    """Make Relightable's own options for `ptir optimize` without photos (0: the engine's default)."""
+    args = []
+    for flag, value in (("--iters", iterations), ("--spp", samples), ("--orbit-views", views), ("--orbit-size", size)):
+        if value > 0:
+            args += [flag, str(value)]
+    return args
+
+
+def estimate_args(args, fit_args):
+    """`ptir optimize ... --estimate`: the run's own probe of its first iteration; when a fit runs first,
+    the fitted splats do not exist yet, so the probe runs the inversion on the fit's input."""
+    args = list(args) + ["--estimate"]
+    return with_arg(args, "--gaussians", arg_value(fit_args, "--gaussians")) if fit_args else args
+
+
+def fit_probe_args(fit_args, out_dir, iterations):
+    """The fit's own command line for a few iterations into a scratch folder (its estimate's probe)."""
+    return with_arg(with_arg(fit_args, "--out", out_dir), "--iters", iterations) + ["--checkpoint-every", "0", "-q",
+                                                                                   "--force"]
+
+
 def with_arg(args, flag, value):
     """args with the value after `flag` replaced (the flag must be there)."""
     args = list(args)

@@ -24,7 +24,7 @@ import bpy
 
 from ..blender import optimize_estimate, optimize_job, preferences
 from ..errors import PtirError
-from ..io import cli
+from ..io import cli, engine_client
 
 _state = {"job": None, "cancel": False}
 
@@ -313,10 +313,7 @@ class PTIR_OT_make_relightable(_OptimizeRun, bpy.types.Operator):
         job = optimize_job.prepare(context, settings, self._job_dir, exe, out_dir,
                                    source=None if photos else "SPLATS", own_defaults=not photos)
         if not photos:
-            for flag, value in (("--iters", self.iterations), ("--spp", self.samples), ("--orbit-views", self.views),
-                                ("--orbit-size", self.size)):
-                if value > 0:
-                    job.args += [flag, str(value)]
+            job.args += engine_client.relightable_overrides(self.iterations, self.samples, self.views, self.size)
             print("ptir make relightable: no dataset folder: materials from the splats' own radiance", flush=True)
         return job
 
