@@ -195,7 +195,7 @@ Vec3 PathTracer::sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t
   TraceIO io;
   io.coverage = coverage;
   io.stats = stats;
-  io.shadow_bits = shadow_bits;
+  io.record.shadow_bits = shadow_bits;
   return trace(camera_ray, pixel, sample, settings, nullptr, io);
 }
 
@@ -216,8 +216,8 @@ void PathTracer::sample_radiance_batch(const Ray* camera_rays, int n, const uint
       TraceIO t;
       t.coverage = coverage ? &coverage[i] : nullptr;
       t.stats = stats;
-      t.shadow_bits = shadow_bits ? &shadow_bits[i] : nullptr;
-      t.walks = walks ? &walks[i] : nullptr;
+      t.record.shadow_bits = shadow_bits ? &shadow_bits[i] : nullptr;
+      t.record.walks = walks ? &walks[i] : nullptr;
       return t;
     };
     if (m == 1) {  // nothing to trace together
@@ -231,8 +231,8 @@ void PathTracer::sample_radiance_batch(const Ray* camera_rays, int n, const uint
     for (int l = 0; l < m; ++l) {
       const int i = first + l;
       TraceIO t = io(i);
-      t.first = &events[l];
-      t.first_walk = walks ? &captures[l] : nullptr;
+      t.record.first = &events[l];
+      t.record.first_walk = walks ? &captures[l] : nullptr;
       L[i] = trace(camera_rays[i], pixels[i], samples[i], settings, nullptr, t);
     }
   }
@@ -268,8 +268,8 @@ void PathTracer::sample_adjoint_batch(const Ray* camera_rays, int n, const uint6
       const int i = first + l, w = walked > 1 ? lane_of[l] : -1;
       TraceIO t;
       if (w >= 0) {
-        t.first = &events[w];
-        t.first_hits = &records[w];
+        t.record.first = &events[w];
+        t.record.first_hits = &records[w];
       }
       trace(camera_rays[i], pixels[i], samples[i], settings, &adjoints[i], t);
     }
@@ -285,7 +285,7 @@ Vec3 PathTracer::trace(const Ray& camera_ray, uint64_t pixel, uint32_t sample, c
   const uint64_t path_key = make_path_key(settings.seed, pixel, sample);  // stratified over the pixel's samples
   Scatterer scatterer(scene_, *accel_, settings, mesh_epsilon_, radiance());
   // What the replay reuses from the primal: recorded there, read back here (path_record.h).
-  PathRecord record(adj, io.shadow_bits, io.walks, io.first, io.first_hits, io.first_walk);
+  PathRecord record(adj, io.record);
   PathState path(adj, camera_ray);
   if (io.coverage) *io.coverage = 0.0f;
   if (io.stats) io.stats->paths++;

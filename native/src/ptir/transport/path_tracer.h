@@ -35,6 +35,19 @@ struct PathAdjoint {
   PathWalkReader walks{};
 };
 
+// One path's share of the replay cache (render/replay_cache.h), as PathRecord
+// (path_record.h) takes it: where the primal keeps what its replay reuses, and
+// the camera ray's event when a packet already found it. All optional.
+struct PathRecordIO {
+  uint64_t* shadow_bits = nullptr;   // primal: the ray outcomes
+  PathWalkWriter* walks = nullptr;   // primal: the walks the replay needs
+  // The camera ray's event, already found (camera_events), with its Gaussians
+  // (replay) or its walk (primal recording walks).
+  const NextEvent* first = nullptr;
+  const std::vector<WeightedHit>* first_hits = nullptr;
+  const WalkCapture* first_walk = nullptr;
+};
+
 struct PathStats {
   uint64_t paths = 0;
   uint64_t vertices = 0;     // surface interactions shaded
@@ -86,13 +99,7 @@ class PathTracer {
   struct TraceIO {
     float* coverage = nullptr;
     PathStats* stats = nullptr;
-    uint64_t* shadow_bits = nullptr;   // primal: the ray outcomes
-    PathWalkWriter* walks = nullptr;   // primal: the walks the replay needs
-    // The camera ray's event, already found (camera_events), with its Gaussians
-    // (replay) or its walk (primal recording walks).
-    const NextEvent* first = nullptr;
-    const std::vector<WeightedHit>* first_hits = nullptr;
-    const WalkCapture* first_walk = nullptr;
+    PathRecordIO record;  // the primal's share of the replay cache; the camera ray's event
   };
   // The path in either mode: primal (adjoint == nullptr) returns L; replay
   // accumulates gradients (one routine, so the two can never disagree).
