@@ -95,26 +95,28 @@ int run(const Options& o) {
   // The buffers of an iteration (radiance, ray outcomes, kept walks) live across
   // the runs, as in the optimiser, which reuses them every iteration; a first
   // untimed pass touches their pages (--cold: time the first pass instead).
-  std::vector<Vec3> radiance;
-  std::vector<uint64_t> shadows;
   WalkStore walks(size_t(o.walk_mb) << 20);
+  ReplayCache cache;
+  cache.walks = o.walk_mb > 0 ? &walks : nullptr;
   if (!o.cold) {
     SceneGradients g = SceneGradients::zeros_like(scene);
-    render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows, o.walk_mb > 0 ? &walks : nullptr);
-    render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, nullptr, &shadows, o.walk_mb > 0 ? &walks : nullptr);
+    render_path(tracer, cam, is, {}, nullptr, &cache);
+    render_path_backward(tracer, cam, is, d_image, g, {}, &cache);
   }
   for (int t : o.threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(t));
     double t0 = wall(), c0 = cpu();
-    render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows, o.walk_mb > 0 ? &walks : nullptr);
+    render_path(tracer, cam, is, {}, nullptr, &cache);
     double primal = wall() - t0, primal_cpu = cpu() - c0;
     SceneGradients g = SceneGradients::zeros_like(scene), traced = g;
     TileReduceStats st;
     t0 = wall(), c0 = cpu();
-    render_path_backward(tracer, cam, is, d_image, g, {}, &radiance, &st, &shadows, o.walk_mb > 0 ? &walks : nullptr);
+    render_path_backward(tracer, cam, is, d_image, g, {}, &cache, &st);
     double replay = wall() - t0, replay_cpu = cpu() - c0;
     double replay_traced = 0.0;
     if (o.traced) {
+      ReplayCache radiance = ReplayCache::radiance_only();
+      radiance.radiance = cache.radiance;
       t0 = wall();
       render_path_backward(tracer, cam, is, d_image, traced, {}, &radiance);
       replay_traced = wall() - t0;

@@ -16,7 +16,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 import addon_blender_harness as h  # noqa: E402
 
 h.enable_addon()
-from ptir_blender.blender import splat_object  # noqa: E402
+from ptir_blender.blender import splat_display, splat_object  # noqa: E402
 
 
 def main():
@@ -41,7 +41,7 @@ def main():
     old = obj.data
     obj.data = mesh
     bpy.data.meshes.remove(old)
-    splat_object.add_display(obj, limit=20000)
+    splat_display.add_display(obj, limit=20000)
     bpy.ops.wm.save_as_mainfile(filepath=out, compress=False)
     print("MILLION: %d splats -> %s" % (len(big), out), flush=True)
 

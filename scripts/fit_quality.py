@@ -10,7 +10,7 @@ ones (after).
 
 DIR: a TensoIR-layout dataset from scripts/make_dataset.py (test_XXX/rgba.png and
 normal.png, gaussians.ply). Perturbation: scripts/perturb_splats.py. Protocol as
-`ptir eval` (METHOD §7): PSNR of sRGB display values composited over white,
+`ptir eval` (docs/method.md §7): PSNR of sRGB display values composited over white,
 whole image; normal MAE over the ground truth's foreground (alpha > 0.5). The
 colour render is one ray per pixel centre (`ptir render --aov preview --spp 1`);
 the normals are rendered as `ptir eval` renders them (16 jittered samples through

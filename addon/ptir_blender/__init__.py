@@ -16,8 +16,7 @@ Layout:
                  material.ptir) and the add-on preferences
 """
 
-import os
-import sys
+from .io.native_module import native  # noqa: F401 (mod.native(): the native engine module, loaded lazily)
 
 bl_info = {
     "name": "PTIR",
@@ -29,8 +28,6 @@ bl_info = {
                    "with meshes and lights, recover and edit their materials",
     "category": "Import-Export",
 }
-
-_ADDON_DIR = os.path.dirname(os.path.abspath(__file__))
 
 try:  # the io/ package is usable from plain Python (tests); everything else needs Blender
     import bpy  # noqa: F401
@@ -49,32 +46,10 @@ else:
     classes = ()
 
 
-def native():
-    """Returns the native engine module `ptir` shipped inside this add-on.
-
-    Imported lazily so the add-on still registers (and can report the problem)
-    when the module is missing or was built for another Python.
-    """
-    if _ADDON_DIR not in sys.path:
-        sys.path.insert(0, _ADDON_DIR)
-    try:
-        import ptir
-    except ImportError as e:
-        here = "%d.%d" % sys.version_info[:2]
-        built = sorted(f for f in os.listdir(_ADDON_DIR) if f.startswith("ptir") and f.endswith(".so"))
-        hint = ("found %s" % ", ".join(built)) if built else "no ptir*.so in %s" % _ADDON_DIR
-        raise ImportError(
-            "PTIR: cannot load the native module 'ptir' (%s). Blender runs Python %s; the module "
-            "must be built for exactly that version (ptir.cpython-%s-*.so): rebuild with "
-            "-DPython_EXECUTABLE=/usr/bin/python%s and run scripts/install_addon.sh. Cause: %s"
-            % (hint, here, here.replace(".", ""), here, e)) from e
-    return ptir
-
-
 def _upgrade_file_data(*_):
     """Data of files saved by older versions brought up to date (the splat display's node group)."""
-    from .blender import splat_object
-    splat_object.upgrade_display()
+    from .blender import splat_display
+    splat_display.upgrade_display()
     return None  # (also a one-shot timer)
 
 

@@ -11,20 +11,20 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-from .blender import splat_object
+from .blender import splat_display, splat_object
 
 
 def _update_display(self, context):
     obj = self.id_data
     if not isinstance(obj, bpy.types.Object) or not splat_object.is_splat_object(obj):
         return
-    if obj.modifiers.get(splat_object.DISPLAY_MODIFIER) is None:
+    if obj.modifiers.get(splat_display.DISPLAY_MODIFIER) is None:
         return
-    splat_object.set_display_input(obj, "Mode", splat_object.DISPLAY_MODES.index(self.display))
-    splat_object.set_display_input(obj, "Size", float(self.display_size))
+    splat_display.set_display_input(obj, "Mode", splat_display.DISPLAY_MODES.index(self.display))
+    splat_display.set_display_input(obj, "Size", float(self.display_size))
     n = max(1, len(obj.data.vertices))
     fraction = 1.0 if self.display_limit <= 0 else min(1.0, self.display_limit / n)
-    splat_object.set_display_input(obj, "Fraction", float(fraction))
+    splat_display.set_display_input(obj, "Fraction", float(fraction))
 
 
 class PTIRSplatSettings(bpy.types.PropertyGroup):
@@ -42,7 +42,7 @@ class PTIRSplatSettings(bpy.types.PropertyGroup):
         soft_max=4.0, update=_update_display)
     display_limit: IntProperty(
         name="Display Limit", description="Show at most this many splats (a random subset; 0 = all)",
-        default=splat_object.DEFAULT_DISPLAY_LIMIT, min=0, update=_update_display)
+        default=splat_display.DEFAULT_DISPLAY_LIMIT, min=0, update=_update_display)
 
 
 class PTIRRenderSettings(bpy.types.PropertyGroup):

@@ -1,5 +1,5 @@
 // `ptir eval`: renders every test view of a dataset with the recovered materials
-// and environment, and scores them against the ground truth (METHOD §7;
+// and environment, and scores them against the ground truth (docs/method.md §7;
 // src/ptir/eval/evaluate.h has the exact protocol).
 //
 //   ptir eval --dataset DIR --result OUT [--relight NAME=env.exr ...] [--spp N]

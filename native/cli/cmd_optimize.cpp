@@ -1,5 +1,5 @@
 // `ptir optimize`: recover per-Gaussian materials and the environment from
-// posed images (METHOD §6; src/ptir/optim/optimizer.h).
+// posed images (docs/method.md §6; src/ptir/optim/optimizer.h).
 //
 //   ptir optimize --dataset DIR [--gaussians IN.ply] [--scene scene.json] --out OUT
 //       [--fit-iters 1500] [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color] [--seed S] [--resume]
@@ -235,7 +235,7 @@ std::string stop_message(const std::string& ckpt, int done, int saved) {
          " or later: continue with --resume (any number of ranks)";
 }
 
-// The geometry stage (METHOD §9's stage 1, `ptir fit`) before the materials:
+// The geometry stage (docs/method.md §9, `ptir fit`) before the materials:
 // the splats are fitted to the training views into OUT/fit/, and the inversion
 // runs on OUT/fit/gaussians.ply. Skipped, with a note, where it cannot model the
 // images: a --scene with meshes (walls and floors in the views, which the fit

@@ -1,5 +1,5 @@
 // The geometry stage as the CLI runs it: `ptir fit` on its own, and `ptir
-// optimize` before the materials (--fit-iters; METHOD §9's stage 1). Loads the
+// optimize` before the materials (--fit-iters; docs/method.md §9). Loads the
 // dataset and the splats, fits them (src/ptir/optim/geometry_fit.h) and writes
 // OUT/gaussians.ply, log.csv and checkpoint.bin atomically, with the progress
 // lines, --resume and Ctrl-C of `ptir fit`.

@@ -184,7 +184,7 @@ void def_evaluate(py::module_& m) {
 }  // namespace
 
 void bind_eval(py::module_& m) {
-  py::module_ mm = m.def_submodule("metrics", "Evaluation metrics (METHOD §7) on numpy images");
+  py::module_ mm = m.def_submodule("metrics", "Evaluation metrics (docs/method.md §7) on numpy images");
   def_image_metrics(mm);
   def_protocol_metrics(mm);
   def_evaluate(m);

@@ -22,7 +22,7 @@ import addon_blender_harness as h  # noqa: E402
 import addon_common as ac  # noqa: E402
 
 h.enable_addon()
-from ptir_blender.blender import splat_object  # noqa: E402
+from ptir_blender.blender import splat_display, splat_object  # noqa: E402
 from ptir_blender.io import splat_ply, splat_transform  # noqa: E402
 
 ATTRS = ("scale", "rotation", "opacity", "radiance:base", "ptir_albedo", "ptir_roughness", "ptir_metallic",
@@ -196,7 +196,7 @@ def check_malformed(tmp):
 
 
 def check_display(obj):
-    mod = obj.modifiers.get(splat_object.DISPLAY_MODIFIER)
+    mod = obj.modifiers.get(splat_display.DISPLAY_MODIFIER)
     h.check(mod is not None and mod.type == "NODES", "display modifier")
     dg = bpy.context.evaluated_depsgraph_get()
     count = sum(1 for i in dg.object_instances if i.is_instance and i.parent and i.parent.original == obj)
@@ -207,10 +207,10 @@ def check_display(obj):
     count = sum(1 for i in dg.object_instances if i.is_instance and i.parent and i.parent.original == obj)
     h.check(600 < count < 1400, "display limit 1000 of 3000 shows about 1000 (got %d)" % count)
     obj.ptir_splat.display = "ALBEDO"
-    ident = next(i.identifier for i in splat_object._group_inputs(mod.node_group) if i.name == "Mode")
+    ident = next(i.identifier for i in splat_display._group_inputs(mod.node_group) if i.name == "Mode")
     h.check(mod[ident] == 1, "display mode albedo sets the modifier input")
     obj.ptir_splat.display = "COLOR"
-    obj.ptir_splat.display_limit = splat_object.DEFAULT_DISPLAY_LIMIT
+    obj.ptir_splat.display_limit = splat_display.DEFAULT_DISPLAY_LIMIT
     print("display: %d instances with limit 1000" % count)
 
 

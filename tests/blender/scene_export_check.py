@@ -28,6 +28,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(HERE)), "addon"))
 
 from ptir_blender.blender import compat, scene_export  # noqa: E402
+from ptir_blender.io import hdr_file  # noqa: E402
 
 V2 = bpy.app.version >= (4, 0, 0)
 # Every Principled input "layered" sets: socket -> value, per model (the v2 names from 4.0 on).
@@ -144,7 +145,7 @@ def main(out_dir, gaussians_ply):
     light("SPOT", "Spot", 10.0, (0, 0, 4))
     # World: Environment Texture of a tiny file + Mapping Z rotation + strength.
     env_path = os.path.join(out_dir, "tiny_env.hdr")
-    scene_export.write_rgbe(env_path, [[[0.5, 0.25, 0.125]] * 4] * 2)
+    hdr_file.write_rgbe(env_path, [[[0.5, 0.25, 0.125]] * 4] * 2)
     nt = compat.ensure_nodes(scene.world)
     nt.nodes.clear()
     texco = nt.nodes.new("ShaderNodeTexCoord")

@@ -8,7 +8,7 @@
 2. `ptir optimize` recovers albedo, roughness and a 128x64 environment from the
    images alone (the environment starts at a constant 0.5): 400 iterations, 8 spp,
    2 bounces, seed 1 -- half the paper's 800 iterations, about a minute on 2 cores.
-3. Evaluation as METHOD section 7: the recovered albedo/roughness maps are rendered
+3. Evaluation as docs/method.md §7: the recovered albedo/roughness maps are rendered
    from the training cameras (primary-hit AOVs at pixel centres); a part-ID map
    (the same AOV with one-hot "albedo" per part) keeps the pixels that see one part
    only; albedo is aligned by s_c = median(gt_c / pred_c) over all those pixels;

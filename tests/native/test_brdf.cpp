@@ -20,7 +20,7 @@ using ptir::test::SphereBinning;
 namespace {
 
 // ---------------------------------------------------------------------------
-// Double-precision reference: a literal transcription of METHOD §4 / paper eq.
+// Double-precision reference: a literal transcription of docs/method.md §4 / paper eq.
 // (supp_disney_brdf), including the textbook D G / (4 cos_i cos_o) form.
 
 struct D3 {
@@ -308,7 +308,7 @@ TEST(DisneyBrdf, WhiteFurnace) {
   // grazing wo (at the mirror half vector F -> 1 as wo.h -> 0 while the diffuse
   // integral stays ~ 1 - F0): E reaches 1.35 at 80 deg and 1.73 at 89 deg for
   // roughness 0.05. It holds up to 30 deg for all roughness, and to within 4e-4
-  // at 45 deg (sharp lobes). This is the published model (METHOD §4), kept as is.
+  // at 45 deg (sharp lobes). This is the published model (docs/method.md §4), kept as is.
   for (int ri = 0; ri < 7; ++ri)
     for (int ti = 0; ti < 9; ++ti) {
       if (angles[ti] <= 30.0f) {

@@ -181,12 +181,21 @@ struct ReplaySetup {
   Camera cam = tile_camera(20, 16);
   IntegratorSettings is;
   Image weights;
-  std::vector<Vec3> radiance;     // the primal's records, when a test keeps them
-  std::vector<uint64_t> shadows;
+  ReplayCache record;  // the primal's radiance and ray outcomes, when a test keeps them
+  std::vector<Vec3>& radiance = record.radiance;
+  std::vector<uint64_t>& shadows = record.shadows;
   explicit ReplaySetup(Scene scene) : s(std::move(scene)), tracer(s), is(s.integrator) {
     is.spp = 3;
     weights = Image(cam.width, cam.height, {"R", "G", "B"});
     for (size_t i = 0; i < weights.pixels.size(); ++i) weights.pixels[i] = float(i % 5) - 2.0f;
+  }
+  // The record's parts named (radiance, ray outcomes) and a walk store, as one cache.
+  ReplayCache parts(bool with_radiance, bool with_shadows, WalkStore* walks = nullptr) const {
+    ReplayCache c;
+    if (with_radiance) c.radiance = record.radiance;
+    if (with_shadows) c.shadows = record.shadows;
+    c.walks = walks;
+    return c;
   }
 };
 
@@ -195,23 +204,25 @@ TEST(GradientTile, ReplayWithRecordedShadowRaysGivesTheSameFloats) {
   // them instead of tracing makes the same decisions, so the gradients are equal
   // bit for bit (with and without the stored radiance).
   ReplaySetup r(lit_tile_scene());
-  render_path(r.tracer, r.cam, r.is, {}, nullptr, &r.radiance, false, 0, &r.shadows);
+  render_path(r.tracer, r.cam, r.is, {}, nullptr, &r.record);
   size_t recorded = 0, visible = 0;
   for (uint64_t b : r.shadows) recorded += b != 0, visible += size_t(__builtin_popcountll(b));
   EXPECT_GT(recorded, r.shadows.size() / 4);
   EXPECT_GT(visible, r.shadows.size() / 2);
   SceneGradients traced = SceneGradients::zeros_like(r.s), read = traced, read_only = traced;
-  render_path_backward(r.tracer, r.cam, r.is, r.weights, traced, {}, &r.radiance);
-  render_path_backward(r.tracer, r.cam, r.is, r.weights, read, {}, &r.radiance, nullptr, &r.shadows);
-  render_path_backward(r.tracer, r.cam, r.is, r.weights, read_only, {}, nullptr, nullptr, &r.shadows);
+  const ReplayCache radiance = r.parts(true, false), shadows_only = r.parts(false, true);
+  render_path_backward(r.tracer, r.cam, r.is, r.weights, traced, {}, &radiance);
+  render_path_backward(r.tracer, r.cam, r.is, r.weights, read, {}, &r.record);
+  render_path_backward(r.tracer, r.cam, r.is, r.weights, read_only, {}, &shadows_only);
   expect_same_floats(traced, read);
   expect_same_floats(traced, read_only);
   double sum = 0.0;
   for (const Vec3& a : traced.gaussian_albedo) sum += std::fabs(a.x);
   EXPECT_GT(sum, 0.0);
   // Wrong-sized records are refused.
-  std::vector<uint64_t> short_record(3);
-  EXPECT_THROW(render_path_backward(r.tracer, r.cam, r.is, r.weights, read, {}, &r.radiance, nullptr, &short_record), Error);
+  ReplayCache short_record = r.parts(true, false);
+  short_record.shadows.resize(3);
+  EXPECT_THROW(render_path_backward(r.tracer, r.cam, r.is, r.weights, read, {}, &short_record), Error);
   // So is Russian roulette (its survival probability depends on the materials).
   IntegratorSettings roulette = r.is;
   roulette.russian_roulette = true;
@@ -294,13 +305,12 @@ TEST(GradientTile, RenderPathEqualsItsSamplesOneByOne) {
   for (int spp : {3, 20}) {
     IntegratorSettings is = s.integrator;
     is.spp = spp;
-    std::vector<Vec3> radiance;
-    std::vector<uint64_t> shadows;
-    const Image img = render_path(tracer, cam, is, {}, nullptr, &radiance, false, 0, &shadows);
+    ReplayCache record;
+    const Image img = render_path(tracer, cam, is, {}, nullptr, &record);
     Image weights(cam.width, cam.height, {"R", "G", "B"});
     for (size_t i = 0; i < weights.pixels.size(); ++i) weights.pixels[i] = (i % 7 == 3) ? 0.0f : float(i % 5) - 1.5f;
     SceneGradients grads = SceneGradients::zeros_like(s);
-    render_path_backward(tracer, cam, is, weights, grads, {}, &radiance, nullptr, &shadows);
+    render_path_backward(tracer, cam, is, weights, grads, {}, &record);
     // Reference: the samples one by one (the camera ray as render_path draws it),
     // into one buffer per tile, the tiles added in order (as render/tile_reduce.h does).
     SceneGradients ref = SceneGradients::zeros_like(s);
@@ -344,8 +354,10 @@ TEST(GradientTile, ReplayFromKeptWalksGivesTheSameFloats) {
     scene.integrator.interaction.mode = mode;
     ReplaySetup r(std::move(scene));
     WalkStore all, some(size_t(12) << 10, size_t(2) << 10);  // 6 chunks of 2 KB
-    render_path(r.tracer, r.cam, r.is, {}, nullptr, &r.radiance, false, 0, &r.shadows, &all);
-    render_path(r.tracer, r.cam, r.is, {}, nullptr, nullptr, false, 0, nullptr, &some);
+    r.record.walks = &all;
+    render_path(r.tracer, r.cam, r.is, {}, nullptr, &r.record);
+    ReplayCache some_walks = ReplayCache::walks_only(&some);
+    render_path(r.tracer, r.cam, r.is, {}, nullptr, &some_walks);
     const size_t samples = size_t(r.cam.width) * r.cam.height * r.is.spp;
     ASSERT_EQ(all.size(), samples);
     EXPECT_EQ(all.kept(), samples);
@@ -364,10 +376,12 @@ TEST(GradientTile, ReplayFromKeptWalksGivesTheSameFloats) {
     EXPECT_GT(meshes, samples / 10);
 
     SceneGradients traced = SceneGradients::zeros_like(r.s), kept = traced, partly = traced, walks_only = traced;
-    render_path_backward(r.tracer, r.cam, r.is, r.weights, traced, {}, &r.radiance, nullptr, &r.shadows);
-    render_path_backward(r.tracer, r.cam, r.is, r.weights, kept, {}, &r.radiance, nullptr, &r.shadows, &all);
-    render_path_backward(r.tracer, r.cam, r.is, r.weights, partly, {}, &r.radiance, nullptr, &r.shadows, &some);
-    render_path_backward(r.tracer, r.cam, r.is, r.weights, walks_only, {}, &r.radiance, nullptr, nullptr, &all);
+    const ReplayCache no_walks = r.parts(true, true), some_kept = r.parts(true, true, &some),
+                      all_walks = r.parts(true, false, &all);
+    render_path_backward(r.tracer, r.cam, r.is, r.weights, traced, {}, &no_walks);
+    render_path_backward(r.tracer, r.cam, r.is, r.weights, kept, {}, &r.record);
+    render_path_backward(r.tracer, r.cam, r.is, r.weights, partly, {}, &some_kept);
+    render_path_backward(r.tracer, r.cam, r.is, r.weights, walks_only, {}, &all_walks);
     expect_same_floats(traced, kept);
     expect_same_floats(traced, partly);
     expect_same_floats(traced, walks_only);
@@ -377,6 +391,7 @@ TEST(GradientTile, ReplayFromKeptWalksGivesTheSameFloats) {
     // A store of another render's size is refused.
     WalkStore other;
     other.reset(7);
-    EXPECT_THROW(render_path_backward(r.tracer, r.cam, r.is, r.weights, kept, {}, &r.radiance, nullptr, &r.shadows, &other), Error);
+    const ReplayCache other_walks = r.parts(true, true, &other);
+    EXPECT_THROW(render_path_backward(r.tracer, r.cam, r.is, r.weights, kept, {}, &other_walks), Error);
   }
 }

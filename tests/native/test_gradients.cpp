@@ -372,7 +372,7 @@ TEST(Gradients, StoredSampleRadianceGivesTheSameGradients) {
   GradientScene gs = make_scene(false);
   IntegratorSettings settings = settings_with(3);
   PathTracer tracer(gs.scene);
-  std::vector<Vec3> stored;
+  ReplayCache stored = ReplayCache::radiance_only();
   render_path(tracer, gs.camera, settings, {}, nullptr, &stored);
   SceneGradients a = SceneGradients::zeros_like(gs.scene), b = a;
   render_path_backward(tracer, gs.camera, settings, gs.weights, a, {}, &stored);

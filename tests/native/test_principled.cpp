@@ -3,7 +3,7 @@
 // Cycles' v3.4 formulas (written the way Cycles writes them: D and G1 through
 // tan^2), sampling against pdf (chi2), the sampled estimator against quadrature,
 // directional-albedo tables (white furnace, energy compensation, the ratios that
-// ../shared/docs/PRINCIPLED.md measured for METHOD's model), the energy table
+// ../shared/docs/PRINCIPLED.md measured for docs/method.md §4's simplified Disney model), the energy table
 // against quadrature, and analytic material derivatives against finite differences.
 #include <gtest/gtest.h>
 
@@ -297,7 +297,7 @@ TEST(PrincipledBsdf, FurnaceTables) {
 }
 
 TEST(PrincipledBsdf, MethodModelRatiosMatchPrinciplesDoc) {
-  // ../shared/docs/PRINCIPLED.md measured METHOD's model / Cycles GGX directional
+  // ../shared/docs/PRINCIPLED.md measured docs/method.md §4's simplified Disney model / Cycles GGX directional
   // albedo by numerical integration; these are independent numbers, reproduced here.
   struct Case {
     float b, r, m, theta, ratio;

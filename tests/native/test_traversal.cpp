@@ -188,7 +188,7 @@ TEST(Traversal, AovsMatchNaiveComposite) {
     for (int x = 0; x < cam.width; ++x) {
       Ray r = cam.generate_ray(x + 0.5f, y + 0.5f);
       auto hits = naive_hits(accel.trace_data(), r, r.tmax, accel.settings().cull);
-      // Composite by hand with the METHOD §3 formulas.
+      // Composite by hand with the docs/method.md §3 formulas.
       double T = 1, O = 0, D = 0, Dmed = -1;  // Dmed: where O first reaches 1/2
       Vec3 A;
       double M = 0;

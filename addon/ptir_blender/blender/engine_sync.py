@@ -34,7 +34,7 @@ import threading
 import numpy as np
 
 from ..errors import PtirError
-from ..io import engine_process
+from ..io import engine_client, engine_process
 from ..io import splat_transform
 from . import scene_bridge, scene_export, splat_object
 
@@ -267,8 +267,7 @@ class EngineSession:
                 rel = new @ np.linalg.inv(old)
                 if not splat_transform.is_similarity(rel):  # the engine's rule: similarities only
                     return self._load(depsgraph, integrator, key, geo, mats, splats)
-                self.engine.send({"cmd": "transform_splats", "offset": offset, "count": count,
-                                  "matrix": [float(x) for x in rel.reshape(-1)]})
+                self.engine.send(engine_client.transform_splats_request(offset, count, rel.reshape(-1)))
                 st["xf"][o.name] = new
                 st["moved"] = True
                 sent.append("transform_splats")
@@ -279,12 +278,12 @@ class EngineSession:
                 if env != st["parts"].get("environment"):
                     delta["environment"] = env
             if delta:
-                self.engine.send({"cmd": "update", "scene": delta})
+                self.engine.send(engine_client.update_request(delta))
                 st["parts"].update(delta)
                 sent.append("update")
             for name, m in mats.items():
                 if st["mats"].get(name) != m:
-                    self.engine.send({"cmd": "mesh_material", "mesh": name, "material": m})
+                    self.engine.send(engine_client.mesh_material_request(name, m))
                     st["mats"][name] = m
                     sent.append("mesh_material")
                     # (what the edited material's conversion leaves out is reported with the next render)
@@ -307,7 +306,7 @@ class EngineSession:
                 if edits or h != old:
                     path = self.file("splat_materials.f32")
                     values.tofile(path)
-                    self._send_bulk({"cmd": "splat_materials", "offset": offset, "count": count, "file": path}, [path])
+                    self._send_bulk(engine_client.splat_materials_request(offset, count, path), [path])
                     st["splats"][o.name] = (offset, count, h)
                     sent.append("splat_materials")
             self._material_only.clear()
@@ -318,14 +317,13 @@ class EngineSession:
         when fewer than all; at most 4 bytes more per edited splat than the whole channel)."""
         offset, count, _ = st["splats"][name]
         values = np.ascontiguousarray(edit.values, np.float32)
-        request = {"cmd": "splat_materials", "offset": offset, "count": count, "channels": [edit.channel],
-                   "file": self.file("splat_materials.f32")}
-        values.tofile(request["file"])
-        files = [request["file"]]
+        files = [self.file("splat_materials.f32")]
+        values.tofile(files[0])
         if edit.indices is not None:
-            request["indices"] = self.file("splat_indices.u32")
-            np.ascontiguousarray(edit.indices, np.uint32).tofile(request["indices"])
-            files.append(request["indices"])
+            files.append(self.file("splat_indices.u32"))
+            np.ascontiguousarray(edit.indices, np.uint32).tofile(files[1])
+        request = engine_client.splat_materials_request(offset, count, files[0], channels=[edit.channel],
+                                                        indices=files[1] if len(files) > 1 else None)
         self._send_bulk(request, files)
         st["splats"][name] = (offset, count, None)  # the next unnoted sync compares afresh
 
@@ -336,7 +334,7 @@ class EngineSession:
         path, info = scene_bridge.export_engine_scene(out_dir=folder, depsgraph=depsgraph, integrator=integrator,
                                                       warnings=warnings, include_cameras=False)
         size = sum(os.path.getsize(os.path.join(folder, f)) for f in os.listdir(folder))
-        rid = self.engine.send({"cmd": "load", "scene": path}, bulk_bytes=size)
+        rid = self.engine.send(engine_client.load_request(path), bulk_bytes=size)
         reply = self.engine.wait(rid)
         if not reply.get("ok"):
             self.state = None

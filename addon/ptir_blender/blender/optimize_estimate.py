@@ -27,7 +27,6 @@ part of the key: changing it rescales the estimate without a new probe). On the 
 import json
 import os
 import shutil
-import subprocess
 import tempfile
 import time
 
@@ -35,6 +34,7 @@ import bpy
 import numpy as np
 
 from ..errors import OptimizeError
+from ..io import engine_client
 from . import optimize_job, splat_object
 
 FIT_GROWTH = 1.1
@@ -67,15 +67,11 @@ def measure(context, settings, cli_exe):
     try:
         t0 = time.monotonic()
         job = optimize_job.prepare(context, settings, job_dir, cli_exe)
-        args = job.args + ["--estimate"]
-        if job.fit_args:  # the fitted splats do not exist yet: probe the inversion on the fit's input
-            args[args.index("--gaussians") + 1] = job.fit_args[job.fit_args.index("--gaussians") + 1]
-        proc = subprocess.run(args, stdin=subprocess.DEVNULL, capture_output=True, text=True)
+        probe = engine_client.run_to_end(engine_client.estimate_args(job.args, job.fit_args))
         wall = time.monotonic() - t0
-        line = next((l for l in proc.stdout.splitlines() if l.startswith('{"estimate"')), None)
-        if proc.returncode != 0 or line is None:
-            err = [l for l in proc.stderr.splitlines() if l.strip()]
-            raise OptimizeError("estimate failed: %s" % (err[-1] if err else "exit status %d" % proc.returncode))
+        line = next((l for l in probe.lines if l.startswith('{"estimate"')), None)
+        if probe.proc.returncode != 0 or line is None:
+            raise OptimizeError("estimate failed: %s" % probe.error_message())
         est = json.loads(line)["estimate"]
         fit_setup, fit_s = _measure_fit(job, job_dir) if job.fit_args else (0.0, 0.0)
     finally:
@@ -91,18 +87,12 @@ def _measure_fit(job, job_dir):
     """(setup seconds, seconds per fit iteration) of the job's geometry stage, from a few real
     iterations of its own command line into a scratch folder."""
     out = os.path.join(job_dir, "fit_probe")
-    args = list(job.fit_args)
-    args[args.index("--out") + 1] = out
-    args[args.index("--iters") + 1] = str(FIT_PROBE_ITERS)
     t0 = time.monotonic()
-    proc = subprocess.run(args + ["--checkpoint-every", "0", "-q", "--force"], stdin=subprocess.DEVNULL,
-                          capture_output=True, text=True)
+    probe = engine_client.run_to_end(engine_client.fit_probe_args(job.fit_args, out, FIT_PROBE_ITERS))
     wall = time.monotonic() - t0
     log = os.path.join(out, "log.csv")
-    if proc.returncode != 0 or not os.path.isfile(log):
-        err = [l for l in proc.stderr.splitlines() if l.strip()]
-        raise OptimizeError("estimate of the geometry fit failed: %s" % (err[-1] if err else "exit status %d"
-                                                                          % proc.returncode))
+    if probe.proc.returncode != 0 or not os.path.isfile(log):
+        raise OptimizeError("estimate of the geometry fit failed: %s" % probe.error_message())
     with open(log) as f:
         rows = [l.split(",") for l in f.read().splitlines()]
     col = rows[0].index("seconds")

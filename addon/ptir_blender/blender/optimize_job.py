@@ -27,32 +27,22 @@ import os
 import bpy
 import numpy as np
 
-from ..io import capture_cameras, dataset_file, scene_file, splat_ply, splat_transform
+from ..io import capture_cameras, dataset_file, engine_client, scene_file, splat_ply, splat_transform
 from . import compat, material_writeback, scene_bridge, scene_export, splat_object
 from ..errors import OptimizeError
 
 ENV_NODE = "PTIR Environment"
 
-# The Optimise panel's time presets (properties.py, `preset`): seconds the whole run may take,
-# of which the geometry stage takes at most FIT_SHARE (as `ptir optimize --budget` gives its own,
-# cli/optimize_budget.h's kFitShare); the inversion gets what the fit leaves (inversion_args).
-PRESET_SECONDS = {"DRAFT": 120.0, "GOOD": 600.0, "FINAL": 1800.0}
-FIT_SHARE = 0.4
-
-
-def preset_seconds(settings):
-    """The time preset's seconds, or 0 for Custom (the iteration count)."""
-    return PRESET_SECONDS.get(getattr(settings, "preset", "CUSTOM"), 0.0)
+# The time presets and the fit's share of them live with the command lines (io/engine_client.py).
+PRESET_SECONDS = engine_client.PRESET_SECONDS
+FIT_SHARE = engine_client.FIT_SHARE
+preset_seconds = engine_client.preset_seconds
 
 
 def inversion_args(job, elapsed_s):
-    """The inversion's command line once the stages before it took `elapsed_s` seconds: under a
-    time preset, its --budget is what the preset has left (a fit that ended early leaves the
-    inversion more than 1 - FIT_SHARE), at least 10 s."""
-    args = list(job.args)
-    if job.budget_s and job.fit_args and "--budget" in args:
-        args[args.index("--budget") + 1] = "%.0fs" % max(10.0, job.budget_s - elapsed_s)
-    return args
+    """The inversion's command line once the stages before it took `elapsed_s` seconds
+    (engine_client.inversion_args: under a time preset, the --budget the preset has left)."""
+    return engine_client.inversion_args(job.args, job.budget_s, bool(job.fit_args), elapsed_s)
 
 
 class OptimizeJob:
@@ -256,42 +246,9 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_
                  has_meshes=bool(job.mesh_entries)):
         job.fit_dir = os.path.join(job.out_dir, "fit")
         gaussians = os.path.join(job.fit_dir, "gaussians.ply")
-        job.fit_args = [cli_exe, "fit", "--dataset", dataset_dir, "--split", split, "--gaussians", splats,
-                        "--out", job.fit_dir, "--iters", settings.fit_iterations, "--seed", settings.seed]
-        if budget:  # at most FIT_SHARE of a time preset (the fit's count re-planned as it runs)
-            job.fit_args += ["--budget", "%.0fs" % (FIT_SHARE * budget)]
-        if settings.threads > 0:
-            job.fit_args += ["--threads", settings.threads]
-        job.fit_args = [str(a) for a in job.fit_args]
-    args = [cli_exe, "optimize", "--dataset", dataset_dir, "--split", split, "--gaussians", gaussians,
-            "--out", job.out_dir,
-            "--bounces", settings.bounces, "--env", settings.env,
-            "--env-size", "%dx%d" % (settings.env_width, settings.env_height), "--seed", settings.seed,
-            "--fit-iters", 0]  # the flow's own fit stage (above) decides, with its progress
-    # The bounce light from the splats' SH where that fit makes them what the photos saw
-    # (`ptir optimize --indirect`; its "auto" sees only its own fit stage).
-    args += ["--indirect", "field" if job.fit_args else "path"]
-    if budget:  # a time preset: what the fit leaves of it, samples and iterations planned by the engine
-        args += ["--budget", "%.0fs" % ((1.0 - FIT_SHARE) * budget if job.fit_args else budget)]
-    else:  # (a budget takes the engine's automatic batch: patches across the views)
-        args += ["--iters", settings.iterations, "--spp", settings.spp,
-                 "--views-per-iter", settings.views_per_iter, "--crop", settings.crop]
-    if scene_json:
-        args += ["--scene", scene_json]
-    if want_meshes:
-        args.append("--optimize-meshes")
-    if settings.learn_exposure:
-        args.append("--learn-exposure")
-    return _with_common_args(job, args, settings)
-
-
-def _with_common_args(job, args, settings):
-    """The job with its command line: args and the switches every optimise run takes."""
-    if settings.optimize_metallic:
-        args.append("--optimize-metallic")
-    if settings.threads > 0:
-        args += ["--threads", settings.threads]
-    job.args = [str(a) for a in args]
+        job.fit_args = engine_client.fit_args(cli_exe, settings, dataset_dir, split, splats, job.fit_dir, budget)
+    job.args = engine_client.optimize_args(cli_exe, settings, dataset_dir, split, gaussians, job.out_dir,
+                                           bool(job.fit_args), budget, scene_json, want_meshes)
     return job
 
 
@@ -302,14 +259,8 @@ def _prepare_splats_only(context, settings, job_dir, cli_exe, out_dir, own_defau
     where the artist stood the object up (import Convention, or a rotation): Blender's +Z is their up
     (`--up`), so the virtual views' elevations are measured about the object as it stands."""
     job, _, splats = _new_job(context, settings, job_dir, out_dir)
-    args = [cli_exe, "optimize", "--gaussians", splats, "--out", job.out_dir, "--up", "0,0,1",
-            "--bounces", settings.bounces,
-            "--env", settings.env, "--env-size", "%dx%d" % (settings.env_width, settings.env_height),
-            "--seed", settings.seed]
-    if not own_defaults:
-        args += ["--iters", settings.iterations, "--spp", settings.spp, "--views-per-iter", settings.views_per_iter,
-                 "--crop", settings.crop]
-    return _with_common_args(job, args, settings)
+    job.args = engine_client.splats_only_args(cli_exe, settings, splats, job.out_dir, own_defaults)
+    return job
 
 
 class Results:

@@ -41,7 +41,7 @@ import bpy
 import numpy as np
 
 from ..io import light_units, mesh_ply, scene_file, splat_ply, splat_transform
-from . import compat, material_export
+from . import compat, image_files, material_export
 from ..errors import ExportError
 
 
@@ -243,40 +243,6 @@ def light_entry(obj, warnings):
 
 # ---------------------------------------------------------------- world
 
-def _save_image_exr(image, path):
-    """Writes a Blender image's float pixels to a linear EXR through the native module when
-    available, else as a Radiance .hdr written with numpy (Image.save would display-encode)."""
-    w, h = image.size
-    px = np.empty(w * h * image.channels, np.float32)
-    image.pixels.foreach_get(px)
-    px = px.reshape(h, w, image.channels)[::-1, :, :3]  # Blender stores rows bottom-up
-    root = os.path.splitext(path)[0]
-    try:
-        from .. import native
-        ptir = native()
-        ptir.write_image(root + ".exr", np.ascontiguousarray(px))
-        return root + ".exr"
-    except Exception:
-        return write_rgbe(root + ".hdr", px)
-
-
-def write_rgbe(path, rgb):
-    """Flat (uncompressed) Radiance .hdr from float (h, w, 3), numpy only; row 0 = top."""
-    rgb = np.maximum(np.asarray(rgb, np.float64), 0.0)
-    h, w, _ = rgb.shape
-    v = rgb.max(axis=2)
-    m, e = np.frexp(v)
-    scale = np.where(v > 1e-32, m * 256.0 / np.maximum(v, 1e-32), 0.0)
-    out = np.zeros((h, w, 4), np.uint8)
-    out[..., :3] = np.clip(rgb * scale[..., None], 0, 255).astype(np.uint8)
-    out[..., 3] = np.where(v > 1e-32, e + 128, 0).astype(np.uint8)
-    with open(path, "wb") as f:
-        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n")
-        f.write(("-Y %d +X %d\n" % (h, w)).encode("ascii"))
-        f.write(out.tobytes())
-    return path
-
-
 def world_entry(world, out_dir, warnings):
     if world is None:
         return None
@@ -326,7 +292,7 @@ def world_entry(world, out_dir, warnings):
                             % mapping.type)
     path = bpy.path.abspath(image.filepath_raw or image.filepath) if image.source == "FILE" else ""
     if image.packed_file is not None or not path or not os.path.exists(path):
-        path = _save_image_exr(image, os.path.join(out_dir, "environment_%s.exr" % _safe_name(image.name)))
+        path = image_files.save_image_exr(image, os.path.join(out_dir, "environment_%s.exr" % _safe_name(image.name)))
     cs = image.colorspace_settings.name
     if cs not in ("Linear", "Linear Rec.709", "Non-Color", "Raw") and image.is_float is False:
         warnings.append("world: environment image '%s' is in %s; the engine decodes 8-bit files as sRGB"

@@ -22,6 +22,8 @@ import tempfile
 
 import bpy
 
+from . import image_files
+
 # Blender colour spaces whose values the engine takes as stored (data).
 DATA_SPACES = {"Non-Color", "Raw", "Linear", "Linear Rec.709", "Linear BT.709", "Utility - Raw",
                "Linear CIE-XYZ E", "Generic Data"}
@@ -67,9 +69,8 @@ def image_file(image, warnings, what):
     if image.source in ("FILE", "GENERATED"):
         # Generated or painted and unsaved: its pixels as stored (8-bit images: sRGB values, decoded by
         # the engine for an sRGB image), written losslessly.
-        from .scene_export import _save_image_exr
         name = "image_%s" % hashlib.sha1(("%s|%d" % (image.name, id(image))).encode()).hexdigest()[:16]
-        return _save_image_exr(image, os.path.join(texture_folder(), name + ".exr"))
+        return image_files.save_image_exr(image, os.path.join(texture_folder(), name + ".exr"))
     warnings.append("%s: image '%s' is a %s; the engine reads still images only" % (what, image.name, image.source.lower()))
     return None
 

@@ -30,7 +30,7 @@ import numpy as np
 from gpu_extras.presets import draw_texture_2d
 
 from ..errors import PtirError
-from ..io import engine_process
+from ..io import engine_client, engine_process
 
 FIRST_PASS_DIVIDER = 4
 
@@ -149,8 +149,8 @@ class ViewportRender:
 
     def _send_pass(self, cam):
         out = self.session.file("view.raw")
-        rid = self.session.engine.send({"cmd": "render", "view": cam, "spp": 1, "transparent": self.transparent,
-                                        "first_sample": 0 if self.passes == 0 else self.samples, "output": out})
+        rid = self.session.engine.send(engine_client.render_view_request(
+            cam, 1, 0 if self.passes == 0 else self.samples, out, self.transparent))
         self.pending = (rid, self.passes, self.key, out, cam["width"], cam["height"])
         _ensure_timer()
 

@@ -12,9 +12,9 @@ import bpy
 from bpy.props import StringProperty
 
 from ..blender import capture_cameras as bcams
+from ..blender import preferences
 from ..errors import PtirError
 from ..io import capture_cameras
-from . import render_engine
 
 
 class PTIR_OT_import_capture_cameras(bpy.types.Operator):
@@ -37,7 +37,7 @@ class PTIR_OT_import_capture_cameras(bpy.types.Operator):
         folder = bpy.path.abspath(self.directory or context.scene.ptir_optimize.dataset_dir)
         tmp = tempfile.mkdtemp(prefix="ptir_cameras_")
         try:
-            doc = capture_cameras.export_cameras(render_engine.cli_path(), folder, os.path.join(tmp, "cameras.json"),
+            doc = capture_cameras.export_cameras(preferences.cli_path(), folder, os.path.join(tmp, "cameras.json"),
                                                  self.split or "all")
             parent = context.scene.ptir_optimize.splat_object
             made = bcams.import_cameras(context, doc, parent=parent)

@@ -21,7 +21,7 @@ from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatPrope
 from bpy_extras.io_utils import ExportHelper, ImportHelper, axis_conversion, orientation_helper
 from mathutils import Matrix, Vector
 
-from ..blender import splat_object
+from ..blender import splat_display, splat_object
 from ..errors import PtirError
 from ..io import splat_ply
 
@@ -82,9 +82,9 @@ class IMPORT_SCENE_OT_gaussian_splat_ply(bpy.types.Operator, ImportHelper):
     directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
     display: BoolProperty(name="Viewport Display", default=True,
                           description="Show the splats as ellipsoids in the viewport (Geometry Nodes)")
-    display_limit: IntProperty(name="Display Limit", default=splat_object.DEFAULT_DISPLAY_LIMIT, min=0,
+    display_limit: IntProperty(name="Display Limit", default=splat_display.DEFAULT_DISPLAY_LIMIT, min=0,
                                description="Show at most this many splats (a random subset; 0 = all)")
-    display_size: FloatProperty(name="Splat Size", default=splat_object.DEFAULT_DISPLAY_SIZE, min=0.0,
+    display_size: FloatProperty(name="Splat Size", default=splat_display.DEFAULT_DISPLAY_SIZE, min=0.0,
                                 description="Ellipsoid radii in standard deviations")
     axis_preset: EnumProperty(
         name="Convention", default="AXES", update=_apply_axis_preset,

@@ -15,7 +15,7 @@ import bpy
 import numpy as np
 from bpy.props import EnumProperty, FloatProperty, FloatVectorProperty, StringProperty
 
-from ..blender import engine_sync, splat_object, viewport_render
+from ..blender import engine_sync, splat_display, splat_object, viewport_render
 from ..errors import PtirError
 
 
@@ -88,7 +88,7 @@ def _writes_in_place(mesh, attr_name):
 
 def _displayed(obj, channel):
     """Whether the viewport display of obj shows this material channel."""
-    mod = obj.modifiers.get(splat_object.DISPLAY_MODIFIER)
+    mod = obj.modifiers.get(splat_display.DISPLAY_MODIFIER)
     settings = getattr(obj, "ptir_splat", None)
     return mod is not None and mod.show_viewport and settings is not None and settings.display == channel.upper()
 

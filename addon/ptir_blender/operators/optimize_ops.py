@@ -22,10 +22,9 @@ import time
 
 import bpy
 
-from ..blender import optimize_estimate, optimize_job
+from ..blender import optimize_estimate, optimize_job, preferences
 from ..errors import PtirError
-from ..io import cli
-from . import render_engine
+from ..io import cli, engine_client
 
 _state = {"job": None, "cancel": False}
 
@@ -73,8 +72,8 @@ class _OptimizeRun:
         settings = context.scene.ptir_optimize
         self._job_dir = tempfile.mkdtemp(prefix="ptir_optimize_")
         out_dir = bpy.path.abspath(settings.output_dir) if settings.output_dir else None
-        self._pack = out_dir is None and not render_engine.keep_files()
-        exe = render_engine.cli_path()
+        self._pack = out_dir is None and not preferences.keep_files()
+        exe = preferences.cli_path()
         self._prepared = self._prepare_job(context, settings, exe, out_dir)
         for w in self._prepared.warnings:
             self.report({"WARNING"}, w)
@@ -153,7 +152,7 @@ class _OptimizeRun:
             settings.running = False
             _state["job"] = None
             _state["cancel"] = False
-            if render_engine.keep_files():
+            if preferences.keep_files():
                 print("ptir optimize: job files kept in %s" % self._job_dir)
             else:
                 shutil.rmtree(self._job_dir, ignore_errors=True)
@@ -278,7 +277,7 @@ class PTIR_OT_optimize_estimate(bpy.types.Operator):
     def execute(self, context):
         settings = context.scene.ptir_optimize
         try:
-            optimize_estimate.measure(context, settings, render_engine.cli_path())
+            optimize_estimate.measure(context, settings, preferences.cli_path())
         except PtirError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
@@ -314,10 +313,7 @@ class PTIR_OT_make_relightable(_OptimizeRun, bpy.types.Operator):
         job = optimize_job.prepare(context, settings, self._job_dir, exe, out_dir,
                                    source=None if photos else "SPLATS", own_defaults=not photos)
         if not photos:
-            for flag, value in (("--iters", self.iterations), ("--spp", self.samples), ("--orbit-views", self.views),
-                                ("--orbit-size", self.size)):
-                if value > 0:
-                    job.args += [flag, str(value)]
+            job.args += engine_client.relightable_overrides(self.iterations, self.samples, self.views, self.size)
             print("ptir make relightable: no dataset folder: materials from the splats' own radiance", flush=True)
         return job
 

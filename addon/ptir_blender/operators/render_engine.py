@@ -35,74 +35,16 @@ import tempfile
 import time
 
 import bpy
-import numpy as np
 
 from ..blender import engine_sync, scene_bridge, scene_export, viewport_render
+from ..blender.preferences import cli_path, keep_files
+from ..blender.render_pixels import read_exr_pixels
 from ..errors import PtirError
-from ..io import cli, engine_process, scene_file
-
-
-def _preferences():
-    addon = bpy.context.preferences.addons.get(__package__.rsplit(".", 1)[0])
-    return addon.preferences if addon is not None else None
-
-
-def cli_path():
-    prefs = _preferences()
-    return cli.find_cli(prefs.cli_path if prefs is not None else "")
-
-
-def keep_files():
-    prefs = _preferences()
-    return bool(prefs is not None and prefs.keep_files) or bool(os.environ.get("PTIR_KEEP_FILES"))
-
-
-def integrator_settings(settings):
-    return {"spp": int(settings.spp), "bounces": int(settings.bounces), "seed": int(settings.seed),
-            "interaction": settings.interaction, "tau_g": float(settings.tau_g)}
-
-
-def render_args(cli_exe, scene_json, output, camera, settings, transparent=False):
-    """The `ptir render` command line of F12's image (transparent: Film > Transparent)."""
-    args = [cli_exe, "render", scene_json, "-o", output, "--camera", camera, "--spp", settings.spp,
-            "--bounces", settings.bounces, "--seed", settings.seed, "--interaction", settings.interaction,
-            "--tau-g", "%.9g" % settings.tau_g]
-    if settings.threads > 0:
-        args += ["--threads", settings.threads]
-    if transparent:
-        args.append("--transparent")
-    return args
-
-
-def read_exr_pixels(path, width, height):
-    """(height * width, 4) float32 RGBA rows bottom-up (Blender's order) of a linear EXR, via Blender."""
-    img = bpy.data.images.load(path, check_existing=False)
-    try:
-        if tuple(img.size) != (width, height):
-            raise scene_export.ExportError("the engine wrote a %dx%d image, expected %dx%d"
-                                           % (img.size[0], img.size[1], width, height))
-        px = np.empty(width * height * 4, np.float32)
-        img.pixels.foreach_get(px)
-    finally:
-        bpy.data.images.remove(img)
-    return px.reshape(-1, 4)
-
-
-# AOV render passes: (Blender pass name, engine AOV, channels, channel ids, socket type, engine channels used).
-AOV_PASSES = (("Depth", "depth", 1, "Z", "VALUE", (0,)),
-              ("Normal", "normal", 3, "XYZ", "VECTOR", (0, 1, 2)),
-              ("Albedo", "albedo", 3, "RGB", "COLOR", (0, 1, 2)),
-              ("Roughness", "roughness", 1, "X", "VALUE", (0,)),
-              ("Metallic", "metallic", 1, "X", "VALUE", (0,)),
-              ("Opacity", "opacity", 1, "X", "VALUE", (0,)))
-
-
-def read_raw_pass(path, width, height, channels_used):
-    """Rows bottom-up (Blender's order) of the chosen channels of a raw engine image."""
-    px = np.fromfile(path, np.float32)
-    c = px.size // (width * height)
-    px = px.reshape(height, width, c)[::-1][..., list(channels_used)]
-    return np.ascontiguousarray(px.reshape(-1, len(channels_used)))
+from ..io import engine_process, scene_file
+# (render_args: the CLI's command line of this render, for the tests that compare the two)
+from ..io.engine_client import (integrator_settings, render_args,  # noqa: F401
+                                render_camera_request, render_progress_text)
+from ..io.raw_pixels import AOV_PASSES, read_raw_pass
 
 
 class PTIRRenderEngine(bpy.types.RenderEngine):
@@ -163,9 +105,7 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
                 camera = scene_export.camera_entry(scene.camera, scene, warnings) if scene.camera else None
                 if camera is None:
                     scene_bridge.scene_camera_name(scene)  # raises the message
-                request = {"cmd": "render", "camera": camera, "output": output, "aovs": aovs,
-                           "transparent": bool(scene.render.film_transparent)}
-                rid = session.engine.send(request)
+                rid = session.engine.send(render_camera_request(camera, output, aovs, scene.render.film_transparent))
             label = "PTIR: %d spp, %d bounces%s" % (settings.spp, settings.bounces,
                                                    "" if sync["load"] else " (scene unchanged: no re-export)")
             self.update_stats("", label)
@@ -175,9 +115,7 @@ class PTIRRenderEngine(bpy.types.RenderEngine):
             shown = {"text": None}
 
             def progress(f):
-                elapsed = time.monotonic() - started
-                eta = elapsed * (1.0 - f) / f if f > 0 else 0.0
-                text = "%s | %.0f%%, %.1f s elapsed, ETA %.1f s" % (label, 100.0 * f, elapsed, eta)
+                text = render_progress_text(label, f, time.monotonic() - started)
                 if text != shown["text"]:  # (blender -b prints every stats update)
                     shown["text"] = text
                     self.update_progress(f)

@@ -1,4 +1,4 @@
-// The response of one Gaussian along a ray (METHOD §2), and the culling rule
+// The response of one Gaussian along a ray (docs/method.md §2), and the culling rule
 // that decides which Gaussians count as hits.
 //
 // Everything is evaluated in the Gaussian's unit space, where it is the standard
@@ -15,7 +15,7 @@
 
 namespace ptir {
 
-// Culling constants of 3dgrut / PTIR (METHOD §2).
+// Culling constants of 3dgrut / PTIR (docs/method.md §2).
 struct CullSettings {
   float min_response = 0.0113f;        // rho below this is ignored
   float min_alpha = 1.0f / 255.0f;     // alpha below this is ignored
@@ -148,10 +148,11 @@ inline PeakResponse peak_response(const GaussianTraceData& g, Vec3 o, Vec3 d) {
 // accepted: rho >= min_response and sigma*rho >= min_alpha, i.e.
 // D^2 <= min(2 ln(1/min_response), 2 ln(sigma/min_alpha)). Negative: never a hit.
 //
-// Note: METHOD §2 bounds the proxy by sigma*rho = min_response, which is smaller
-// than the region the cull rule admits; a proxy smaller than the accepted region
-// would make the hit set depend on the BVH. We bound exactly the accepted region,
-// so traversal and a brute-force reference agree hit for hit.
+// Note (docs/method.md §2): the authors' code bounds the proxy by sigma*rho =
+// min_response, which is smaller than the region the cull rule admits; a proxy
+// smaller than the accepted region would make the hit set depend on the BVH. We
+// bound exactly the accepted region, so traversal and a brute-force reference
+// agree hit for hit.
 inline float accept_radius_sq(float sigma, const CullSettings& cull) {
   if (!(sigma > 0.0f)) return -1.0f;
   float r_response = -2.0f * std::log(cull.min_response);

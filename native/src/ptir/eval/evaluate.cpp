@@ -298,7 +298,7 @@ void evaluate_view(EvalRun& run, size_t i) {
   // A capture without masks is unbounded: its photos show the environment behind the Gaussians, and
   // the render does too (rgba.exr then holds an opaque picture, A = 1 where an environment is seen:
   // docs/alpha.md); with a mask or alpha, the object on a transparent film (associated RGBA)
-  // composited over white (METHOD §7).
+  // composited over white (docs/method.md §7).
   const bool unbounded = !gt->has_alpha;
   auto aov = [&](Aov a) {
     return render_split(run, cam, [&](const Camera& c) { return render_aov(tracer.accel(), c, a, run.as, s.control); });
@@ -503,7 +503,8 @@ std::string report_markdown(const EvalRun& run, const json& m) {
   md << (run.have_albedo
              ? fmt(json(scale[0]), "%.4f") + " " + fmt(json(scale[1]), "%.4f") + " " + fmt(json(scale[2]), "%.4f")
              : std::string("n/a (no albedo ground truth)"))
-     << ".\n\nProtocol (METHOD §7): NVS/relight compare sRGB display values composited over white, whole image "
+     << ".\n\nProtocol (docs/method.md §7): NVS/relight compare sRGB display values composited over white, "
+        "whole image "
         "(photos without masks: against the render with the environment behind); "
         "albedo PSNR over foreground pixels (gt alpha > 0.5) after the scale, in sRGB (linear: "
      << fmt(m["albedo_psnr_linear"], "%.2f")

@@ -1,4 +1,4 @@
-// `ptir eval`: the evaluation protocol of METHOD §7 on a dataset's test views.
+// `ptir eval`: the evaluation protocol of docs/method.md §7 on a dataset's test views.
 //
 // For every test view i it renders, with the recovered asset (RESULT/gaussians.ply
 // under RESULT/env.exr):

@@ -1,4 +1,4 @@
-// Image metrics of the evaluation protocol (METHOD §7), as the peers compute them.
+// Image metrics of the evaluation protocol (docs/method.md §7), as the peers compute them.
 //
 // Images are ptir::Image (float, interleaved). Masks are 1-channel images (or the
 // last channel of an RGBA image, see mask_from_alpha); a pixel is foreground when

@@ -1,4 +1,4 @@
-// Spherical-Gaussian environment light (METHOD section 5):
+// Spherical-Gaussian environment light (docs/method.md §5):
 //   L(v) = sum_i c_i exp(lambda_i (eta_i . v - 1)),
 //   c_i  = exp(softplus(x_i) / gamma) - 1          (RGB, per channel; >= 0)
 // with raw amplitudes x_i (RGB) as the optimised parameters. PTIR's defaults:

@@ -8,7 +8,7 @@
 //   PrincipledV2MultiGGX  the same with "Multiscatter GGX" (v2's default)
 //   OrenNayar           Blender's Diffuse BSDF node under v1 (Blender 3.x)
 //   OrenNayarEon        the same node under v2 (Blender 4.3+: energy-preserving Oren-Nayar)
-//   DisneySimplified    METHOD §4's simplified Disney BRDF (paper parity, --brdf disney-simplified)
+//   DisneySimplified    docs/method.md §4's simplified Disney BRDF (paper parity, --brdf disney-simplified)
 #pragma once
 
 #include <algorithm>

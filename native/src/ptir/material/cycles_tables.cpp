@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "ptir/material/ggx_vndf_quadrature.h"
 #include "ptir/material/principled_bsdf.h"
 #include "ptir/math/sampling.h"
 
@@ -37,9 +38,8 @@ struct Integrand {
   }
 };
 
-// Mean of the integrand over visible normals of wo = (sqrt(1 - mu^2), 0, mu):
-// midpoint rule in (v, u2) with u1 = 1 - (1 - v)^3 (Jacobian 3 (1 - v)^2), which
-// puts strata at the grazing microfacets where the integrands vary fastest.
+// Mean of the integrand over visible normals of wo = (sqrt(1 - mu^2), 0, mu)
+// (ggx_vndf_quadrature.h).
 double vndf_mean(const Integrand& f, float r, float mu, int strata) {
   const float alpha = r * r;
   const Vec3 wo(std::sqrt(std::max(0.0f, 1.0f - mu * mu)), 0.0f, mu);
@@ -47,17 +47,9 @@ double vndf_mean(const Integrand& f, float r, float mu, int strata) {
     return f(wo, reflect(wo, Vec3(0, 0, 1)), mu, 0.0, alpha);
   }
   const double lambda_o = smith_lambda(wo, alpha);
-  double sum = 0.0;
-  for (int a = 0; a < strata; ++a)
-    for (int b = 0; b < strata; ++b) {
-      const double v = (a + 0.5) / strata, w = 1.0 - v;
-      const float u1 = float(1.0 - w * w * w), u2 = (float(b) + 0.5f) / float(strata);
-      const Vec3 h = sample_ggx_vndf(wo, alpha, u1, u2);
-      const float c = dot(wo, h);
-      const Vec3 wi = reflect(wo, h);
-      if (wi.z > 0.0f) sum += 3.0 * w * w * f(wo, wi, c, lambda_o, alpha);
-    }
-  return sum / (double(strata) * strata);
+  return ggx_vndf_quadrature(wo, alpha, strata, [&](Vec3 h, Vec3 wi, double jacobian) {
+    return jacobian * f(wo, wi, dot(wo, h), lambda_o, alpha);
+  });
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// The simplified Disney BRDF of PTIR (METHOD.md §4, paper appendix A):
+// The simplified Disney BRDF of PTIR (docs/method.md §4, paper appendix A):
 //
 //   f  = (1 - m) (a / pi) (1 - F)  +  D F G / (4 (n.wi) (n.wo))
 //   h  = normalize(wo + wi)
@@ -41,7 +41,7 @@ constexpr float kMinRoughness = 0.05f;
 // Fresnel reflectance at normal incidence of the dielectric (non-metal) part.
 constexpr float kDielectricF0 = 0.04f;
 // Probability that disney_sample draws from the GGX specular lobe; the diffuse
-// (cosine hemisphere) lobe gets 1 - kSpecularLobeProb. METHOD §4 (and PTIR) fix
+// (cosine hemisphere) lobe gets 1 - kSpecularLobeProb. docs/method.md §4 (and PTIR) fix
 // it to 1/2. A roughness/metallic-aware choice (e.g. in proportion to each
 // lobe's estimated albedo, with metals always picking specular) would reduce
 // variance for glossy dielectrics and metals; disney_pdf and every MIS weight

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <mutex>
 
+#include "ptir/material/ggx_vndf_quadrature.h"
 #include "ptir/material/principled_bsdf.h"
 #include "ptir/math/sampling.h"
 
@@ -43,21 +44,12 @@ double ggx_energy_reference(float mu_o, float roughness, int strata) {
   if (!(alpha > 1e-6f)) return 1.0;  // a mirror reflects everything (G1 -> 1)
   const float mu = std::clamp(mu_o, 1e-4f, 1.0f);
   const Vec3 wo(std::sqrt(std::max(0.0f, 1.0f - mu * mu)), 0.0f, mu);
-  // Midpoint rule in (v, u2) with u1 = 1 - (1 - v)^3 (Jacobian 3 (1 - v)^2): the
-  // warp puts strata into the NDF's tail (u1 -> 1, grazing h), where G1(wi) < 1
-  // comes from; a plain midpoint rule in u1 misses it at low roughness.
+  // Under VNDF sampling eval / pdf = G2 / G1(wo), with 1 / G1(wo) = 1 + Lambda(wo).
   const double lambda_o = smith_lambda(wo, alpha);
-  const double G1o_inv = 1.0 + lambda_o;  // 1 / G1(wo) = 1 + Lambda(wo)
-  double sum = 0.0;
-  for (int a = 0; a < strata; ++a)
-    for (int b = 0; b < strata; ++b) {
-      const double v = (a + 0.5) / strata, w = 1.0 - v;
-      const float u1 = float(1.0 - w * w * w), u2 = (float(b) + 0.5f) / float(strata);
-      const Vec3 h = sample_ggx_vndf(wo, alpha, u1, u2);
-      const Vec3 wi = reflect(wo, h);
-      if (wi.z > 0.0f) sum += 3.0 * w * w * G1o_inv / (1.0 + lambda_o + smith_lambda(wi, alpha));
-    }
-  return sum / (double(strata) * strata);
+  const double G1o_inv = 1.0 + lambda_o;
+  return ggx_vndf_quadrature(wo, alpha, strata, [&](Vec3, Vec3 wi, double jacobian) {
+    return jacobian * G1o_inv / (1.0 + lambda_o + smith_lambda(wi, alpha));
+  });
 }
 
 GgxEnergy ggx_energy(float mu_o, float roughness) {

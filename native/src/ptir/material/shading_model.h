@@ -12,7 +12,7 @@ namespace ptir {
 //   principled-v1      Cycles' Principled BSDF v1 (Blender 3.x) and Diffuse BSDF; the
 //                      name "principled" (files written before v2 existed) means v1
 //   principled-v2      Cycles' Principled BSDF v2 (Blender 4.0 and later)
-//   disney-simplified  METHOD §4's simplified Disney BRDF on every surface (paper parity, ablation)
+//   disney-simplified  docs/method.md §4's simplified Disney BRDF on every surface (paper parity, ablation)
 // The engine's RenderSettings default is v1; files and commands that name no model get
 // kDefaultBsdfModel (what the Blender artists use today).
 enum class BsdfModel : uint8_t { PrincipledV1, PrincipledV2, DisneySimplified };

@@ -37,7 +37,7 @@ constexpr double kMaxBudgetSeconds = 30.0 * 24.0 * 3600.0;  // 30 days
 constexpr int kMaxBudgetIterations = 10000000;
 int iterations_within(double seconds, double per_iteration);
 
-constexpr int kReferenceIterations = 800;  // the default run's count (METHOD §6)
+constexpr int kReferenceIterations = 800;  // the default run's count (docs/method.md §6)
 // The plan's ladder, cheapest first: (the pyramid's coarse phase's spp, the fine
 // phase's spp); a run without the pyramid takes the fine spp.
 struct SppRung {

@@ -107,14 +107,11 @@ void push_pull(std::vector<double>& sum, std::vector<double>& weight, int W, int
 
 double psnr_of(double se, size_t n) { return n ? -10.0 * std::log10(std::max(se / double(3 * n), 1e-12)) : 0.0; }
 
-}  // namespace
-
-CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data, const CaptureAnalysisSettings& s) {
-  if (data.size() == 0) throw Error(data.root, "capture analysis: no photos");
-  CaptureAnalysis a;
-  SceneAccel accel(field, {}, AccelSettings{});
-  // Pass 1: coverage and gains per photo (the renders are made again in pass 2: a
-  // capture's renders together would take gigabytes).
+// Pass 1 of analyse_capture: each photo's coverage and gains against the splat, the
+// subject, whether EXIF exposure applies, and the photos' consensus colour gain.
+// (The renders are made again in pass 2: a capture's renders together would take gigabytes.)
+void measure_photometry(const SceneAccel& accel, const Dataset& data, const CaptureAnalysisSettings& s,
+                        CaptureAnalysis& a) {
   for (size_t v = 0; v < data.size(); ++v) {
     const SplatImage fwd = render_splat(accel, data.views[v].camera, Vec3(0.0f));
     const auto photo = data.target(v);
@@ -146,6 +143,48 @@ CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data,
       if (p.gain[0] > 0.0) g.push_back(p.gain[size_t(c)] / (a.exif_applied ? p.exposure : 1.0));
     a.colour_gain[size_t(c)] = g.empty() ? 1.0 : median_of(g);
   }
+}
+
+// The end of analyse_capture for an object: the seen share of the sphere, the fine map of what
+// the photos saw (`seen`) and the coarse background filled by push-pull (`background`).
+void background_maps(const CaptureAnalysisSettings& s, std::vector<double>& sum, std::vector<double>& weight,
+                     const std::vector<double>& fsum, const std::vector<double>& fweight, int fine_w,
+                     CaptureAnalysis& a) {
+  // The seen share of the sphere: texels weighted by their solid angle (sin theta).
+  double seen = 0.0, total = 0.0;
+  for (int y = 0; y < s.env_height; ++y) {
+    const double w = std::sin(3.14159265358979 * (double(y) + 0.5) / double(s.env_height));
+    for (int x = 0; x < s.env_width; ++x) {
+      total += w;
+      seen += weight[size_t(y) * size_t(s.env_width) + size_t(x)] > 0.0 ? w : 0.0;
+    }
+  }
+  a.background_seen = total > 0.0 ? seen / total : 0.0;
+  // The 4th channel says which texels were seen ("seen", not "A": no reader treats it as coverage).
+  a.seen = Image(fine_w, fine_w / 2, {"R", "G", "B", "seen"});
+  for (size_t t = 0; t < fweight.size(); ++t) {
+    if (!(fweight[t] > 0.0)) continue;
+    for (int c = 0; c < 3; ++c) a.seen.pixels[4 * t + size_t(c)] = float(fsum[3 * t + size_t(c)] / fweight[t]);
+    a.seen.pixels[4 * t + 3] = 1.0f;
+  }
+  const std::vector<double> seen_weight = weight;
+  push_pull(sum, weight, s.env_width, s.env_height);
+  a.background = Image(s.env_width, s.env_height, {"R", "G", "B", "seen"});
+  for (size_t t = 0; t < weight.size(); ++t) {
+    for (int c = 0; c < 3; ++c)
+      a.background.pixels[4 * t + size_t(c)] = weight[t] > 0.0 ? float(sum[3 * t + size_t(c)] / weight[t]) : 0.5f;
+    a.background.pixels[4 * t + 3] = seen_weight[t] >= kSeenPixels ? 1.0f : 0.0f;
+  }
+}
+
+}  // namespace
+
+CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data, const CaptureAnalysisSettings& s) {
+  if (data.size() == 0) throw Error(data.root, "capture analysis: no photos");
+  CaptureAnalysis a;
+  SceneAccel accel(field, {}, AccelSettings{});
+  // Pass 1: coverage and gains per photo, the subject, EXIF, the consensus gain.
+  measure_photometry(accel, data, s, a);
   // Pass 2: masks, the splat against the calibrated photos, the background by direction.
   const Environment grid = Environment::constant(Vec3(1.0f), s.env_width, s.env_height);
   // The fine map: about two photo pixels a texel.
@@ -208,33 +247,7 @@ CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data,
   }
   a.psnr_splat = psnr_of(se_splat, n_object);
   a.psnr_graded = psnr_of(se_graded, n_object);
-  if (object) {
-    // The seen share of the sphere: texels weighted by their solid angle (sin theta).
-    double seen = 0.0, total = 0.0;
-    for (int y = 0; y < s.env_height; ++y) {
-      const double w = std::sin(3.14159265358979 * (double(y) + 0.5) / double(s.env_height));
-      for (int x = 0; x < s.env_width; ++x) {
-        total += w;
-        seen += weight[size_t(y) * size_t(s.env_width) + size_t(x)] > 0.0 ? w : 0.0;
-      }
-    }
-    a.background_seen = total > 0.0 ? seen / total : 0.0;
-    // The 4th channel says which texels were seen ("seen", not "A": no reader treats it as coverage).
-    a.seen = Image(fine_w, fine_w / 2, {"R", "G", "B", "seen"});
-    for (size_t t = 0; t < fweight.size(); ++t) {
-      if (!(fweight[t] > 0.0)) continue;
-      for (int c = 0; c < 3; ++c) a.seen.pixels[4 * t + size_t(c)] = float(fsum[3 * t + size_t(c)] / fweight[t]);
-      a.seen.pixels[4 * t + 3] = 1.0f;
-    }
-    const std::vector<double> seen_weight = weight;
-    push_pull(sum, weight, s.env_width, s.env_height);
-    a.background = Image(s.env_width, s.env_height, {"R", "G", "B", "seen"});
-    for (size_t t = 0; t < weight.size(); ++t) {
-      for (int c = 0; c < 3; ++c)
-        a.background.pixels[4 * t + size_t(c)] = weight[t] > 0.0 ? float(sum[3 * t + size_t(c)] / weight[t]) : 0.5f;
-      a.background.pixels[4 * t + 3] = seen_weight[t] >= kSeenPixels ? 1.0f : 0.0f;
-    }
-  }
+  if (object) background_maps(s, sum, weight, fsum, fweight, fine_w, a);  // (sum, weight: filled in place)
   return a;
 }
 

@@ -9,42 +9,26 @@
 
 namespace ptir {
 
-namespace {
-
-WalkStore* band_walks(const std::vector<WalkStore*>* walks, size_t band) {
-  return walks && band < walks->size() ? (*walks)[band] : nullptr;
-}
-
-}  // namespace
-
 Image render_path_ranks(const Communicator& comm, const PathTracer& tracer, const Camera& camera,
                         const IntegratorSettings& settings, const RenderControl& control,
-                        std::vector<std::vector<Vec3>>* cache, std::vector<std::vector<uint64_t>>* shadows,
-                        const std::vector<WalkStore*>* walks) {
-  const size_t n_bands = rank_row_bands(camera.height, comm).size();
-  if (cache) cache->assign(n_bands, {});
-  if (shadows) shadows->assign(n_bands, {});
+                        std::vector<ReplayCache>* cache) {
+  if (cache) cache->resize(rank_row_bands(camera.height, comm).size());
   return render_row_bands(comm, camera, [&](const Camera& band, size_t b) {
-    return render_path(tracer, band, settings, control, nullptr, cache ? &(*cache)[b] : nullptr, false, 0,
-                       shadows ? &(*shadows)[b] : nullptr, band_walks(walks, b));
+    return render_path(tracer, band, settings, control, nullptr, cache ? &(*cache)[b] : nullptr);
   });
 }
 
 void render_path_backward_ranks(const Communicator& comm, const PathTracer& tracer, const Camera& camera,
                                 const IntegratorSettings& settings, const Image& d_image, SceneGradients& grads,
-                                const RenderControl& control, const std::vector<std::vector<Vec3>>* cache,
-                                const std::vector<std::vector<uint64_t>>* shadows,
-                                const std::vector<WalkStore*>* walks) {
+                                const RenderControl& control, const std::vector<ReplayCache>* cache) {
   if (comm.size() == 1) {
-    render_path_backward(tracer, camera, settings, d_image, grads, control, cache ? &(*cache)[0] : nullptr, nullptr,
-                         shadows ? &(*shadows)[0] : nullptr, band_walks(walks, 0));
+    render_path_backward(tracer, camera, settings, d_image, grads, control, cache ? &(*cache)[0] : nullptr);
     return;
   }
   const std::vector<RowBand> bands = rank_row_bands(camera.height, comm);
   for (size_t b = 0; b < bands.size(); ++b)
     render_path_backward(tracer, band_camera(camera, bands[b]), settings, row_slice(d_image, bands[b]), grads, control,
-                         cache ? &(*cache)[b] : nullptr, nullptr, shadows ? &(*shadows)[b] : nullptr,
-                         band_walks(walks, b));
+                         cache ? &(*cache)[b] : nullptr);
 }
 
 void render_material_maps_ranks(const Communicator& comm, const SceneAccel& accel, const Camera& camera,

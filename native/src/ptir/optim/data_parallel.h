@@ -31,25 +31,24 @@
 #include "ptir/core/communicator.h"
 #include "ptir/render/aov.h"
 #include "ptir/render/material_maps.h"
+#include "ptir/render/replay_cache.h"
 #include "ptir/transport/gradients.h"
 #include "ptir/transport/path_tracer.h"
 
 namespace ptir {
 
-// render_path of the whole view on every rank; each rank renders its bands (and,
-// with `cache`, keeps their samples' radiance, one vector per band, for the replay;
-// likewise their shadow-ray outcomes and, into walks[band] (one store per band of
-// rank_row_bands, or fewer: none for the rest), their walks).
+// render_path of the whole view on every rank; each rank renders its bands and,
+// with `cache`, keeps what their replay reuses, one ReplayCache per band of
+// rank_row_bands (the vector is resized to them; an entry's walk store, when it
+// has one, is kept).
 Image render_path_ranks(const Communicator& comm, const PathTracer& tracer, const Camera& camera,
                         const IntegratorSettings& settings, const RenderControl& control,
-                        std::vector<std::vector<Vec3>>* cache, std::vector<std::vector<uint64_t>>* shadows = nullptr,
-                        const std::vector<WalkStore*>* walks = nullptr);
-// render_path_backward of this rank's bands of d_image (whole-image size); adds to grads.
+                        std::vector<ReplayCache>* cache);
+// render_path_backward of this rank's bands of d_image (whole-image size), reading
+// `cache` (what render_path_ranks kept, or null); adds to grads.
 void render_path_backward_ranks(const Communicator& comm, const PathTracer& tracer, const Camera& camera,
                                 const IntegratorSettings& settings, const Image& d_image, SceneGradients& grads,
-                                const RenderControl& control, const std::vector<std::vector<Vec3>>* cache,
-                                const std::vector<std::vector<uint64_t>>* shadows = nullptr,
-                                const std::vector<WalkStore*>* walks = nullptr);
+                                const RenderControl& control, const std::vector<ReplayCache>* cache);
 // render_material_maps (material_maps.h) of the whole view on every rank; on one
 // rank, `walks` (optional) keeps the walks for render_aov_backward_ranks (with
 // several ranks it is left empty, and the adjoint traces again).

@@ -1,4 +1,4 @@
-// The geometry stage (METHOD §9, the paper's stage 1): Adam on every Gaussian's
+// The geometry stage (docs/method.md §9, the paper's stage 1): Adam on every Gaussian's
 // position, log scale, rotation, opacity (logit) and SH radiance through our own
 // ray-traced compositing (render/splat_composite.h: the k-buffer walk and response
 // of rendering, gradients by a front-to-back replay), plus a free per-Gaussian

@@ -57,16 +57,16 @@ IterationEstimate estimate_iteration(const Optimizer& opt) {
   // (per-chunk gradient buffers sized by the scene, paid once per view), timed on a 1 x 1 window.
   auto timed_pair = [&](const Camera& cam, double* t_primal, double* t_replay) {
     // As the optimiser replays: from each sample's radiance, ray outcomes and walks.
-    std::vector<Vec3> cache;
-    std::vector<uint64_t> shadows;
     WalkStore walks(s.sample_cache_bytes);
+    ReplayCache cache;
+    cache.walks = &walks;
     auto t0 = std::chrono::steady_clock::now();
-    render_path(opt.tracer(), cam, is, {}, nullptr, &cache, false, 0, &shadows, &walks);
+    render_path(opt.tracer(), cam, is, {}, nullptr, &cache);
     *t_primal = seconds_of(t0);
     Image d(cam.width, cam.height, {"R", "G", "B"});
     std::fill(d.pixels.begin(), d.pixels.end(), 1e-3f);
     t0 = std::chrono::steady_clock::now();
-    render_path_backward(opt.tracer(), cam, is, d, grads, {}, &cache, nullptr, &shadows, &walks);
+    render_path_backward(opt.tracer(), cam, is, d, grads, {}, &cache);
     *t_replay = seconds_of(t0);
   };
   double p1 = 0.0, r1 = 0.0, pc = 0.0, rc = 0.0;

@@ -1,4 +1,4 @@
-// Image objectives of the inversion (METHOD §6) and their exact adjoints.
+// Image objectives of the inversion (docs/method.md §6) and their exact adjoints.
 //
 // Everything is computed in double on single-channel planes. Every linear filter
 // (the binomial blur, the SSIM Gaussian window) is a separable product of 1D

@@ -1,4 +1,4 @@
-// Image objectives of the inversion (METHOD §6), each returning its value and,
+// Image objectives of the inversion (docs/method.md §6), each returning its value and,
 // when asked, its gradient with respect to the prediction. Images are float RGB(A)
 // (only the first three channels are compared); `mask` (optional, 1 channel, or
 // the target's alpha) weights pixels, so only the object counts.
@@ -64,7 +64,7 @@ double ssim(const Image& a, const Image& b, const Image* mask = nullptr);
 Image binomial_filter(const Image& image);
 Image binomial_filter_adjoint(const Image& d_filtered);
 
-// Edge-aware total variation of a primary-hit material map (METHOD §6):
+// Edge-aware total variation of a primary-hit material map (docs/method.md §6):
 // sum over neighbouring pixel pairs of |map_p - map_q|^2 * exp(-|guide_p - guide_q|)
 // (guide: the ground-truth RGB image), averaged over masked pairs. d_map gets the gradient.
 double edge_aware_tv(const Image& map, const Image& guide, const Image* mask, Image* d_map);

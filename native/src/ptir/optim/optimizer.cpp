@@ -309,14 +309,12 @@ float Optimizer::loss_encode(float c) const { return settings_.srgb_loss ? srgb_
 float Optimizer::loss_encode_derivative(float c) const { return settings_.srgb_loss ? srgb_encode_derivative(c) : 1.0f; }
 
 // One primal render of a view at `is` and what its replay needs (each sample's
-// radiance and shadow-ray outcomes per row band, data_parallel.h, when they fit).
+// radiance, ray outcomes and walks per row band, data_parallel.h, when they fit).
 struct Optimizer::Primal {
   IntegratorSettings is;
   Image render;  // RGB exposed by the view's scale, A = coverage
   bool cache = false;
-  std::vector<std::vector<Vec3>> radiance;
-  std::vector<std::vector<uint64_t>> shadows;
-  std::vector<WalkStore*> walks;  // per band (Optimizer::walk_stores_)
+  std::vector<ReplayCache> bands;  // per band; walks in Optimizer::walk_stores_
 };
 
 Optimizer::Primal Optimizer::primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients,
@@ -332,13 +330,13 @@ Optimizer::Primal Optimizer::primal(const ViewWork& w, const IntegratorSettings&
     auto& stores = walk_stores_[size_t(part)];
     const size_t bands = rank_row_bands(w.cam.height, *comm_).size();
     while (stores.size() < bands) stores.push_back(std::make_unique<WalkStore>(0));
+    r.bands.resize(bands);
     for (size_t b = 0; b < bands; ++b) {
       stores[b]->set_budget((cache_bytes - sample_bytes) / bands);
-      r.walks.push_back(stores[b].get());
+      r.bands[b].walks = stores[b].get();
     }
   }
-  r.render = render_path_ranks(*comm_, *tracer_, w.cam, is, control, r.cache ? &r.radiance : nullptr,
-                               r.cache ? &r.shadows : nullptr, r.cache ? &r.walks : nullptr);
+  r.render = render_path_ranks(*comm_, *tracer_, w.cam, is, control, r.cache ? &r.bands : nullptr);
   ExposureGradients::expose(r.render, ExposureGradients::scale(params_, w.pick.view));  // the loss sees s_v x render
   log.primal_s += seconds_since(t0);
   log.primal_cpu_s += process_cpu_seconds() - c0;
@@ -424,8 +422,7 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
     }
     if (all_zero(d)) continue;
     const Primal& q = parts[i];
-    render_path_backward_ranks(*comm_, *tracer_, w.cam, q.is, d, grads_, control, q.cache ? &q.radiance : nullptr,
-                               q.cache ? &q.shadows : nullptr, q.cache ? &q.walks : nullptr);
+    render_path_backward_ranks(*comm_, *tracer_, w.cam, q.is, d, grads_, control, q.cache ? &q.bands : nullptr);
   }
   log.backward_s += seconds_since(t0);
   log.backward_cpu_s += process_cpu_seconds() - c0;

@@ -1,4 +1,4 @@
-// The inversion loop (METHOD §6): Adam on activated-parameterised materials and
+// The inversion loop (docs/method.md §6): Adam on activated-parameterised materials and
 // environment, gradients by path replay backpropagation.
 //
 // One iteration:
@@ -85,7 +85,7 @@ inline IntegratorSettings inversion_integrator() {
 }
 
 struct OptimizerSettings {
-  int iterations = 800;           // METHOD §6
+  int iterations = 800;           // docs/method.md §6
   // spp 32, 2 bounces (its seed is replaced per iteration); specular samples at least
   // half of the Principled BSDF's (measured on tests/blender's recovery scene, 200
   // iterations: glossy sphere roughness 0.63 with Cycles' lobe weights, 0.46 with this,

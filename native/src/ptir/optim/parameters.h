@@ -1,4 +1,4 @@
-// The optimised parameters of the inversion (METHOD §6), held raw (unconstrained)
+// The optimised parameters of the inversion (docs/method.md §6), held raw (unconstrained)
 // for Adam, and their activations into the scene the renderer reads:
 //
 //   Gaussian albedo     a = sigmoid(x)                    (3 per Gaussian)
@@ -41,7 +41,7 @@ inline float roughness_from_raw(float x) { return kRoughnessMin + kRoughnessRang
 float roughness_to_raw(float r);  // clamps r into the activation's open range
 
 struct ParameterSettings {
-  float init_albedo = 0.3f;     // METHOD §6
+  float init_albedo = 0.3f;     // docs/method.md §6
   // Start the Gaussians' albedo, roughness (and optimised metallic) from the field's
   // own values (a PLY that carries albedo_*, roughness, metallic: a previous result
   // to refine, or the true materials to test where the optimum lies) instead of

@@ -24,14 +24,17 @@ constexpr int kBatch = SceneAccel::kMaxPacket;
 }  // namespace
 
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
-                  const RenderControl& control, PathStats* stats, std::vector<Vec3>* sample_radiance,
-                  bool transparent_film, uint32_t first_sample, std::vector<uint64_t>* sample_shadows,
-                  WalkStore* sample_walks) {
+                  const RenderControl& control, PathStats* stats, ReplayCache* cache, bool transparent_film,
+                  uint32_t first_sample) {
   if (settings.spp < 1) throw Error("samples per pixel must be at least 1");
   if (settings.max_bounces < 0) throw Error("bounces must be at least 0");
   const PixelFilterSampler filter(settings.filter);
   Image image(camera.width, camera.height, {"R", "G", "B", "A"});
   const size_t pixels = size_t(camera.width) * size_t(camera.height);
+  std::vector<Vec3>* sample_radiance = cache && cache->keep_radiance ? &cache->radiance : nullptr;
+  std::vector<uint64_t>* sample_shadows = cache && cache->keep_shadows ? &cache->shadows : nullptr;
+  WalkStore* sample_walks = cache ? cache->walks : nullptr;
+  if (cache) cache->radiance.clear(), cache->shadows.clear();
   if (sample_radiance) sample_radiance->assign(pixels * size_t(settings.spp), Vec3(0.0f));
   if (sample_shadows) sample_shadows->assign(pixels * size_t(settings.spp), 0u);
   if (sample_walks) sample_walks->reset(pixels * size_t(settings.spp));
@@ -109,8 +112,7 @@ void set_film_alpha(Image& rgba, bool transparent_film, bool environment_seen) {
 
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control,
-                          const std::vector<Vec3>* sample_radiance, TileReduceStats* tile_stats,
-                          const std::vector<uint64_t>* sample_shadows, const WalkStore* sample_walks) {
+                          const ReplayCache* cache, TileReduceStats* tile_stats) {
   // Roulette's survival probability depends on the materials through beta: its
   // 1 / q has a derivative the replay (every sampling decision held fixed) omits.
   if (settings.russian_roulette)
@@ -119,6 +121,10 @@ void render_path_backward(const PathTracer& tracer, const Camera& camera, const 
   if (d_image.width != camera.width || d_image.height != camera.height || d_image.channels < 3)
     throw Error("image adjoint must be " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
                 " with at least 3 channels");
+  // The cache's parts (null: not kept).
+  const std::vector<Vec3>* sample_radiance = cache && !cache->radiance.empty() ? &cache->radiance : nullptr;
+  const std::vector<uint64_t>* sample_shadows = cache && !cache->shadows.empty() ? &cache->shadows : nullptr;
+  const WalkStore* sample_walks = cache ? cache->walks : nullptr;
   if (sample_radiance && sample_radiance->size() != size_t(camera.width) * camera.height * settings.spp)
     throw Error("stored sample radiance does not match the camera and sample count");
   if (sample_shadows && sample_shadows->size() != size_t(camera.width) * camera.height * settings.spp)

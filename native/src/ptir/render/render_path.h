@@ -6,6 +6,7 @@
 
 #include "ptir/core/render_control.h"
 #include "ptir/io/image.h"
+#include "ptir/render/replay_cache.h"
 #include "ptir/transport/gradients.h"
 #include "ptir/transport/path_tracer.h"
 
@@ -14,23 +15,17 @@ namespace ptir {
 struct TileReduceStats;
 
 // RGBA, linear radiance; A = fraction of samples whose camera ray found a surface.
-// When sample_radiance is given, it receives every sample's radiance
-// (width * height * spp, index (y * width + x) * spp + s) for a later
-// render_path_backward, which then skips recomputing them.
+// cache (optional): receives what the samples' replay reuses (replay_cache.h: each
+// sample's radiance, ray outcomes and, within the store's budget, walks) for a
+// later render_path_backward with the same camera and settings.
 // transparent_film (Cycles' Film > Transparent): samples whose camera ray finds no
 // surface add nothing to RGB, so RGB is premultiplied by the coverage A.
 // first_sample: the pixels' sample indices are first_sample .. first_sample + spp - 1
 // (a progressive render adds passes of the same sequence: the mean of passes
 // [0, a) and [a, b) weighted by their counts is the b-sample render, up to float rounding).
-// sample_shadows (same layout as sample_radiance, 8 bytes a sample) receives every
-// sample's shadow-ray outcomes, so that render_path_backward need not trace them again.
-// sample_walks (reset to one slot per sample) keeps, within its budget, the walks
-// of each sample's path that its replay would trace again (transport/walk_store.h).
 Image render_path(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
-                  const RenderControl& control = {}, PathStats* stats = nullptr,
-                  std::vector<Vec3>* sample_radiance = nullptr, bool transparent_film = false,
-                  uint32_t first_sample = 0, std::vector<uint64_t>* sample_shadows = nullptr,
-                  WalkStore* sample_walks = nullptr);
+                  const RenderControl& control = {}, PathStats* stats = nullptr, ReplayCache* cache = nullptr,
+                  bool transparent_film = false, uint32_t first_sample = 0);
 
 // The film's alpha as an image file holds it (docs/alpha.md: RGBA is associated,
 // RGB premultiplied by A). A transparent film's RGB is premultiplied by the
@@ -44,20 +39,17 @@ void set_film_alpha(Image& rgba, bool transparent_film, bool environment_seen);
 // >= 3 channels: the adjoint dLoss/dI of each pixel's RGB) is pushed through every
 // sample of every pixel with a non-zero adjoint, with the same random numbers as
 // render_path; parameter adjoints are ADDED to `grads` (sized by zeros_like).
-// Each sample's primal radiance is taken from `sample_radiance` (filled by
-// render_path with the same camera and settings) or recomputed just before its
-// replay; nothing per vertex is stored, so memory does not grow with bounces.
-// With `sample_shadows` (filled by the same render_path) the replay reads each
-// shadow ray's outcome instead of tracing it, and with `sample_walks` the kept
-// walks instead of walking them: the same decisions and floats, bit for bit.
+// What `cache` (filled by render_path with the same camera and settings) holds is
+// read instead of recomputed: each sample's primal radiance (else computed just
+// before its replay), its shadow-ray outcomes (else traced again) and its kept
+// walks (else walked again): the same decisions and floats, bit for bit. Nothing
+// per vertex is stored, so memory does not grow with bounces.
 // Pixels are replayed in fixed tiles (16 x 16 on large images), each into a sparse buffer of the
 // parameters it touched, added in tile order (render/tile_reduce.h): the result
 // is deterministic for a seed and the same on any thread count, and memory does
 // not grow with the thread count.
 void render_path_backward(const PathTracer& tracer, const Camera& camera, const IntegratorSettings& settings,
                           const Image& d_image, SceneGradients& grads, const RenderControl& control = {},
-                          const std::vector<Vec3>* sample_radiance = nullptr, TileReduceStats* tile_stats = nullptr,
-                          const std::vector<uint64_t>* sample_shadows = nullptr,
-                          const WalkStore* sample_walks = nullptr);
+                          const ReplayCache* cache = nullptr, TileReduceStats* tile_stats = nullptr);
 
 }  // namespace ptir

@@ -109,6 +109,115 @@ int sh_degree_from_rest(const PlyElement& v, const std::string& path) {
   return degree;
 }
 
+// Geometry with activations: exp scale, sigmoid opacity, normalised quaternion
+// (surfels: a 2DGS file's flat Gaussians, kSurfelThickness thick).
+void read_geometry(const PlyElement& v, bool surfels, const std::string& path, GaussianField& f) {
+  const size_t n = v.count;
+  const Column x(v, "x", path), y(v, "y", path), z(v, "z", path), op(v, "opacity", path);
+  const Column s[3] = {{v, "scale_0", path}, {v, "scale_1", path}, surfels ? Column() : Column(v, "scale_2", path)};
+  const Column q[4] = {{v, "rot_0", path}, {v, "rot_1", path}, {v, "rot_2", path}, {v, "rot_3", path}};
+  for (size_t i = 0; i < n; ++i) {
+    f.position[i] = Vec3(x(i), y(i), z(i));
+    f.opacity[i] = sigmoid(op(i));
+    for (int k = 0; k < (surfels ? 2 : 3); ++k) {
+      const float raw = s[k](i), e = std::exp(raw);
+      if (!std::isfinite(e))
+        throw Error(path, "property 'scale_" + std::to_string(k) + "' at vertex " + std::to_string(i) +
+                              " is too large: exp(" + std::to_string(raw) + ") overflows");
+      f.scale[i][k] = std::max(e, std::numeric_limits<float>::min());  // keeps 1/scale finite
+    }
+    if (surfels) f.scale[i][2] = kSurfelThickness * std::min(f.scale[i][0], f.scale[i][1]);
+    double qd[4], len2 = 0;
+    for (int k = 0; k < 4; ++k) {
+      qd[k] = q[k](i);
+      len2 += qd[k] * qd[k];
+    }
+    if (len2 == 0.0)
+      throw Error(path, "zero-length rotation quaternion (rot_0..rot_3 all zero) at vertex " + std::to_string(i));
+    const double inv = 1.0 / std::sqrt(len2);
+    for (int k = 0; k < 4; ++k) f.rotation[i][k] = static_cast<float>(qd[k] * inv);
+  }
+}
+
+// SH: sh[i*stride + k*3 + c]; the file stores f_rest channel-major, f_rest_[c*K + (k-1)].
+// Filled in blocks of Gaussians so the strided writes stay in cache.
+void read_sh(const PlyElement& v, bool has_dc, const std::string& path, GaussianField& f) {
+  const size_t n = v.count;
+  const size_t stride = static_cast<size_t>(f.sh_stride());
+  const size_t K = stride / 3 - 1;
+  std::vector<Column> src(stride);  // src[k*3 + c]; empty for a missing DC
+  for (size_t c = 0; c < 3; ++c) {
+    if (has_dc) src[c] = Column(v, "f_dc_" + std::to_string(c), path);
+    for (size_t k = 1; k <= K; ++k) src[k * 3 + c] = Column(v, "f_rest_" + std::to_string(c * K + (k - 1)), path);
+  }
+  f.sh.assign(n * stride, 0.0f);
+  constexpr size_t kBlock = 1024;
+  for (size_t i0 = 0; i0 < n; i0 += kBlock) {
+    const size_t i1 = std::min(n, i0 + kBlock);
+    for (size_t j = 0; j < stride; ++j) {
+      if (!src[j]) continue;
+      float* dst = f.sh.data() + j;
+      for (size_t i = i0; i < i1; ++i) dst[i * stride] = src[j](i);
+    }
+  }
+}
+
+// Material: albedo, roughness, metallic (defaults when absent), and the fixed
+// Principled inputs, only when the file has them (else Blender's defaults).
+void read_material(const PlyElement& v, const std::string& path, GaussianField& f) {
+  const size_t n = v.count;
+  f.albedo.assign(n, Vec3(kDefaultAlbedo));
+  if (optional_group(v, numbered("albedo_", 3), path)) {
+    const Column a[3] = {{v, "albedo_0", path}, {v, "albedo_1", path}, {v, "albedo_2", path}};
+    for (size_t i = 0; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) check_material_value(a[c](i), path, "albedo_" + std::to_string(c), i);
+      f.albedo[i] = Vec3(a[0](i), a[1](i), a[2](i));
+    }
+  }
+  f.roughness.assign(n, kDefaultRoughness);
+  if (v.get("roughness")) {
+    const Column r(v, "roughness", path);
+    for (size_t i = 0; i < n; ++i) check_material_value(f.roughness[i] = r(i), path, "roughness", i);
+  }
+  f.metallic.assign(n, kDefaultMetallic);
+  if (v.get("metallic")) {
+    const Column m(v, "metallic", path);
+    for (size_t i = 0; i < n; ++i) check_material_value(f.metallic[i] = m(i), path, "metallic", i);
+  }
+  f.specular.clear();
+  f.specular_tint.clear();
+  if (v.get("specular")) {
+    const Column s(v, "specular", path);
+    f.specular.resize(n);
+    for (size_t i = 0; i < n; ++i) f.specular[i] = s(i);
+  }
+  if (v.get("specular_tint")) {
+    const Column t(v, "specular_tint", path);
+    f.specular_tint.resize(n);
+    for (size_t i = 0; i < n; ++i) f.specular_tint[i] = t(i);
+  }
+}
+
+// Normals: from nx,ny,nz where non-zero, else the shortest axis.
+void read_normals(const PlyElement& v, const std::string& path, GaussianField& f) {
+  const size_t n = v.count;
+  init_normals_shortest_axis(f);
+  f.normals_from_file = false;
+  if (optional_group(v, {"nx", "ny", "nz"}, path)) {
+    const Column c[3] = {{v, "nx", path}, {v, "ny", path}, {v, "nz", path}};
+    bool all = true;
+    for (size_t i = 0; i < n; ++i) {
+      const Vec3 nrm(c[0](i), c[1](i), c[2](i));
+      const float len = length(nrm);
+      if (len > 0.0f && std::isfinite(len))
+        f.normal[i] = nrm / len;
+      else
+        all = false;
+    }
+    f.normals_from_file = all;
+  }
+}
+
 }  // namespace
 
 GaussianField gaussians_from_ply(io::PlyFile ply, const std::string& path) {
@@ -134,108 +243,12 @@ GaussianField gaussians_from_ply(io::PlyFile ply, const std::string& path) {
   f.scale.resize(n);
   f.rotation.resize(n);
   f.opacity.resize(n);
-
-  // Geometry with activations: exp scale, sigmoid opacity, normalised quaternion.
-  {
-    const Column x(v, "x", path), y(v, "y", path), z(v, "z", path), op(v, "opacity", path);
-    const Column s[3] = {{v, "scale_0", path}, {v, "scale_1", path}, surfels ? Column() : Column(v, "scale_2", path)};
-    const Column q[4] = {{v, "rot_0", path}, {v, "rot_1", path}, {v, "rot_2", path}, {v, "rot_3", path}};
-    for (size_t i = 0; i < n; ++i) {
-      f.position[i] = Vec3(x(i), y(i), z(i));
-      f.opacity[i] = sigmoid(op(i));
-      for (int k = 0; k < (surfels ? 2 : 3); ++k) {
-        const float raw = s[k](i), e = std::exp(raw);
-        if (!std::isfinite(e))
-          throw Error(path, "property 'scale_" + std::to_string(k) + "' at vertex " + std::to_string(i) +
-                                " is too large: exp(" + std::to_string(raw) + ") overflows");
-        f.scale[i][k] = std::max(e, std::numeric_limits<float>::min());  // keeps 1/scale finite
-      }
-      if (surfels) f.scale[i][2] = kSurfelThickness * std::min(f.scale[i][0], f.scale[i][1]);
-      double qd[4], len2 = 0;
-      for (int k = 0; k < 4; ++k) {
-        qd[k] = q[k](i);
-        len2 += qd[k] * qd[k];
-      }
-      if (len2 == 0.0)
-        throw Error(path, "zero-length rotation quaternion (rot_0..rot_3 all zero) at vertex " + std::to_string(i));
-      const double inv = 1.0 / std::sqrt(len2);
-      for (int k = 0; k < 4; ++k) f.rotation[i][k] = static_cast<float>(qd[k] * inv);
-    }
-  }
-
-  // SH: sh[i*stride + k*3 + c]; the file stores f_rest channel-major, f_rest_[c*K + (k-1)].
-  // Filled in blocks of Gaussians so the strided writes stay in cache.
+  read_geometry(v, surfels, path, f);
   f.sh_degree = sh_degree_from_rest(v, path);
   const bool has_dc = optional_group(v, numbered("f_dc_", 3), path);
-  {
-    const size_t stride = static_cast<size_t>(f.sh_stride());
-    const size_t K = stride / 3 - 1;
-    std::vector<Column> src(stride);  // src[k*3 + c]; empty for a missing DC
-    for (size_t c = 0; c < 3; ++c) {
-      if (has_dc) src[c] = Column(v, "f_dc_" + std::to_string(c), path);
-      for (size_t k = 1; k <= K; ++k) src[k * 3 + c] = Column(v, "f_rest_" + std::to_string(c * K + (k - 1)), path);
-    }
-    f.sh.assign(n * stride, 0.0f);
-    constexpr size_t kBlock = 1024;
-    for (size_t i0 = 0; i0 < n; i0 += kBlock) {
-      const size_t i1 = std::min(n, i0 + kBlock);
-      for (size_t j = 0; j < stride; ++j) {
-        if (!src[j]) continue;
-        float* dst = f.sh.data() + j;
-        for (size_t i = i0; i < i1; ++i) dst[i * stride] = src[j](i);
-      }
-    }
-  }
-
-  // Material: albedo, roughness, metallic (defaults when absent).
-  f.albedo.assign(n, Vec3(kDefaultAlbedo));
-  if (optional_group(v, numbered("albedo_", 3), path)) {
-    const Column a[3] = {{v, "albedo_0", path}, {v, "albedo_1", path}, {v, "albedo_2", path}};
-    for (size_t i = 0; i < n; ++i) {
-      for (int c = 0; c < 3; ++c) check_material_value(a[c](i), path, "albedo_" + std::to_string(c), i);
-      f.albedo[i] = Vec3(a[0](i), a[1](i), a[2](i));
-    }
-  }
-  f.roughness.assign(n, kDefaultRoughness);
-  if (v.get("roughness")) {
-    const Column r(v, "roughness", path);
-    for (size_t i = 0; i < n; ++i) check_material_value(f.roughness[i] = r(i), path, "roughness", i);
-  }
-  f.metallic.assign(n, kDefaultMetallic);
-  if (v.get("metallic")) {
-    const Column m(v, "metallic", path);
-    for (size_t i = 0; i < n; ++i) check_material_value(f.metallic[i] = m(i), path, "metallic", i);
-  }
-  // Fixed Principled inputs, only when the file has them (else Blender's defaults).
-  f.specular.clear();
-  f.specular_tint.clear();
-  if (v.get("specular")) {
-    const Column s(v, "specular", path);
-    f.specular.resize(n);
-    for (size_t i = 0; i < n; ++i) f.specular[i] = s(i);
-  }
-  if (v.get("specular_tint")) {
-    const Column t(v, "specular_tint", path);
-    f.specular_tint.resize(n);
-    for (size_t i = 0; i < n; ++i) f.specular_tint[i] = t(i);
-  }
-
-  // Normals: from nx,ny,nz where non-zero, else the shortest axis.
-  init_normals_shortest_axis(f);
-  f.normals_from_file = false;
-  if (optional_group(v, {"nx", "ny", "nz"}, path)) {
-    const Column c[3] = {{v, "nx", path}, {v, "ny", path}, {v, "nz", path}};
-    bool all = true;
-    for (size_t i = 0; i < n; ++i) {
-      const Vec3 nrm(c[0](i), c[1](i), c[2](i));
-      const float len = length(nrm);
-      if (len > 0.0f && std::isfinite(len))
-        f.normal[i] = nrm / len;
-      else
-        all = false;
-    }
-    f.normals_from_file = all;
-  }
+  read_sh(v, has_dc, path, f);
+  read_material(v, path, f);
+  read_normals(v, path, f);
 
   f.source = std::move(ply);
   f.source_path = path;

@@ -17,7 +17,7 @@
 
 namespace ptir {
 
-// Material values a Gaussian gets when its PLY has none (METHOD §6 initialisation).
+// Material values a Gaussian gets when its PLY has none (docs/method.md §6 initialisation).
 constexpr float kDefaultAlbedo = 0.3f;
 constexpr float kDefaultRoughness = 0.6f;
 constexpr float kDefaultMetallic = 0.0f;

@@ -1,4 +1,4 @@
-// The equivalent surface interaction of a ray with the Gaussian field (METHOD §3).
+// The equivalent surface interaction of a ray with the Gaussian field (docs/method.md §3).
 //
 // Hits arrive in t_peak order. With T_i the transmittance in front of hit i and
 // alpha_i its opacity, the accumulated weight is O = sum T_i alpha_i and the

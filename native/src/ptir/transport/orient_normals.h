@@ -1,4 +1,4 @@
-// Orienting initial normals toward the cameras that see them (METHOD §1).
+// Orienting initial normals toward the cameras that see them (docs/method.md §1).
 //
 // A trainer's PLY has no normals; the shortest axis is a good normal up to its
 // sign. Each camera traces primary rays and every Gaussian of the first surface

@@ -19,28 +19,27 @@ namespace ptir {
 
 class PathRecord {
  public:
-  // Primal (adjoint null): records into shadow_bits (the ray outcomes) and walks
-  // (what the replay needs; none when the camera ray's event is given without its
-  // walk). Replay: reads the adjoint's outcomes and walks. `first`: the camera
-  // ray's event, already found in a packet, with its Gaussians (replay) or its walk
-  // (primal).
-  PathRecord(const PathAdjoint* adjoint, uint64_t* shadow_bits, PathWalkWriter* walks, const NextEvent* first,
-             const std::vector<WeightedHit>* first_hits, const WalkCapture* first_walk)
+  // Primal (adjoint null): records into io.shadow_bits (the ray outcomes) and
+  // io.walks (what the replay needs; none when the camera ray's event is given
+  // without its walk). Replay: reads the adjoint's outcomes and walks. io.first:
+  // the camera ray's event, already found in a packet, with its Gaussians (replay)
+  // or its walk (primal).
+  PathRecord(const PathAdjoint* adjoint, const PathRecordIO& io)
       : replay_(adjoint != nullptr),
-        shadow_bits_(adjoint ? nullptr : shadow_bits),
-        walks_out_(adjoint || (first && !first_walk) ? nullptr : walks),
+        shadow_bits_(adjoint ? nullptr : io.shadow_bits),
+        walks_out_(adjoint || (io.first && !io.first_walk) ? nullptr : io.walks),
         walks_in_(adjoint ? adjoint->walks : PathWalkReader()),
-        first_(first),
-        first_hits_(first_hits),
-        first_walk_(first_walk),
+        first_(io.first),
+        first_hits_(io.first_hits),
+        first_walk_(io.first_walk),
         vertex_hits_(thread_vertex_hits()),
         walk_(thread_walk()) {
-    if (walks) walks->clear();  // (empty: nothing kept)
+    if (io.walks) io.walks->clear();  // (empty: nothing kept)
     if (adjoint && adjoint->shadow_bits) {
       outcomes_.bits = *adjoint->shadow_bits;
       outcomes_.replay = true;
       shadows_ = &outcomes_;
-    } else if (!adjoint && shadow_bits) {
+    } else if (!adjoint && io.shadow_bits) {
       shadows_ = &outcomes_;
     }
   }

@@ -1,4 +1,4 @@
-// The path tracer over Gaussians and meshes (METHOD §4): equivalent surface
+// The path tracer over Gaussians and meshes (docs/method.md §4): equivalent surface
 // interactions, the simplified Disney BRDF, next-event estimation of every light
 // with MIS (power heuristic) against BRDF sampling at every vertex, stochastic
 // transmittance shadow rays through the Gaussians, the chi_pass continuation
@@ -35,6 +35,19 @@ struct PathAdjoint {
   PathWalkReader walks{};
 };
 
+// One path's share of the replay cache (render/replay_cache.h), as PathRecord
+// (path_record.h) takes it: where the primal keeps what its replay reuses, and
+// the camera ray's event when a packet already found it. All optional.
+struct PathRecordIO {
+  uint64_t* shadow_bits = nullptr;   // primal: the ray outcomes
+  PathWalkWriter* walks = nullptr;   // primal: the walks the replay needs
+  // The camera ray's event, already found (camera_events), with its Gaussians
+  // (replay) or its walk (primal recording walks).
+  const NextEvent* first = nullptr;
+  const std::vector<WeightedHit>* first_hits = nullptr;
+  const WalkCapture* first_walk = nullptr;
+};
+
 struct PathStats {
   uint64_t paths = 0;
   uint64_t vertices = 0;     // surface interactions shaded
@@ -52,7 +65,7 @@ class PathTracer {
   Vec3 sample_radiance(const Ray& camera_ray, uint64_t pixel, uint32_t sample, const IntegratorSettings& settings,
                        float* coverage = nullptr, PathStats* stats = nullptr, uint64_t* shadow_bits = nullptr) const;
 
-  // Path replay backpropagation of one sample (METHOD §6): replays the path with
+  // Path replay backpropagation of one sample (docs/method.md §6): replays the path with
   // the same random numbers, starting from the primal radiance adjoint.L and
   // subtracting every contribution as it is passed, and accumulates the adjoints
   // of the materials met (redistributed to the contributing Gaussians with their
@@ -86,13 +99,7 @@ class PathTracer {
   struct TraceIO {
     float* coverage = nullptr;
     PathStats* stats = nullptr;
-    uint64_t* shadow_bits = nullptr;   // primal: the ray outcomes
-    PathWalkWriter* walks = nullptr;   // primal: the walks the replay needs
-    // The camera ray's event, already found (camera_events), with its Gaussians
-    // (replay) or its walk (primal recording walks).
-    const NextEvent* first = nullptr;
-    const std::vector<WeightedHit>* first_hits = nullptr;
-    const WalkCapture* first_walk = nullptr;
+    PathRecordIO record;  // the primal's share of the replay cache; the camera ray's event
   };
   // The path in either mode: primal (adjoint == nullptr) returns L; replay
   // accumulates gradients (one routine, so the two can never disagree).

@@ -33,7 +33,7 @@ struct LightSampleLog {
   PathWalkReader* in = nullptr;   // replay: read
 };
 
-// Adjoint inputs of direct_light during gradient replay (METHOD §6): the path
+// Adjoint inputs of direct_light during gradient replay (docs/method.md §6): the path
 // throughput beta and the adjoint dL of the sample's radiance. Light sampling
 // densities and MIS weights are held fixed.
 struct DirectAdjoint {
@@ -123,7 +123,7 @@ class Scatterer {
   Scatterer(const Scene& scene, const SceneAccel& accel, const IntegratorSettings& settings, float mesh_epsilon,
             const Vec3* field_radiance = nullptr);
 
-  // Walks `ray` and classifies what it meets (METHOD §3–4): a valid Gaussian
+  // Walks `ray` and classifies what it meets (docs/method.md §3–4): a valid Gaussian
   // interaction; else, with probability T_ray, what lies behind (mesh or escape);
   // else the path is absorbed.
   // With `record`, the Gaussians composited are appended with their weights.
