@@ -262,9 +262,9 @@ def write_rgbe_texels(path, width, height, texel):
     """A flat Radiance .hdr whose texel (col, row) -- row 0 = the file's top row -- is texel(col, row)
     (linear RGB), written by the add-on's RGBE writer. (Blender 3.4's Image.save() would write a
     generated float image display-encoded.)"""
-    from ptir_blender.blender import scene_export
+    from ptir_blender.io import hdr_file
     rgb = np.array([[texel(col, row) for col in range(width)] for row in range(height)], np.float64)
-    return scene_export.write_rgbe(path, rgb)
+    return hdr_file.write_rgbe(path, rgb)
 
 
 # ---------------------------------------------------------------- Cycles
