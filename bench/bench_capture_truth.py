@@ -43,13 +43,18 @@ sys.path.insert(0, str(BUILD / "python"))
 import family_def  # noqa: E402
 import make_family  # noqa: E402
 
-# (key, what it is, dataset: "nerf" | "room" | "room_masked", extra optimize flags)
+# (key, what it is, dataset: "nerf" | "room" | "room_masked", extra optimize flags; {proxy}: the set's
+# capture/room/true_room.json)
 VARIANTS = [
     ("nerf", "masked NeRF set, transparent film (today's synthetic path: the reference)", "nerf", []),
     ("room_true_masks", "room photos with the object's true masks (no capture stage)", "room_masked", []),
     ("room", "room capture: coverage masks, background starts the environment, learnt (default)", "room", []),
     ("room_fix_env", "room capture, --fix-env-seen", "room", ["--fix-env-seen"]),
     ("room_scene", "room capture, --subject scene (no mask)", "room", ["--subject", "scene"]),
+    # A perfect floor-and-walls proxy (the true room as meshes with their true materials, --scene): what
+    # building one could win at most.
+    ("room_true_masks_proxy", "room photos, true masks, the true room as --scene", "room_masked", ["--scene", "{proxy}"]),
+    ("room_proxy", "room capture (default) with the true room as --scene", "room", ["--scene", "{proxy}"]),
 ]
 
 
@@ -180,6 +185,7 @@ def held_out(data, out, splat, spp=16):
 def run_variant(key, kind, extra, data, work, splat, a, fit_iters=0):
     """One `ptir optimize` run scored every way; its row."""
     out = Path(work) / key
+    extra = [e.format(proxy=Path(data) / "capture" / "room" / "true_room.json") for e in extra]
     secs = optimize(dataset_of(kind, data, work), splat, out, extra, a.iters, a.spp, fit_iters, a.seed, a.threads)
     m = evaluate(data, out, a.eval_spp, a.threads)
     row = {"variant": key, "seconds": secs, "albedo_psnr": m["albedo_psnr"], "albedo_scale": m["albedo_scale"],
@@ -189,10 +195,28 @@ def run_variant(key, kind, extra, data, work, splat, a, fit_iters=0):
     return row
 
 
+def gain_checks(data, work, splat, threads=0):
+    """The capture stage's exposures alone (a 1-iteration run): with EXIF ignored (the per-photo gains
+    must find the brackets themselves), and with the maker's splat, whose colour is its albedo and not
+    the photos' radiance. {case: capture_decision}."""
+    out = {}
+    for key, ply, extra in (("gains_without_exif", splat, ["--ignore-exif"]),
+                            ("gains_albedo_coloured_splat", Path(data) / "gaussians.ply", [])):
+        o = Path(work) / key
+        optimize(dataset_of("room", data, work), ply, o, extra, iters=1, spp=1, threads=threads)
+        out[key] = capture_decision(data, o)
+        print("%s: worst exposure error %.1f %% (x0.5/x2 photos %.1f %%), EXIF %s" % (
+            key, 100 * out[key]["gain_error_all"], 100 * out[key]["gain_error_bracketed"],
+            "applied" if out[key]["exif_applied"] else "not applied"), flush=True)
+    return out
+
+
 def table(rows):
     lines = ["| member | run | subject | mask IoU | gains x0.5/x2 (worst error) | albedo sRGB PSNR (dB) | "
              "scale GT/ours (R, G, B) | held-out object / frame (dB) |", "|---|---|---|---:|---:|---:|---|---:|"]
     for r in rows:
+        if "checks" in r:
+            continue
         d = r["decision"]
         lines.append("| %s | %s | %s | %s | %s | %.2f | %s | %.2f / %.2f |" % (
             r["member"], r["variant"], d["subject"] if d else "(masks given)", "%.3f" % d["mask_iou"] if d else "–",
@@ -212,6 +236,7 @@ def main():
     ap.add_argument("--user-iters", type=int, default=1500, help="the user splat's SH refit iterations")
     ap.add_argument("--only", default="", help="comma-separated variants (default: all)")
     ap.add_argument("--geometry", action="store_true", help="also the default capture run with the geometry stage")
+    ap.add_argument("--gain-checks", action="store_true", help="also the exposures without EXIF and with an albedo-coloured splat")
     ap.add_argument("--threads", type=int, default=0)
     ap.add_argument("--out", default=str(REPO / "out" / "capture_truth"))
     ap.add_argument("--json")
@@ -225,6 +250,8 @@ def main():
         for key, _, kind, extra in VARIANTS:
             if not a.only or key in a.only.split(","):
                 rows.append(dict(run_variant(key, kind, extra, data, work, splat, a), member=name))
+        if a.gain_checks:
+            rows.append({"member": name, "variant": "gain_checks", "checks": gain_checks(data, work, splat, a.threads)})
         if a.geometry:  # the default capture run with the geometry stage at its default
             rows.append(dict(run_variant("room_geometry", "room", [], data, work, splat, a, fit_iters=None), member=name))
     print(table(rows))

@@ -416,7 +416,7 @@ def main():
         photos, floor_z, floor_half = room_photos
         record = dict(meta, cycles=dict(meta["cycles"], film="opaque (floor and walls in view)"))
         folder = room.write_capture(os.path.join(out, "capture", "room"), photos, intrinsics, a.res,
-                                    room.sparse_points(g["position"], floor_z, floor_half), record)
+                                    room.sparse_points(g["position"], floor_z, floor_half), record, floor_z)
         log("room capture: %d photos -> %s" % (len(photos), folder))
     log("%d Gaussians, %d train + %d test views (%dx%d, %d spp, %d bounces), envs %s; %d renders in %.1f s, total %.1f s -> %s"
         % (len(g["position"]), a.train, a.test, a.res, a.res, a.spp, a.bounces, ",".join(env_files), n_renders,

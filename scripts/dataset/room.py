@@ -14,6 +14,9 @@ other exposures.
                                                             set's transparent render of the same view): for
                                                             scoring, and for standing in for the user's trainer
     DIR/capture/room/dataset.json                            the set's record (surface model, filter)
+    DIR/capture/room/true_room.json                          the floor and walls as a scene file (meshes with
+                                                            their true materials: docs/scene_format.md), for
+                                                            `ptir optimize --scene`: a perfect proxy
 
 The photos are the set's training views plus, at every 8th position, some of its test views
 (capture.holdout_plan, as scripts/nerf_to_colmap.py): `--holdout 8` trains on exactly the set's training views and
@@ -28,11 +31,9 @@ import shutil
 import subprocess
 from pathlib import Path
 
-import bpy
 import numpy as np
 
 from . import capture, layouts, png
-from . import scene as dscene
 
 # Floor: a square this wide under the object; the walls stand on it at +x and +y, this far from
 # the centre (outside every camera: the maker's cameras are 4 from the origin), this high.
@@ -48,6 +49,7 @@ JPEG_QUALITY = 90
 
 
 def _plane(name, mat, size, location, rotation):
+    import bpy  # (here: the rest of this file also runs outside Blender, in the benches)
     bpy.ops.mesh.primitive_plane_add(size=1.0, location=location, rotation=rotation)
     obj = bpy.context.active_object
     obj.name = name
@@ -61,6 +63,7 @@ def _plane(name, mat, size, location, rotation):
 def build_room(objs):
     """The floor at the object's lowest point and two walls behind it: (the objects, the floor's
     height, its half width)."""
+    from . import scene as dscene  # (Blender's side, as _plane)
     z0 = float(dscene.world_points(objs)[:, 2].min())
     floor_mat = dscene.principled_material("room_floor", *FLOOR)
     wall_mat = dscene.principled_material("room_wall", *WALL)
@@ -101,7 +104,26 @@ def sparse_points(splat_positions, floor_z, floor_half, seed=0, n_object=2000, n
     return [(i + 1, p, c, 0.5, []) for i, (p, c) in enumerate(zip(pts, rgb))]
 
 
-def write_capture(out, photos, intrinsics, res, points, record):
+def quad(corner, u, v):
+    """(vertices, triangles) of the parallelogram corner, corner + u, corner + u + v, corner + v."""
+    c, u, v = (np.asarray(x, np.float64) for x in (corner, u, v))
+    return [list(map(float, p)) for p in (c, c + u, c + u + v, c + v)], [[0, 1, 2], [0, 2, 3]]
+
+
+def room_scene(floor_z, brdf):
+    """The floor and walls build_room makes, as a scene file's meshes (docs/scene_format.md)."""
+    h, d, z1 = 0.5 * FLOOR_SIZE, WALL_DISTANCE, floor_z + WALL_HEIGHT
+    parts = [("room_floor", FLOOR, quad((-h, -h, floor_z), (2 * h, 0, 0), (0, 2 * h, 0))),
+             ("room_wall_y", WALL, quad((-h, d, floor_z), (2 * h, 0, 0), (0, 0, z1 - floor_z))),
+             ("room_wall_x", WALL, quad((d, -h, floor_z), (0, 2 * h, 0), (0, 0, z1 - floor_z)))]
+    return {"version": 1, "brdf": brdf,
+            "comment": "the capture's floor and walls with their true materials (scripts/dataset/room.py)",
+            "meshes": [{"name": name, "vertices": vs, "triangles": ts,
+                        "material": {"base_color": list(mat[0]), "roughness": mat[1], "metallic": 0.0}}
+                       for name, mat, (vs, ts) in parts]}
+
+
+def write_capture(out, photos, intrinsics, res, points, record, floor_z):
     """photos: [(name, c2w, linear rgb, the object's coverage)] in plan order. Returns the folder."""
     root = Path(out)
     shutil.rmtree(root, ignore_errors=True)
@@ -120,8 +142,9 @@ def write_capture(out, photos, intrinsics, res, points, record):
     (root / "exposures.json").write_text(json.dumps(
         {"relative_exposure": truth, "exif_base": {"ExposureTime": BASE_EXIF[0], "FNumber": BASE_EXIF[1],
                                                    "ISO": BASE_EXIF[2]},
-         "room": {"floor": {"base_color": FLOOR[0], "roughness": FLOOR[1], "size": FLOOR_SIZE},
+         "room": {"floor_z": floor_z, "floor": {"base_color": FLOOR[0], "roughness": FLOOR[1], "size": FLOOR_SIZE},
                   "walls": {"base_color": WALL[0], "roughness": WALL[1], "distance": WALL_DISTANCE,
                             "height": WALL_HEIGHT}}}, indent=1) + "\n")
     (root / "dataset.json").write_text(json.dumps(record, indent=1) + "\n")
+    (root / "true_room.json").write_text(json.dumps(room_scene(floor_z, record["ptir_brdf"]), indent=1) + "\n")
     return root
