@@ -184,7 +184,7 @@ def held_out(data, out, splat, spp=16):
 
 def run_variant(key, kind, extra, data, work, splat, a, fit_iters=0):
     """One `ptir optimize` run scored every way; its row."""
-    out = Path(work) / key
+    out = Path(work) / (key if not a.seed else "seed%d_%s" % (a.seed, key))
     extra = [e.format(proxy=Path(data) / "capture" / "room" / "true_room.json") for e in extra]
     secs = optimize(dataset_of(kind, data, work), splat, out, extra, a.iters, a.spp, fit_iters, a.seed, a.threads)
     m = evaluate(data, out, a.eval_spp, a.threads)
