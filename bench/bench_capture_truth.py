@@ -227,19 +227,18 @@ def table(rows):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--members", default="02_facets")
-    ap.add_argument("--res", type=int, default=128)
-    ap.add_argument("--iters", type=int, default=250)
-    ap.add_argument("--spp", type=int, default=4)
-    ap.add_argument("--eval-spp", type=int, default=16)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--user-iters", type=int, default=1500, help="the user splat's SH refit iterations")
+    # The sizes: the set's resolution, the inversion's iterations and spp, the evaluation's spp, the
+    # user splat's SH refit iterations, threads of Cycles and ptir (0: all).
+    for flag, default in (("--res", 128), ("--iters", 250), ("--spp", 4), ("--eval-spp", 16), ("--seed", 0),
+                          ("--user-iters", 1500), ("--threads", 0)):
+        ap.add_argument(flag, type=int, default=default)
+    ap.add_argument("--members", default="02_facets", help="comma-separated family members")
     ap.add_argument("--only", default="", help="comma-separated variants (default: all)")
     ap.add_argument("--geometry", action="store_true", help="also the default capture run with the geometry stage")
-    ap.add_argument("--gain-checks", action="store_true", help="also the exposures without EXIF and with an albedo-coloured splat")
-    ap.add_argument("--threads", type=int, default=0)
-    ap.add_argument("--out", default=str(REPO / "out" / "capture_truth"))
-    ap.add_argument("--json")
+    ap.add_argument("--gain-checks", action="store_true",
+                    help="also the exposures without EXIF and with an albedo-coloured splat")
+    ap.add_argument("--out", default=str(REPO / "out" / "capture_truth"), help="sets and runs (kept between calls)")
+    ap.add_argument("--json", help="also write the rows here")
     a = ap.parse_args()
     rows = []
     for name in a.members.split(","):
