@@ -115,6 +115,9 @@ def parse_args():
         p.error("--env-size must be WxH, e.g. 128x64")
     if min(a.res, a.train, a.spp, a.env_w, a.env_h) < 1 or a.test < 1 or a.bounces < 0:
         p.error("sizes and counts must be positive")
+    if a.capture_room and a.test < -(-a.train // 7):
+        p.error("--capture-room holds out every 8th photo, one of the test views: %d training views need --test %d "
+                "or more" % (a.train, -(-a.train // 7)))
     return a
 
 
@@ -333,7 +336,7 @@ def main():
     intrinsics = (f, f, 0.5 * a.res, 0.5 * a.res)
     train_env_map = envmaps.make_envmap(a.train_env, a.env_w, a.env_h)
     capture_views = []
-    coverage = {}  # (split, view) -> the object's alpha under the training environment (the room photos' true masks)
+    coverage = {}  # view name ("train_003") -> the object's alpha under the training environment (the room's true masks)
     for env, split in jobs:
         kit.set_environment(scene, env_files[env])
         for i, m in enumerate(poses[split]):
