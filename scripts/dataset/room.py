@@ -19,8 +19,8 @@ other exposures.
                                                             `ptir optimize --scene`: a perfect proxy
 
 The photos are the set's training views plus, at every 8th position, some of its test views
-(capture.holdout_plan, as scripts/nerf_to_colmap.py): `--holdout 8` trains on exactly the set's training views and
-holds out views whose ground truth the set has. No masks: finding the object is the capture
+(capture.holdout_plan, as scripts/nerf_to_colmap.py): `--holdout 8` trains on exactly the set's
+training views and holds out views whose ground truth the set has. No masks: finding the object is the capture
 stage's job. The floor and the walls are not in the set's gaussians.ply: that is the user's
 cleaned object splat.
 """
@@ -49,7 +49,7 @@ JPEG_QUALITY = 90
 
 
 def _plane(name, mat, size, location, rotation):
-    import bpy  # (here: the rest of this file also runs outside Blender, in the benches)
+    import bpy  # (here: the rest of this file is plain numpy and imports outside Blender)
     bpy.ops.mesh.primitive_plane_add(size=1.0, location=location, rotation=rotation)
     obj = bpy.context.active_object
     obj.name = name
