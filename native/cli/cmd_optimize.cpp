@@ -2,7 +2,7 @@
 // posed images (docs/method.md §6; src/ptir/optim/optimizer.h).
 //
 //   ptir optimize --dataset DIR [--gaussians IN.ply] [--scene scene.json] --out OUT
-//       [--fit-iters 1500] [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color] [--seed S] [--resume]
+//       [--fit-iters 1500] [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color|none] [--seed S] [--resume]
 //       [--layout L] [--images images_4] [--holdout 8 | --test-list F] [--undistort-cache D]
 //       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
@@ -41,7 +41,9 @@
 // --scene adds the scene file's meshes and lights (its Gaussians must be given
 // with --gaussians instead; its environment is replaced by the recovered one; its
 // interaction settings are used, its spp/bounces are not: inversion defaults
-// are 32 spp, 2 bounces).
+// are 32 spp, 2 bounces). Its lights and meshes are fixed (known light and
+// occluders; --optimize-meshes learns the meshes' materials); --env none
+// removes the environment, so they are the only light (docs/inversion.md).
 //
 // Under MPI (`mpirun -np N ptir optimize ...`, native/mpi/world.h) every rank
 // takes every view of each iteration in row bands (optim/data_parallel.h); rank 0
@@ -552,7 +554,8 @@ Runner add_optimize_command(CLI::App& app) {
                   "geometry stage fitted the splats to these photos, else path)")
       ->capture_default_str();
   cmd->add_option("--env", o->opt.env,
-                  "environment model: latlong (texels), sg (24 spherical Gaussians) or color (one constant colour); "
+                  "environment model: latlong (texels), sg (24 spherical Gaussians), color (one constant colour) or "
+                  "none (no environment: the --scene file's lamps and emissive meshes are the only, known, light); "
                   "auto: latlong (for every layout)")
       ->capture_default_str();
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();

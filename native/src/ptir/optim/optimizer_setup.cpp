@@ -80,6 +80,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   else throw Error(names("loss_space") + " must be 'srgb-blur-first', 'srgb' or 'linear', got '" + o.loss_space + "'");
   s.srgb_after_blur = o.loss_space == "srgb-blur-first";  // (also the engine default, optimizer.h)
   s.params.env = parse_env_mode(o.env, names("env"));
+  if (s.params.env == EnvMode::None && !o.env_init.empty())
+    throw Error(names("env_init") + " needs an environment model (" + names("env") + " none has no environment)");
   if (o.env_width < 1 || o.env_height < 1) throw Error(names("env_size") + " must be positive");
   s.params.env_width = o.env_width;
   s.params.env_height = o.env_height;
@@ -96,6 +98,18 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   return s;
 }
 
+namespace {
+
+// Light other than the environment: a lamp, or a mesh that emits.
+bool has_own_light(const Scene& scene) {
+  if (!scene.emitters.empty()) return true;
+  for (const TriangleMesh& m : scene.meshes)
+    if (m.material.emission.x > 0.0f || m.material.emission.y > 0.0f || m.material.emission.z > 0.0f) return true;
+  return false;
+}
+
+}  // namespace
+
 Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<GaussianField> field, OptimizerSettings& s,
                               const OptionNames& names, const std::function<void(const std::string&)>& note) {
   Scene scene;
@@ -105,7 +119,8 @@ Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<Gau
       throw Error(scene_path, "the scene file has Gaussians; give them with " + names("gaussians") +
                                   " instead (the optimiser's Gaussians come from one PLY)");
     if (scene.environment.present() && note)
-      note("the scene's environment is ignored: the environment is what gets recovered");
+      note(s.params.env == EnvMode::None ? "the scene's environment is ignored: " + names("env") + " none (its lights alone)"
+                                         : "the scene's environment is ignored: the environment is what gets recovered");
     // Recovered mesh materials are constants: a textured input would ignore them.
     for (const TriangleMesh& m : scene.meshes)
       if (s.params.optimize_meshes && m.material.textured())
@@ -122,6 +137,10 @@ Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<Gau
   } else if (s.params.optimize_meshes) {
     throw Error(names("optimize_meshes") + " needs " + names("scene") + " (the meshes come from the scene file)");
   }
+  if (s.params.env == EnvMode::None && !has_own_light(scene))
+    throw Error((scene_path.empty() ? std::string() : scene_path + ": ") + names("env") +
+                " none leaves the scene file's lights and emissive meshes as the only light, and " +
+                (scene_path.empty() ? "there is no " + names("scene") : std::string("it has none")));
   scene.gaussians = std::move(field);
   scene.source_path = scene_path.empty() ? "command line" : scene_path;
   return scene;

@@ -75,7 +75,7 @@ struct OptimizeOptions {
   // With the bounded self-skip: albedo +0.3 / +0.36 dB, relight +0.1 on two textured
   // sets, +0.43 dB on the four-colour sample at 48 px (docs/objective.md).
   bool loss_blur_target = true;
-  std::string env = "latlong";  // EnvMode name: latlong, sg, color
+  std::string env = "latlong";  // EnvMode name: latlong, sg, color, none
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start
   bool fix_env = false;
@@ -95,8 +95,9 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
 // when scene_path is ""), whose interaction settings replace those of `s` (its
 // spp/bounces do not), with `field` as its Gaussians. A scene file with Gaussians
 // is refused (they come from one PLY); its environment is replaced by the
-// learnable one later, and `note` (optional) is told so. optimize_meshes needs a
-// scene file.
+// learnable one later (or removed: EnvMode::None, which needs a lamp or an
+// emissive mesh in the file), and `note` (optional) is told so. optimize_meshes
+// needs a scene file.
 Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<GaussianField> field, OptimizerSettings& s,
                               const OptionNames& names, const std::function<void(const std::string&)>& note = {});
 
