@@ -29,14 +29,6 @@ LAMPS = {"key": ((-2.2, -2.6, 3.0), "SQUARE", 1.0, 260.0, (1.0, 0.82, 0.62)),
          "fill": ((2.8, -1.2, 1.4), "DISK", 1.4, 140.0, (0.62, 0.80, 1.0))}
 
 
-def _collection():
-    coll = bpy.data.collections.get(ROOM_COLLECTION)
-    if coll is None:
-        coll = bpy.data.collections.new(ROOM_COLLECTION)
-        bpy.context.scene.collection.children.link(coll)
-    return coll
-
-
 def _surface_material(name):
     """The Principled material of dscene.principled_material without its ground-truth AOV nodes: the
     room is not the object, and its pixels stay out of albedo.png and roughness.png."""
@@ -72,7 +64,7 @@ def _aim(obj, target):
 def build_lamps_room(objs):
     """The floor (under the object's lowest point), the wall and the two lamps of LAMPS; returns
     (the room's objects, its description for dataset.json)."""
-    coll = _collection()
+    coll = dscene._collection(ROOM_COLLECTION)
     pts = dscene.world_points(objs)
     z0 = float(pts[:, 2].min()) - 0.002  # just under the object's base (no coincident faces)
     top = z0 + 5.0
