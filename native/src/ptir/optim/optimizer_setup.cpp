@@ -65,7 +65,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.lambda_albedo_grey = o.lambda_albedo_grey;
   if (o.env_coarse < -1) throw Error(names("env_coarse") + " must be >= 0 (0: no coarse level; -1: automatic)");
   s.params.env_coarse_width = o.env_coarse;
-  if (!(o.albedo_warmup >= 0.0f && o.albedo_warmup < 1.0f)) throw Error(names("albedo_warmup") + " must be in [0, 1)");
+  if (!(o.albedo_warmup == -1.0f || (o.albedo_warmup >= 0.0f && o.albedo_warmup < 1.0f)))
+    throw Error(names("albedo_warmup") + " must be in [0, 1) (or -1: automatic)");
   if (!(o.tv_warmup >= 1.0f)) throw Error(names("tv_warmup") + " must be >= 1");
   s.albedo_warmup = o.albedo_warmup;
   s.tv_warmup = o.tv_warmup;
@@ -137,7 +138,12 @@ Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<Gau
   } else if (s.params.optimize_meshes) {
     throw Error(names("optimize_meshes") + " needs " + names("scene") + " (the meshes come from the scene file)");
   }
-  if (s.params.env == EnvMode::None && !has_own_light(scene))
+  // The scene's own light and a learnt environment: the environment starts dark and the albedos
+  // learn at once, so the environment does not take the lamps' light (kSceneLitEnvStart).
+  const bool lit = has_own_light(scene), learnt_env = s.params.env != EnvMode::None;
+  if (s.albedo_warmup < 0.0f) s.albedo_warmup = lit && learnt_env ? 0.0f : OptimizerSettings{}.albedo_warmup;
+  if (lit && learnt_env && s.params.env_init_path.empty()) s.params.env_init = kSceneLitEnvStart;
+  if (s.params.env == EnvMode::None && !lit)
     throw Error((scene_path.empty() ? std::string() : scene_path + ": ") + names("env") +
                 " none leaves the scene file's lights and emissive meshes as the only light, and " +
                 (scene_path.empty() ? "there is no " + names("scene") : std::string("it has none")));
