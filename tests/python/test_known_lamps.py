@@ -58,7 +58,22 @@ def test_known_lamps_recover_the_albedo_level(room, tmp_path):
     assert all(abs(s - 1.0) < 0.10 for s in mk["albedo_scale"]), mk["albedo_scale"]
     assert any(abs(s - 1.0) > 0.10 for s in mb["albedo_scale"]), mb["albedo_scale"]
     assert mk["albedo_psnr"] > mb["albedo_psnr"] + 5.0
-    assert mk["albedo_psnr"] > oracle["albedo_psnr"] - 12.0  # short run (150 x 4 at 48 px); docs/inversion.md
+    assert mk["albedo_psnr"] > oracle["albedo_psnr"] - 12.0  # short run (150 x 4 at 48 px); docs/known_lamps.md
+
+
+def test_lamps_with_a_learnt_environment_start_it_dark(room, tmp_path):
+    # The scene's lamps and a learnt environment: the environment starts dark and the albedos learn at
+    # once (optimizer_setup.h, kSceneLitEnvStart), so the environment does not take the lamps' light.
+    out = tmp_path / "both"
+    run_checked([CLI, "optimize", "--dataset", room, "--gaussians", room / "gaussians.ply", "--out", out,
+                 "--scene", room / "scene" / "scene.json", *RUN], timeout=900)
+    settings = json.loads((out / "settings.json").read_text())
+    model, size, start = settings["env"].split()
+    assert (model, size) == ("latlong", "128x64") and abs(float(start) - 0.02) < 1e-6, settings["env"]
+    assert settings["warmup"].split()[0] == "0", settings["warmup"]
+    m = _eval(room, out)
+    print("albedo dB, lamps known + environment learnt: %.2f, scale %s" % (m["albedo_psnr"], m["albedo_scale"]))
+    assert all(abs(s - 1.0) < 0.15 for s in m["albedo_scale"]), m["albedo_scale"]
 
 
 def test_env_none_needs_scene_light(room, tmp_path):
