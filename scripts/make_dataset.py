@@ -19,7 +19,7 @@ same object saved by sample_blends/build_sample_object.py). With --textured ever
 material's base colour and roughness (and, with --metal-fraction, metallic patches)
 become per-polygon noise patterns (scripts/dataset/textures.py); the oracle stays exact.
 With --room lamps the object stands on a floor before a wall, lit by two area lights in a black world
-(scripts/dataset/room.py): no environment maps, no relight views, and DIR/scene/scene.json holds the
+(scripts/dataset/lamps.py): no environment maps, no relight views, and DIR/scene/scene.json holds the
 room (floor, wall, lamps) for `ptir optimize --scene ... --env none` and `ptir eval --scene ...`.
 
 Writes (docs/dataset_format.md has the conventions):
@@ -55,7 +55,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
-from dataset import capture, envmaps, exr, png, room, scene as dscene, splat, textures  # noqa: E402
+from dataset import capture, envmaps, exr, lamps, png, scene as dscene, splat, textures  # noqa: E402
 from dataset import shapes as dscene_shapes  # noqa: E402
 from ptir_blender.blender import compat  # noqa: E402
 
@@ -94,7 +94,7 @@ def parse_args():
                         "with an OPENCV lens, nerfstudio)")
     p.add_argument("--room", choices=["lamps"],
                    help="lamps: the object on a floor before a wall, lit by two area lights, no environment "
-                        "(scripts/dataset/room.py; the room as DIR/scene/scene.json)")
+                        "(scripts/dataset/lamps.py; the room as DIR/scene/scene.json)")
     a = p.parse_args(argv)
     a.relight_envs = [e for e in a.relight_envs.split(",") if e]
     if a.room:
@@ -284,7 +284,7 @@ def main():
         log("textured (%s%s): per-polygon pattern in base colour and roughness %g..%g%s" %
             (a.texture_kind, ", neutral" if a.neutral else "", a.roughness_range[0], a.roughness_range[1],
              ", metallic patches on %.0f%%" % (100 * a.metal_fraction) if a.metal_fraction > 0 else ""))
-    room_objs, room_record = room.build_lamps_room(objs) if a.room else ([], None)
+    room_objs, room_record = lamps.build_lamps_room(objs) if a.room else ([], None)
     if a.save_blend:  # (with --room: the room and its lamps too)
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(a.save_blend), compress=True, copy=True)
         log("saved %s" % a.save_blend)
@@ -305,7 +305,7 @@ def main():
     # Cameras.
     distance = 4.0
     if a.room:
-        poses = {split: room.room_poses(n, distance, split, kit.look_at) for split, n in (("train", a.train), ("test", a.test))}
+        poses = {split: lamps.room_poses(n, distance, split, kit.look_at) for split, n in (("train", a.train), ("test", a.test))}
     else:
         poses = {"train": train_poses(a.train, distance), "test": test_poses(a.test, distance)}
     for split in ("train", "test"):
@@ -325,7 +325,7 @@ def main():
     train_env_map = envmaps.make_envmap(a.train_env, a.env_w, a.env_h) if a.train_env else None
     capture_views = []
     if a.room:  # the inversion's scene file, exported as Cycles is set up (its pixel filter)
-        room.export_room_scene(bpy.context, room_objs, os.path.join(out, "scene"))
+        lamps.export_room_scene(bpy.context, room_objs, os.path.join(out, "scene"))
     for env, split in jobs:
         if env is not None:
             kit.set_environment(scene, env_files[env])
