@@ -60,7 +60,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
-from dataset import capture, envmaps, exr, lamps, png, room, scene as dscene, splat, textures  # noqa: E402
+from dataset import capture, envmaps, exr, png, room, scene as dscene, splat, textures  # noqa: E402
+from dataset import lamps as lamps_room  # noqa: E402
 from dataset import shapes as dscene_shapes  # noqa: E402
 from ptir_blender.blender import compat  # noqa: E402
 
@@ -316,7 +317,7 @@ def main():
         log("textured (%s%s): per-polygon pattern in base colour and roughness %g..%g%s" %
             (a.texture_kind, ", neutral" if a.neutral else "", a.roughness_range[0], a.roughness_range[1],
              ", metallic patches on %.0f%%" % (100 * a.metal_fraction) if a.metal_fraction > 0 else ""))
-    room_objs, room_record = lamps.build_lamps_room(objs) if a.room else ([], None)
+    room_objs, room_record = lamps_room.build_lamps_room(objs) if a.room else ([], None)
     if a.save_blend:  # (with --room: the room and its lamps too)
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(a.save_blend), compress=True, copy=True)
         log("saved %s" % a.save_blend)
@@ -337,7 +338,7 @@ def main():
     # Cameras.
     distance = 4.0
     if a.room:
-        poses = {split: lamps.room_poses(n, distance, split, kit.look_at) for split, n in (("train", a.train), ("test", a.test))}
+        poses = {split: lamps_room.room_poses(n, distance, split, kit.look_at) for split, n in (("train", a.train), ("test", a.test))}
     else:
         poses = {"train": train_poses(a.train, distance), "test": test_poses(a.test, distance)}
     for split in ("train", "test"):
@@ -357,7 +358,7 @@ def main():
     train_env_map = envmaps.make_envmap(a.train_env, a.env_w, a.env_h) if a.train_env else None
     capture_views = []
     if a.room:  # the inversion's scene file, exported as Cycles is set up (its pixel filter)
-        lamps.export_room_scene(bpy.context, room_objs, os.path.join(out, "scene"))
+        lamps_room.export_room_scene(bpy.context, room_objs, os.path.join(out, "scene"))
     coverage = {}  # view name ("train_003") -> the object's alpha under the training environment (the room's true masks)
     for env, split in jobs:
         if env is not None:
