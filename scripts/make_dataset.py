@@ -9,7 +9,7 @@ Run inside Blender 3.4 (headless), or in PyPI's bpy 4.5 / 5.0 (tests/blender/bpy
         [--subdiv 2] [--train-env studio] [--relight-envs sunset,sky] [--env-size 128x64]
         [--threads N] [--save-blend FILE] [--textured] [--metal-fraction F] [--texture-seed N]
         [--capture-layouts] [--shape NAME] [--texture-kind smooth|edges|hifreq|perface]
-        [--roughness-range LO,HI] [--neutral] [--capture-room]
+        [--roughness-range LO,HI] [--neutral] [--capture-room] [--room lamps]
 
 The object: with --blend, the mesh objects of the file's collection "PTIR_Object"
 (else every renderable mesh); without, the bundled sample built in code
@@ -18,6 +18,9 @@ metallic 0 and known colour/roughness; sample_blends/sample_object.blend is the
 same object saved by sample_blends/build_sample_object.py). With --textured every
 material's base colour and roughness (and, with --metal-fraction, metallic patches)
 become per-polygon noise patterns (scripts/dataset/textures.py); the oracle stays exact.
+With --room lamps the object stands on a floor before a wall, lit by two area lights in a black world
+(scripts/dataset/lamps.py): no environment maps, no relight views, and DIR/scene/scene.json holds the
+room (floor, wall, lamps) for `ptir optimize --scene ... --env none` and `ptir eval --scene ...`.
 
 Writes (docs/dataset_format.md has the conventions):
     DIR/transforms_train.json, transforms_test.json   NeRF-synthetic cameras, "ptir_brdf": the model Cycles
@@ -31,6 +34,7 @@ Writes (docs/dataset_format.md has the conventions):
     DIR/oracle/gaussians.ply, oracle/env.exr          a perfect "result" (true materials, face normals,
                                                       training environment) for checking the evaluation
     DIR/dataset.json                                  what was made, with which settings
+    DIR/scene/scene.json, *.ply                       with --room: the known room (floor, wall, lamps)
     DIR/capture/{nerf,colmap_bin,colmap_txt,nerfstudio}/  with --capture-layouts: every training-environment
                                                       view (train and test) as a photographed capture in each
                                                       layout PTIR reads, the COLMAP and nerfstudio ones through
@@ -57,6 +61,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
 from dataset import capture, envmaps, exr, png, room, scene as dscene, splat, textures  # noqa: E402
+from dataset import lamps as lamps_room  # noqa: E402
 from dataset import shapes as dscene_shapes  # noqa: E402
 from ptir_blender.blender import compat  # noqa: E402
 
@@ -76,7 +81,8 @@ def parse_args():
     p.add_argument("--relight-envs", default="sunset,sky", help="comma-separated relight environments ('' for none)")
     p.add_argument("--env-size", default="128x64", help="environment map size WxH (default 128x64)")
     p.add_argument("--threads", type=int, default=0, help="Cycles threads (0: all)")
-    p.add_argument("--save-blend", help="also save the object scene (no cameras/world) to this .blend")
+    p.add_argument("--save-blend", help="also save the object scene (no cameras/world; with --room the room "
+                                        "and lamps too) to this .blend")
     p.add_argument("--textured", action="store_true", help="noise-textured base colour and roughness per polygon")
     p.add_argument("--metal-fraction", type=float, default=0.0, help="with --textured: fraction of metallic polygons")
     p.add_argument("--metal-layout", default="patches", choices=textures.METAL_LAYOUTS,
@@ -95,8 +101,15 @@ def parse_args():
     p.add_argument("--capture-room", action="store_true",
                    help="also photograph the views as a real capture (DIR/capture/room/: the object on a floor before "
                         "two walls, opaque film, JPEGs with EXIF, a few at other exposures, COLMAP text model)")
+    p.add_argument("--room", choices=["lamps"],
+                   help="lamps: the object on a floor before a wall, lit by two area lights, no environment "
+                        "(scripts/dataset/lamps.py; the room as DIR/scene/scene.json)")
     a = p.parse_args(argv)
     a.relight_envs = [e for e in a.relight_envs.split(",") if e]
+    if a.room:
+        a.relight_envs = []  # the room's lamps are the light: no environment to relight under
+        if a.blend or a.capture_layouts or a.capture_room:
+            p.error("--room takes the sample or a --shape (not --blend, --capture-layouts or --capture-room)")
     try:
         a.roughness_range = tuple(float(v) for v in a.roughness_range.split(","))
         assert len(a.roughness_range) == 2 and 0.0 <= a.roughness_range[0] <= a.roughness_range[1] <= 1.0
@@ -304,22 +317,30 @@ def main():
         log("textured (%s%s): per-polygon pattern in base colour and roughness %g..%g%s" %
             (a.texture_kind, ", neutral" if a.neutral else "", a.roughness_range[0], a.roughness_range[1],
              ", metallic patches on %.0f%%" % (100 * a.metal_fraction) if a.metal_fraction > 0 else ""))
-    if a.save_blend:
+    room_objs, room_record = lamps_room.build_lamps_room(objs) if a.room else ([], None)
+    if a.save_blend:  # (with --room: the room and its lamps too)
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(a.save_blend), compress=True, copy=True)
         log("saved %s" % a.save_blend)
     scene = bpy.context.scene
 
-    # Environment maps (exact linear floats, written byte by byte).
+    # Environment maps (exact linear floats, written byte by byte); the room has none (a black world).
     env_dir = os.path.join(out, "envmaps")
-    os.makedirs(env_dir, exist_ok=True)
     env_files = {}
-    for name in [a.train_env] + a.relight_envs:
+    if a.room:
+        a.train_env = None
+        kit.set_world_colour(scene, (0.0, 0.0, 0.0), 0.0)
+    else:
+        os.makedirs(env_dir, exist_ok=True)
+    for name in ([a.train_env] if a.train_env else []) + a.relight_envs:
         env_files[name] = os.path.join(env_dir, name + ".exr")
         exr.write_exr(env_files[name], envmaps.make_envmap(name, a.env_w, a.env_h))
 
     # Cameras.
     distance = 4.0
-    poses = {"train": train_poses(a.train, distance), "test": test_poses(a.test, distance)}
+    if a.room:
+        poses = {split: lamps_room.room_poses(n, distance, split, kit.look_at) for split, n in (("train", a.train), ("test", a.test))}
+    else:
+        poses = {"train": train_poses(a.train, distance), "test": test_poses(a.test, distance)}
     for split in ("train", "test"):
         write_transforms(os.path.join(out, "transforms_%s.json" % split), split, poses[split], a.res)
 
@@ -334,11 +355,14 @@ def main():
     jobs = [(a.train_env, "train"), (a.train_env, "test")] + [(e, "test") for e in a.relight_envs]
     f = 0.5 * a.res / np.tan(0.5 * dscene.FOV_X)
     intrinsics = (f, f, 0.5 * a.res, 0.5 * a.res)
-    train_env_map = envmaps.make_envmap(a.train_env, a.env_w, a.env_h)
+    train_env_map = envmaps.make_envmap(a.train_env, a.env_w, a.env_h) if a.train_env else None
     capture_views = []
+    if a.room:  # the inversion's scene file, exported as Cycles is set up (its pixel filter)
+        lamps_room.export_room_scene(bpy.context, room_objs, os.path.join(out, "scene"))
     coverage = {}  # view name ("train_003") -> the object's alpha under the training environment (the room's true masks)
     for env, split in jobs:
-        kit.set_environment(scene, env_files[env])
+        if env is not None:
+            kit.set_environment(scene, env_files[env])
         for i, m in enumerate(poses[split]):
             view_dir = os.path.join(out, "%s_%03d" % (split, i))
             os.makedirs(view_dir, exist_ok=True)
@@ -370,7 +394,10 @@ def main():
     splat.write_gaussians_ply(os.path.join(out, "gaussians.ply"), g)
     os.makedirs(os.path.join(out, "oracle"), exist_ok=True)
     splat.write_gaussians_ply(os.path.join(out, "oracle", "gaussians.ply"), g, oracle=True)
-    shutil.copyfile(env_files[a.train_env], os.path.join(out, "oracle", "env.exr"))
+    if a.train_env:
+        shutil.copyfile(env_files[a.train_env], os.path.join(out, "oracle", "env.exr"))
+    else:  # the room: a black world (the oracle's light is the scene file's)
+        exr.write_exr(os.path.join(out, "oracle", "env.exr"), np.zeros((a.env_h, a.env_w, 3), np.float32))
     if inexact:
         log("warning: materials not exactly representable in the oracle (textured or not Principled): "
             + ", ".join(inexact))
@@ -402,6 +429,8 @@ def main():
         "splat": "gaussians.ply",
         "oracle": "oracle",
         "materials": parts,
+        "room": room_record,
+        "scene": "scene/scene.json" if a.room else None,
         "textured": {"seed": a.texture_seed, "metal_fraction": a.metal_fraction, "metal_layout": a.metal_layout,
                      "kind": a.texture_kind,
                      "roughness_range": list(a.roughness_range), "neutral": a.neutral} if a.textured else None,

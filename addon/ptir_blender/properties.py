@@ -96,9 +96,13 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
                                  description="Learn one exposure scale per photo (photos without EXIF exposure "
                                              "that differ in brightness)")
     env: EnumProperty(
-        name="Environment", description="Model of the recovered environment light",
+        name="Environment", description="Model of the recovered environment light; the scene's visible lamps, "
+        "emissive meshes and walls always take part as known light and occluders",
         items=[("latlong", "Lat-long", "A lat-long texture"),
-               ("sg", "Spherical Gaussians", "24 spherical Gaussians (smooth)")],
+               ("sg", "Spherical Gaussians", "24 spherical Gaussians (smooth)"),
+               ("none", "None (Scene Lights Only)", "No environment: the scene's visible lamps and emissive "
+                                                    "meshes are the only light, known and fixed, its meshes "
+                                                    "known occluders (ptir optimize --env none)")],
         default="latlong")
     env_width: IntProperty(name="Env Width", default=128, min=4, max=4096)
     env_height: IntProperty(name="Env Height", default=64, min=2, max=2048)

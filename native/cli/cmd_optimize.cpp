@@ -4,7 +4,7 @@
 // outputs and progress are there, shared with the Python module).
 //
 //   ptir optimize --dataset DIR [--gaussians IN.ply] [--scene scene.json] --out OUT
-//       [--fit-iters 1500] [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color] [--seed S] [--resume]
+//       [--fit-iters 1500] [--iters N] [--spp N] [--bounces N] [--env auto|latlong|sg|color|none] [--seed S] [--resume]
 //       [--layout L] [--images images_4] [--holdout 8 | --test-list F] [--undistort-cache D]
 //       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
@@ -16,7 +16,10 @@
 // --scene adds the scene file's meshes and lights (its Gaussians must be given
 // with --gaussians instead; its environment is replaced by the recovered one; its
 // interaction settings are used, its spp/bounces are not: inversion defaults
-// are 32 spp, 2 bounces). Exit status: 0, 2 for a usage error, 130 when Ctrl-C
+// are 32 spp, 2 bounces). Its lights and meshes are fixed (known light and
+// occluders; --optimize-meshes learns the meshes' materials); --env none removes
+// the environment, so they are the only light (docs/known_lamps.md).
+// Exit status: 0, 2 for a usage error, 130 when Ctrl-C
 // stopped it (the checkpoint and the outputs written; --resume continues).
 #include <memory>
 #include <set>
@@ -76,7 +79,8 @@ CLI::App* add_run_flags(CLI::App& app, OptimizePipelineOptions* o) {
                   "geometry stage fitted the splats to these photos, else path)")
       ->capture_default_str();
   cmd->add_option("--env", o->opt.env,
-                  "environment model: latlong (texels), sg (24 spherical Gaussians) or color (one constant colour); "
+                  "environment model: latlong (texels), sg (24 spherical Gaussians), color (one constant colour) or "
+                  "none (no environment: the --scene file's lamps and emissive meshes are the only, known, light); "
                   "auto: latlong (for every layout)")
       ->capture_default_str();
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();

@@ -20,7 +20,9 @@ void add_learning_flags(CLI::App* cmd, OptimizeOptions* opt) {
                   "lat-long environment: width of a coarse level learnt with the texels (coarse-to-fine; 0: none; -1: 1/8 of the map's width)")
       ->capture_default_str();
   cmd->add_option("--albedo-warmup", opt->albedo_warmup,
-                  "fraction of the iterations over which the albedo learning rates ramp up from 0 (light first)")
+                  "fraction of the iterations over which the albedo learning rates ramp up from 0 (light first); -1: "
+                  "automatic (0.5; 0 when the --scene file's lamps light the scene besides a learnt environment, "
+                  "which then starts dark)")
       ->capture_default_str();
   cmd->add_option("--tv-warmup", opt->tv_warmup,
                   "the TV weight starts at this multiple of --lambda-tv and falls to it at half the iterations")

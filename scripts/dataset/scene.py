@@ -144,10 +144,10 @@ def clear_scene():
             coll.remove(block)
 
 
-def _collection():
-    coll = bpy.data.collections.get(OBJECT_COLLECTION)
+def _collection(name=OBJECT_COLLECTION):
+    coll = bpy.data.collections.get(name)
     if coll is None:
-        coll = bpy.data.collections.new(OBJECT_COLLECTION)
+        coll = bpy.data.collections.new(name)
         bpy.context.scene.collection.children.link(coll)
     return coll
 

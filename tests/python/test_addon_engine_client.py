@@ -65,6 +65,13 @@ def test_optimize_command_lines():
     assert engine_client.inversion_args(inv, budget, True, 115.0)[inv.index("--budget") + 1] == "10s"
     only = engine_client.splats_only_args("ptir", s, "/g.ply", "/out", own_defaults=True)
     assert "--iters" not in only and only[:4] == ["ptir", "optimize", "--gaussians", "/g.ply"]
+    # Environment None (scene lights only): passed on with the scene file; the splats' own radiance (no
+    # photos, no scene lights) still learns its light.
+    lamps = engine_client.optimize_args("ptir", _settings(env="none"), "/d", "train", "/g.ply", "/out", False, 0.0,
+                                        "/s.json", False)
+    assert lamps[lamps.index("--env") + 1] == "none" and lamps[lamps.index("--scene") + 1] == "/s.json"
+    only = engine_client.splats_only_args("ptir", _settings(env="none"), "/g.ply", "/out", own_defaults=True)
+    assert only[only.index("--env") + 1] == "latlong"
     assert engine_client.relightable_overrides(50, 0, 12, 0) == ["--iters", "50", "--orbit-views", "12"]
     # The estimate's probes: the inversion on the fit's input; a few fit iterations into a scratch folder.
     est = engine_client.estimate_args(inv, fit)

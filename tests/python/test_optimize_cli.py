@@ -159,7 +159,7 @@ def test_clear_errors(cli, dataset, tmp_path):
     assert r.returncode == 1 and "transforms_train.json" in r.stderr and "invalid JSON" in r.stderr
     r = subprocess.run([str(cli), "optimize", "--dataset", str(dataset), "--gaussians", str(dataset / "g.ply"), "--out",
                         str(tmp_path / "o"), "--env", "cubemap"], capture_output=True, text=True)
-    assert r.returncode == 1 and "--env must be 'latlong' or 'sg'" in r.stderr
+    assert r.returncode == 1 and "--env must be 'latlong', 'sg', 'color' or 'none'" in r.stderr
     r = subprocess.run([str(cli), "optimize", "--dataset", str(dataset), "--out", str(tmp_path / "o")],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "--gaussians" in r.stderr

@@ -28,7 +28,7 @@ import bpy
 import numpy as np
 
 from ..io import capture_cameras, dataset_file, engine_client, scene_file, splat_ply, splat_transform
-from . import compat, material_writeback, scene_bridge, scene_export, splat_object
+from . import compat, material_export, material_writeback, scene_bridge, scene_export, splat_object
 from ..errors import OptimizeError
 
 ENV_NODE = "PTIR Environment"
@@ -136,6 +136,23 @@ def _check_views_can_follow(obj, matrix):
                             % (obj.name, ", ".join("%.4g" % s for s in splat_transform.axis_scales(matrix))))
 
 
+def is_scene_light(obj):
+    """Whether a visible object lights the scene for the engine: a point, sun or area lamp with power, or
+    a mesh whose material emits (what Environment "None (Scene Lights Only)" optimises under)."""
+    if obj.type == "LIGHT":
+        return obj.data.type in ("POINT", "SUN", "AREA") and obj.data.energy > 0.0
+    if obj.type != "MESH" or splat_object.is_splat_object(obj):
+        return False
+    return any(max(material_export.material_params(slot.material).get("emission", (0.0,))) > 0.0
+               for slot in obj.material_slots if slot.material is not None)
+
+
+def _has_own_light(doc):
+    """Whether an exported scene file has light besides the environment: lamps or emissive meshes."""
+    return bool(doc.get("lights")) or any(max(m.get("material", {}).get("emission", [0.0])) > 0.0
+                                          for m in doc.get("meshes", []))
+
+
 def wants_fit(settings, dataset_dir=None, split="train", has_meshes=False):
     """Whether the optimise flow fits the geometry first: ON/OFF as set; AUTO: for a dataset folder in a
     capture layout (COLMAP, nerfstudio, 3DGS output: real photos whose splats a rasteriser trained), and
@@ -158,7 +175,8 @@ def _new_job(context, settings, job_dir, out_dir):
     job.object_name = obj.name
     job.count = len(obj.data.vertices)
     job.matrix = np.array(obj.matrix_world, np.float64)
-    job.write_environment = bool(settings.write_environment)
+    # Scene lights only (Environment None): no environment comes back, the World stays as it is.
+    job.write_environment = bool(settings.write_environment) and settings.env != "none"
     splats = os.path.join(job_dir, "splats.ply")
     splat_ply.write_splat_ply(splats, splat_object.world_data(obj),
                               comment="PTIR optimisation input: Blender object %s" % obj.name)
@@ -188,10 +206,14 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_
         job.mesh_entries = info["meshes"]
         with open(scene_json) as f:
             doc = json.load(f)
+        own_light = _has_own_light(doc)
         if not doc.get("meshes") and not doc.get("lights"):
             scene_json = None
     except scene_export.ExportError as e:
         raise OptimizeError("scene export: %s" % e)
+    if settings.env == "none" and not own_light:
+        raise OptimizeError("Environment is None (scene lights only) but no visible lamp or emissive mesh lights "
+                            "the scene")
     if want_meshes:
         names = {e["material"].get("name") for e in job.mesh_entries}
         job.materials = sorted(m.name for m in bpy.data.materials

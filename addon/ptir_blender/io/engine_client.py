@@ -115,7 +115,9 @@ def fit_args(cli_exe, settings, dataset_dir, split, splats, out_dir, budget):
 
 def optimize_args(cli_exe, settings, dataset_dir, split, gaussians, out_dir, fitted, budget, scene_json,
                   optimize_meshes):
-    """`ptir optimize` on photos (a dataset or the scene's cameras), after the flow's own fit when `fitted`."""
+    """`ptir optimize` on photos (a dataset or the scene's cameras), after the flow's own fit when `fitted`.
+    The scene file's lamps, emissive meshes and meshes are fixed light and occluders; settings.env "none"
+    (scene lights only) removes the environment, any other model learns one for the rest."""
     args = [cli_exe, "optimize", "--dataset", dataset_dir, "--split", split, "--gaussians", gaussians,
             "--out", out_dir,
             "--bounces", settings.bounces, "--env", settings.env,
@@ -142,9 +144,11 @@ def splats_only_args(cli_exe, settings, splats, out_dir, own_defaults):
     """`ptir optimize --gaussians splats.ply` without --dataset (targets from the splats' own radiance), the
     splats in world space with Blender's +Z as their up (`--up`); own_defaults leaves the iterations, samples
     and crops to the engine's defaults for that path."""
+    # Lit by a learnt environment even under Environment None: the scene's lamps take no part in these targets.
+    env = "latlong" if settings.env == "none" else settings.env
     args = [cli_exe, "optimize", "--gaussians", splats, "--out", out_dir, "--up", "0,0,1",
             "--bounces", settings.bounces,
-            "--env", settings.env, "--env-size", "%dx%d" % (settings.env_width, settings.env_height),
+            "--env", env, "--env-size", "%dx%d" % (settings.env_width, settings.env_height),
             "--seed", settings.seed]
     if not own_defaults:
         args += ["--iters", settings.iterations, "--spp", settings.spp, "--views-per-iter", settings.views_per_iter,

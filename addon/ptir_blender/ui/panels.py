@@ -190,7 +190,11 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             row = col.row(align=True)
             row.prop(s, "env_width", text="Size")
             row.prop(s, "env_height", text="")
-        col.prop(s, "write_environment")
+        if s.env == "none":  # scene lights only: nothing to put into the World
+            if not any(optimize_job.is_scene_light(o) for o in context.visible_objects):
+                col.label(text="No visible lamp or emissive mesh", icon="ERROR")
+        else:
+            col.prop(s, "write_environment")
         col.prop(s, "optimize_metallic")
         col.prop(s, "learn_exposure")
         col.prop(s, "optimize_meshes")

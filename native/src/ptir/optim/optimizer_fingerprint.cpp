@@ -28,13 +28,14 @@ uint64_t hash_floats(uint64_t h, const float* p, size_t n) {
   return h;
 }
 
-// The learnable environment's settings: "latlong WxH init", "sg N", "color init".
+// The learnable environment's settings: "latlong WxH init", "sg N", "color init", "none".
 std::string env_settings_text(const ParameterSettings& ps) {
   switch (ps.env) {
     case EnvMode::LatLong:
       return "latlong " + std::to_string(ps.env_width) + "x" + std::to_string(ps.env_height) + " " + num(ps.env_init);
     case EnvMode::SG: return "sg " + std::to_string(ps.sg_lobes);
     case EnvMode::Constant: return "color " + num(ps.env_init);
+    case EnvMode::None: return "none";
   }
   return "?";
 }
@@ -94,7 +95,7 @@ Fingerprint Optimizer::fingerprint() const {
       {"env", env_settings_text(ps)},
       {"env_init", (ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()) +
                        (ps.env_init_seen_fixed ? " (seen texels fixed)" : "")},
-      {"env_optimised", ps.optimize_env ? "1" : "0"},
+      {"env_optimised", ps.optimize_env && ps.env != EnvMode::None ? "1" : "0"},
       {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
       {"exposure", ps.learn_exposure ? "learned" : "fixed"},
       {"lr", num(ps.lr_albedo) + " " + num(ps.lr_roughness) + " " + num(ps.lr_metallic) + " " + num(ps.lr_env) + " " +
@@ -102,7 +103,8 @@ Fingerprint Optimizer::fingerprint() const {
       {"lr_schedule", num(settings_.lr_final) + " from " + num(settings_.lr_decay_start)},
       {"env_coarse", std::to_string(ps.env_coarse_width)},
       {"warmup", num(settings_.albedo_warmup) + " tv " + num(settings_.tv_warmup)},
-      {"light balance", settings_.light_balance ? "on " + num(ps.lr_balance) + " from " + num(settings_.balance_start) +
+      // (no environment: no balance to learn, the scene's lights hold the level)
+      {"light balance", ps.env == EnvMode::None ? std::string("off (no environment)") : settings_.light_balance ? "on " + num(ps.lr_balance) + " from " + num(settings_.balance_start) +
                                                 (settings_.lambda_albedo_grey > 0.0f ? ", grey prior " + num(settings_.lambda_albedo_grey) : std::string()) : std::string("off")},
       {"adam", num(settings_.adam.beta1) + " " + num(settings_.adam.beta2) + " " + num(settings_.adam.eps)},
       {"adjoint", settings_.decorrelate_adjoint ? "decorrelated" : "same samples"},

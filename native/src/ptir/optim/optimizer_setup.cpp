@@ -65,7 +65,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.lambda_albedo_grey = o.lambda_albedo_grey;
   if (o.env_coarse < -1) throw Error(names("env_coarse") + " must be >= 0 (0: no coarse level; -1: automatic)");
   s.params.env_coarse_width = o.env_coarse;
-  if (!(o.albedo_warmup >= 0.0f && o.albedo_warmup < 1.0f)) throw Error(names("albedo_warmup") + " must be in [0, 1)");
+  if (!(o.albedo_warmup == -1.0f || (o.albedo_warmup >= 0.0f && o.albedo_warmup < 1.0f)))
+    throw Error(names("albedo_warmup") + " must be in [0, 1) (or -1: automatic)");
   if (!(o.tv_warmup >= 1.0f)) throw Error(names("tv_warmup") + " must be >= 1");
   s.albedo_warmup = o.albedo_warmup;
   s.tv_warmup = o.tv_warmup;
@@ -80,6 +81,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   else throw Error(names("loss_space") + " must be 'srgb-blur-first', 'srgb' or 'linear', got '" + o.loss_space + "'");
   s.srgb_after_blur = o.loss_space == "srgb-blur-first";  // (also the engine default, optimizer.h)
   s.params.env = parse_env_mode(o.env, names("env"));
+  if (s.params.env == EnvMode::None && !o.env_init.empty())
+    throw Error(names("env_init") + " needs an environment model (" + names("env") + " none has no environment)");
   if (o.env_width < 1 || o.env_height < 1) throw Error(names("env_size") + " must be positive");
   s.params.env_width = o.env_width;
   s.params.env_height = o.env_height;
@@ -96,6 +99,18 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   return s;
 }
 
+namespace {
+
+// Light other than the environment: a lamp, or a mesh that emits.
+bool has_own_light(const Scene& scene) {
+  if (!scene.emitters.empty()) return true;
+  for (const TriangleMesh& m : scene.meshes)
+    if (m.material.emission.x > 0.0f || m.material.emission.y > 0.0f || m.material.emission.z > 0.0f) return true;
+  return false;
+}
+
+}  // namespace
+
 Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<GaussianField> field, OptimizerSettings& s,
                               const OptionNames& names, const std::function<void(const std::string&)>& note) {
   Scene scene;
@@ -105,7 +120,8 @@ Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<Gau
       throw Error(scene_path, "the scene file has Gaussians; give them with " + names("gaussians") +
                                   " instead (the optimiser's Gaussians come from one PLY)");
     if (scene.environment.present() && note)
-      note("the scene's environment is ignored: the environment is what gets recovered");
+      note(s.params.env == EnvMode::None ? "the scene's environment is ignored: " + names("env") + " none (its lights alone)"
+                                         : "the scene's environment is ignored: the environment is what gets recovered");
     // Recovered mesh materials are constants: a textured input would ignore them.
     for (const TriangleMesh& m : scene.meshes)
       if (s.params.optimize_meshes && m.material.textured())
@@ -122,6 +138,15 @@ Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<Gau
   } else if (s.params.optimize_meshes) {
     throw Error(names("optimize_meshes") + " needs " + names("scene") + " (the meshes come from the scene file)");
   }
+  // The scene's own light and a learnt environment: the environment starts dark and the albedos
+  // learn at once, so the environment does not take the lamps' light (kSceneLitEnvStart).
+  const bool lit = has_own_light(scene), learnt_env = s.params.env != EnvMode::None;
+  if (s.albedo_warmup < 0.0f) s.albedo_warmup = lit && learnt_env ? 0.0f : OptimizerSettings{}.albedo_warmup;
+  if (lit && learnt_env && s.params.env_init_path.empty()) s.params.env_init = kSceneLitEnvStart;
+  if (s.params.env == EnvMode::None && !lit)
+    throw Error((scene_path.empty() ? std::string() : scene_path + ": ") + names("env") +
+                " none leaves the scene file's lights and emissive meshes as the only light, and " +
+                (scene_path.empty() ? "there is no " + names("scene") : std::string("it has none")));
   scene.gaussians = std::move(field);
   scene.source_path = scene_path.empty() ? "command line" : scene_path;
   return scene;

@@ -59,7 +59,9 @@ struct OptimizeOptions {
   float lr_metallic = ParameterSettings{}.lr_metallic;    // the Gaussians' metallic logits' Adam rate (when optimised)
   float env_fine_rate = ParameterSettings{}.env_fine_lr_scale;  // the fine texels' share of it
   int env_coarse = ParameterSettings{}.env_coarse_width;
-  float albedo_warmup = OptimizerSettings{}.albedo_warmup;
+  // -1: automatic, resolved by prepare_optimizer_scene (OptimizerSettings' 0.5, or 0 where the scene
+  // file's own light and a learnt environment meet: see kSceneLitEnvStart).
+  float albedo_warmup = -1.0f;
   float tv_warmup = OptimizerSettings{}.tv_warmup;
   bool decorrelate_adjoint = OptimizerSettings{}.decorrelate_adjoint;
   // D-SSIM's share of the image loss: 0 by default (PTIR's 0.2 is --lambda-ssim 0.2).
@@ -75,7 +77,7 @@ struct OptimizeOptions {
   // With the bounded self-skip: albedo +0.3 / +0.36 dB, relight +0.1 on two textured
   // sets, +0.43 dB on the four-colour sample at 48 px (docs/objective.md).
   bool loss_blur_target = true;
-  std::string env = "latlong";  // EnvMode name: latlong, sg, color
+  std::string env = "latlong";  // EnvMode name: latlong, sg, color, none
   int env_width = 128, env_height = 64;
   std::string env_init;          // "" = constant start
   bool fix_env = false;
@@ -91,12 +93,22 @@ struct OptimizeOptions {
 // The checked settings; throws Error naming the offending option.
 OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames& names);
 
+// A learnt environment's start where the scene file brings light of its own (lamps or emissive
+// meshes), with the albedos learning from the first iteration (an automatic albedo_warmup is 0).
+// Measured on a Cycles room lit by two known area lights in a black world (docs/known_lamps.md,
+// 300 x 8): from the default start (0.5, warm-up 0.5) the environment kept the lamps' light and
+// the albedo came out 28.5 dB, 40-60 % too dark; started at 0.02, 31.9 dB (13-28 % dark); and
+// with no warm-up 33.8 dB, 3-7 % (the lamps alone, --env none: 34.7 dB, 1 %).
+constexpr float kSceneLitEnvStart = 0.02f;
+
 // The scene the optimiser starts from: the scene file's meshes and lights (none
 // when scene_path is ""), whose interaction settings replace those of `s` (its
 // spp/bounces do not), with `field` as its Gaussians. A scene file with Gaussians
 // is refused (they come from one PLY); its environment is replaced by the
-// learnable one later, and `note` (optional) is told so. optimize_meshes needs a
-// scene file.
+// learnable one later (or removed: EnvMode::None, which needs a lamp or an
+// emissive mesh in the file), and `note` (optional) is told so. optimize_meshes
+// needs a scene file. Resolves an automatic albedo warm-up, and starts a learnt
+// environment at kSceneLitEnvStart where the file has lamps or emissive meshes.
 Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<GaussianField> field, OptimizerSettings& s,
                               const OptionNames& names, const std::function<void(const std::string&)>& note = {});
 

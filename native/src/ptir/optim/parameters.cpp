@@ -64,18 +64,23 @@ const char* env_mode_name(EnvMode m) {
     case EnvMode::LatLong: return "latlong";
     case EnvMode::SG: return "sg";
     case EnvMode::Constant: return "color";
+    case EnvMode::None: return "none";
   }
   return "?";
 }
 
 EnvMode parse_env_mode(const std::string& name, const std::string& what) {
-  for (EnvMode m : {EnvMode::LatLong, EnvMode::SG, EnvMode::Constant})
+  for (EnvMode m : {EnvMode::LatLong, EnvMode::SG, EnvMode::Constant, EnvMode::None})
     if (name == env_mode_name(m)) return m;
-  throw Error(what + " must be 'latlong' or 'sg' or 'color', got '" + name + "'");
+  throw Error(what + " must be 'latlong', 'sg', 'color' or 'none', got '" + name + "'");
 }
 
 void install_environment(Scene& scene, const ParameterSettings& s) {
   scene.environment = SceneEnvironment();
+  if (s.env == EnvMode::None) {  // black: the scene's own lights alone
+    if (!s.env_init_path.empty()) throw Error(s.env_init_path, "an initial environment map needs an environment model, not none");
+    return;
+  }
   if (!s.env_init_path.empty()) {
     if (s.env != EnvMode::LatLong) throw Error(s.env_init_path, "an initial environment map needs the lat-long environment model");
     Environment env = Environment::load(s.env_init_path);

@@ -25,10 +25,12 @@
 
 namespace ptir {
 
-// The learnable environment model: lat-long map, spherical Gaussians, or one colour.
-enum class EnvMode { LatLong, SG, Constant };
-// "latlong", "sg", "color" (the scene-JSON type names); parse throws Error
-// "<what> must be 'latlong' or 'sg' or 'color', got 'x'".
+// The learnable environment model: lat-long map, spherical Gaussians, or one colour;
+// or None: no environment at all (black), the scene file's lights and emissive meshes
+// are the only light (known lamps and walls, docs/inversion.md "Known lamps").
+enum class EnvMode { LatLong, SG, Constant, None };
+// "latlong", "sg", "color" (the scene-JSON type names), "none"; parse throws Error
+// "<what> must be 'latlong', 'sg', 'color' or 'none', got 'x'".
 const char* env_mode_name(EnvMode m);
 EnvMode parse_env_mode(const std::string& name, const std::string& what = "env");
 
@@ -139,7 +141,7 @@ struct Parameters {
 
 // Replaces the scene's environment with the learnable one of `s` (lat-long of
 // env_width x env_height at env_init, sg_lobes SGs at PTIR's initialisation, or
-// a constant env_init).
+// a constant env_init), or removes it (EnvMode::None).
 void install_environment(Scene& scene, const ParameterSettings& s);
 
 // Raw parameters at the initial values of `s`, sized for `scene` (whose
