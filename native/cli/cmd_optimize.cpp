@@ -7,7 +7,8 @@
 //       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
-//       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [--estimate] [--budget 10m] [-q]
+//       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env | --env-refine] [--env-align auto|yaw|full|off]]
+//       [--estimate] [--budget 10m] [-q]
 //
 // --budget (s, m or h) instead of --iters: the whole command ends within it
 // (optimize_budget.h: spp and iterations planned from the estimate, the count
@@ -149,6 +150,7 @@ void capture_stage(OptimizeCommand& o) {
     // Its start, learnt from there: holding the seen texels (--fix-env-seen) measured 2 dB lower on the
     // dog's held-out object pixels (docs/captures.md: a wall and paper at infinity light it wrongly).
     o.opt.env_init = r.background_env;
+    o.opt.env_align = "off";  // made from the photos: already theirs
     o.env_detail = true;
   }
 }
@@ -216,6 +218,8 @@ std::unique_ptr<Optimizer> make_optimizer(const OptimizeCommand& o, const CLI::A
   cli::apply_brdf_option(o.brdf, s.integrator.brdf);
   if (!o.quiet) std::fprintf(stderr, "optimize: surface model %s\n", to_string(s.integrator.brdf));
   auto optimizer = std::make_unique<Optimizer>(std::move(scene), *data, s);
+  if (!o.quiet && optimizer->env_alignment().mode != EnvAlignMode::Off)
+    std::fprintf(stderr, "optimize: %s\n", optimizer->env_alignment().summary().c_str());
   if (o.resume) {
     std::error_code ec;
     if (!std::filesystem::exists(ckpt, ec)) throw Error(ckpt, "--resume: no checkpoint to continue from");
@@ -558,6 +562,13 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();
   cmd->add_option("--env-init", o->opt.env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
   cmd->add_flag("--fix-env", o->opt.fix_env, "keep the --env-init environment fixed (known lighting)");
+  cmd->add_option("--env-align", o->opt.env_align,
+                  "line the --env-init map up with the photos first: auto (its yaw, and its exposure and white balance "
+                  "where the photos see the background), yaw, full (also exposure and white balance on masked photos, "
+                  "assuming a grey world) or off (as given); recorded in OUT/settings.json (docs/known_light.md)")
+      ->capture_default_str();
+  cmd->add_flag("--env-refine", o->opt.env_refine,
+                "learn the (aligned) --env-init map gently, at a tenth of the environment's rate (known light, refined)");
   cmd->add_flag("--fix-env-seen", o->opt.fix_env_seen,
                 "hold the --env-init map's texels whose alpha is 1 fixed (the environment the photos saw) and learn the "
                 "rest (a real capture of an object sets it with its background: docs/captures.md)");
