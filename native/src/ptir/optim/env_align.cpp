@@ -126,36 +126,68 @@ double wrap_degrees(double d) {
   return d < 0 ? d + 360.0 : d;
 }
 
-// The yaw search: every coarse step, then every degree around the best; 0 stays
-// unless beaten by keep_margin. Fills r.candidates; returns the best yaw's score.
+// The vertex of the least-squares parabola through (t, score) points, if it opens
+// upward and lies within [-limit, limit]; else NaN. Monte Carlo noise and the
+// texels' steps make the fine scores jitter by a few degrees; their parabola does not.
+double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double limit) {
+  double m[3][4] = {};  // normal equations of score = a + b t + c t^2
+  for (const auto& p : pts) {
+    const double t[3] = {1.0, p.first, p.first * p.first};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) m[i][j] += t[i] * t[j];
+      m[i][3] += t[i] * p.second;
+    }
+  }
+  for (int i = 0; i < 3; ++i) {  // Gauss-Jordan; the t's are distinct, so the pivots are not 0
+    if (m[i][i] == 0.0) return std::nan("");
+    for (int k = 0; k < 3; ++k) {
+      if (k == i) continue;
+      const double f = m[k][i] / m[i][i];
+      for (int j = i; j < 4; ++j) m[k][j] -= f * m[i][j];
+    }
+  }
+  const double b = m[1][3] / m[1][1], c = m[2][3] / m[2][2];
+  if (!(c > 0.0)) return std::nan("");
+  const double v = -b / (2.0 * c);
+  return std::abs(v) <= limit ? v : std::nan("");
+}
+
+// The yaw search: every coarse step, then every degree within one step of the
+// best, whose parabola's vertex is the yaw. Fills r.candidates.
 struct YawSearch {
   Environment& env;
   const std::vector<float>& given;
   const PathTracer& tracer;
   const std::vector<ScoredView>& views;
   const IntegratorSettings& is;
-  std::map<int, CandidateScore> scored;  // by whole degree
+  std::map<long, CandidateScore> scored;  // by hundredths of a degree
   EnvAlignResult& r;
 
-  const CandidateScore& at(int deg) {
-    deg = int(wrap_degrees(deg));
-    auto it = scored.find(deg);
+  const CandidateScore& at(double deg) {
+    const long key = std::lround(wrap_degrees(deg) * 100.0) % 36000;
+    auto it = scored.find(key);
     if (it != scored.end()) return it->second;
-    env.texels() = rotate_latlong_yaw(given, env.width(), env.height(), deg * kPi / 180.0);
+    env.texels() = rotate_latlong_yaw(given, env.width(), env.height(), double(key) / 100.0 * kPi / 180.0);
     env.rebuild_sampling();
     CandidateScore c = score_views(tracer, views, is);
-    r.candidates.push_back({double(deg), c.score});
-    return scored.emplace(deg, std::move(c)).first->second;
+    r.candidates.push_back({double(key) / 100.0, c.score});
+    return scored.emplace(key, std::move(c)).first->second;
   }
 
-  int run(float coarse_step) {
+  double run(float coarse_step) {
     const int step = std::max(1, int(std::lround(coarse_step)));
-    int best = 0;
+    int centre = 0;
     for (int d = 0; d < 360; d += step)
-      if (at(d).score < at(best).score) best = d;
-    const int centre = best;
-    for (int d = centre - step + 1; d < centre + step; ++d)
-      if (at(d).score < at(best).score) best = int(wrap_degrees(d));
+      if (at(d).score < at(centre).score) centre = d;
+    std::vector<std::pair<double, double>> fine;
+    double best = centre;
+    for (int t = -step + 1; t < step; ++t) {
+      fine.push_back({double(t), at(centre + t).score});
+      if (at(centre + t).score < at(best).score) best = wrap_degrees(centre + t);
+    }
+    const double v = parabola_vertex(fine, step - 1);
+    if (std::isfinite(v)) best = wrap_degrees(std::round((centre + v) * 10.0) / 10.0);  // to a tenth of a degree
+    at(best);
     return best;
   }
 };
@@ -215,7 +247,7 @@ EnvAlignResult align_environment(Scene& scene, const PathTracer& tracer, const D
   is.spp = std::max(1, s.spp);
   is.max_bounces = std::min(base.max_bounces, std::max(0, s.bounces));
   YawSearch search{*env, given, tracer, views, is, {}, r};
-  int best = search.run(s.coarse_step_deg);
+  double best = search.run(s.coarse_step_deg);
   const CandidateScore& zero = search.at(0);
   if (best != 0 && !(search.at(best).score < zero.score * (1.0 - double(s.keep_margin)))) best = 0;
   const CandidateScore& won = search.at(best);
