@@ -127,8 +127,7 @@ double wrap_degrees(double d) {
 }
 
 // The vertex of the least-squares parabola through (t, score) points, if it opens
-// upward and lies within [-limit, limit]; else NaN. Monte Carlo noise and the
-// texels' steps make the fine scores jitter by a few degrees; their parabola does not.
+// upward and lies within [-limit, limit]; else NaN.
 double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double limit) {
   double m[3][4] = {};  // normal equations of score = a + b t + c t^2
   for (const auto& p : pts) {
@@ -153,7 +152,7 @@ double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double
 }
 
 // The yaw search: every coarse step, then every degree within one step of the
-// best, whose parabola's vertex is the yaw. Fills r.candidates.
+// best, then the parabola of the basin's walls. Fills r.candidates.
 struct YawSearch {
   Environment& env;
   const std::vector<float>& given;
@@ -179,16 +178,19 @@ struct YawSearch {
     int centre = 0;
     for (int d = 0; d < 360; d += step)
       if (at(d).score < at(centre).score) centre = d;
-    std::vector<std::pair<double, double>> fine;
-    double best = centre;
-    for (int t = -step + 1; t < step; ++t) {
-      fine.push_back({double(t), at(centre + t).score});
-      if (at(centre + t).score < at(best).score) best = wrap_degrees(centre + t);
-    }
-    const double v = parabola_vertex(fine, step - 1);
-    if (std::isfinite(v)) best = wrap_degrees(std::round((centre + v) * 10.0) / 10.0);  // to a tenth of a degree
-    at(best);
-    return best;
+    int best = centre;
+    for (int t = -step + 1; t < step; ++t)
+      if (at(centre + t).score < at(best).score) best = int(wrap_degrees(centre + t));
+    // The basin's bottom is flat and its lowest degree jitters (noise, and a few degrees
+    // of bias the start materials leave on a soft light: docs/known_light.md); its walls
+    // say where its middle is. So the yaw is the vertex of the parabola through 7 points
+    // a coarse step apart around the lowest degree (within one step of it).
+    std::vector<std::pair<double, double>> wide;
+    for (int k = -3; k <= 3; ++k) wide.push_back({double(k * step), at(best + k * step).score});
+    const double v = parabola_vertex(wide, step);
+    const double yaw = std::isfinite(v) ? wrap_degrees(std::round((best + v) * 10.0) / 10.0) : double(best);
+    at(yaw);
+    return yaw;
   }
 };
 
