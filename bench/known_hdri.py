@@ -9,7 +9,8 @@ The dataset's true training map (dataset.json's train_env) is turned by --yaw ab
 and tinted by --tint, then `ptir optimize` (geometry stage off) and `ptir eval` run once per row:
     exact      the true map, fixed (--env-init TRUE --fix-env; aligned by default: it must stay at 0)
     auto       the handed-over map, fixed, aligned (--env-align auto: yaw; level as given on masked photos)
-    full       ... aligned with exposure and white balance by grey world (--env-align full)
+    full       ... aligned with an exposure from the mean-albedo assumption (--env-align full)
+    exact_full the true map through the same (what the assumption costs where the level was right)
     refine     ... aligned (auto), then learnt at a tenth of the rate (--env-refine)
     off        the handed-over map as given, fixed (--env-align off)
     learn      no map: the environment learnt (the default inversion)
@@ -32,6 +33,7 @@ ROWS = {
     "exact": ["--env-init", "{true}", "--fix-env"],
     "auto": ["--env-init", "{handed}", "--fix-env"],
     "full": ["--env-init", "{handed}", "--fix-env", "--env-align", "full"],
+    "exact_full": ["--env-init", "{true}", "--fix-env", "--env-align", "full"],
     "refine": ["--env-init", "{handed}", "--env-refine"],
     "off": ["--env-init", "{handed}", "--fix-env", "--env-align", "off"],
     "learn": [],

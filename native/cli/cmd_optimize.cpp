@@ -565,7 +565,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-align", o->opt.env_align,
                   "line the --env-init map up with the photos first: auto (its yaw, and its exposure and white balance "
                   "where the photos see the background), yaw, full (also exposure and white balance on masked photos, "
-                  "assuming a grey world) or off (as given); recorded in OUT/settings.json (docs/known_light.md)")
+                  "assuming the object's mean albedo is 0.5) or off (as given); recorded in OUT/settings.json (docs/known_light.md)")
       ->capture_default_str();
   cmd->add_flag("--env-refine", o->opt.env_refine,
                 "learn the (aligned) --env-init map gently, at a tenth of the environment's rate (known light, refined)");

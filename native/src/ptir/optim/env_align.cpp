@@ -126,6 +126,15 @@ double wrap_degrees(double d) {
   return d < 0 ? d + 360.0 : d;
 }
 
+
+// The mean luminance of the splats' albedo the renders used (the materials' start).
+double start_albedo_luminance(const Scene& scene) {
+  if (!scene.gaussians || scene.gaussians->albedo.empty()) return 0.0;
+  double sum = 0;
+  for (const Vec3& a : scene.gaussians->albedo) sum += luminance(a);
+  return sum / double(scene.gaussians->albedo.size());
+}
+
 // The vertex of the least-squares parabola through (t, score) points, if it opens
 // upward and lies within [-limit, limit]; else NaN.
 double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double limit) {
@@ -260,21 +269,22 @@ EnvAlignResult align_environment(Scene& scene, const PathTracer& tracer, const D
   r.pixels = int(won.object.pixels);
   r.photo_level = won.object.level();
   r.background_level = won.background.level();
-  // The level: the background's where seen (the map itself), else grey world for "full".
+  env->texels() = rotate_latlong_yaw(given, env->width(), env->height(), best * kPi / 180.0);
+  // The level: the background's where seen (the map itself), else the mean albedo for "full".
   const bool background = won.background.pixels > 0 && r.background_level.x > 0 && r.background_level.y > 0 &&
                           r.background_level.z > 0;
   if (s.mode != EnvAlignMode::Yaw && background) {
     r.scale = r.background_level;
     r.scale_from = "background";
-  } else if (s.mode == EnvAlignMode::Full && r.photo_level.x > 0 && r.photo_level.y > 0 && r.photo_level.z > 0) {
-    // The render's albedo is start_albedo: the object's mean albedo under the map is
-    // start_albedo * level; the light scaled by `scale` makes it reference_albedo.
-    r.scale = r.photo_level * (s.start_albedo / s.reference_albedo);
-    r.scale_from = "grey world";
+  } else if (s.mode == EnvAlignMode::Full && luminance(r.photo_level) > 0) {
+    // The renders' albedo is the materials' start: under the map, the object's mean albedo
+    // is about their mean times the level; one exposure for all channels (the map's colour
+    // kept) makes its luminance reference_albedo.
+    r.scale = Vec3(float(luminance(r.photo_level) * start_albedo_luminance(scene) / s.reference_albedo));
+    r.scale_from = "mean albedo";
   }
-  std::vector<float> aligned = rotate_latlong_yaw(given, env->width(), env->height(), best * kPi / 180.0);
-  for (size_t i = 0; i < aligned.size(); ++i) aligned[i] = std::max(aligned[i] * r.scale[int(i % 3)], 1e-6f);
-  env->texels() = std::move(aligned);
+  for (size_t i = 0; i < env->texels().size(); ++i)
+    env->texels()[i] = std::max(env->texels()[i] * r.scale[int(i % 3)], 1e-6f);
   env->rebuild_sampling();
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
@@ -283,7 +293,7 @@ EnvAlignResult align_environment(Scene& scene, const PathTracer& tracer, const D
 std::string EnvAlignResult::json() const {
   auto vec = [](Vec3 v) { return ojson::array({v.x, v.y, v.z}); };
   // Exposure: the scale's luminance (Rec. 709 weights); white balance: the scale over it.
-  const double exposure = 0.2126 * scale.x + 0.7152 * scale.y + 0.0722 * scale.z;
+  const double exposure = luminance(scale);
   ojson j = ojson::object();
   j["mode"] = env_align_mode_name(mode);
   j["yaw_deg"] = yaw_deg;
@@ -306,7 +316,7 @@ std::string EnvAlignResult::json() const {
 
 std::string EnvAlignResult::summary() const {
   char line[320];
-  const double exposure = 0.2126 * scale.x + 0.7152 * scale.y + 0.0722 * scale.z;
+  const double exposure = luminance(scale);
   std::snprintf(line, sizeof line,
                 "env-align %s: yaw %.0f deg, scale %.3g %.3g %.3g (exposure %.3g, from %s), score %.4f (unaligned %.4f), "
                 "%zu candidates, %d views, %.1f s",

@@ -25,12 +25,13 @@
 //           - over the object only (masked photos): the level is the albedo's times
 //             the light's, and no image tells one from the other (the evaluation
 //             compares albedo after a per-channel scale for this reason). "full" then
-//             assumes a grey world: the light's scale that makes the object's mean
-//             albedo reference_albedo (grey); "auto" keeps the map's level and colour.
+//             assumes the object's mean albedo: one scale that makes its luminance
+//             reference_albedo (one exposure; the map's colour is kept:
+//             a tint measured harmless, a level not); "auto" keeps the map's level and colour.
 //
 // Modes: off (the map as given), yaw (rotation only), auto (rotation, and the scale
-// where the background shows it), full (rotation and scale, grey world on masked
-// photos). The result is baked into the texels (the rotation by linear interpolation
+// where the background shows it), full (rotation and scale; on masked photos the
+// exposure from the mean-albedo assumption). The result is baked into the texels (the rotation by linear interpolation
 // along each row; yaw 0 leaves them bit for bit), so OUT/env.exr stays in the
 // scene's orientation. docs/known_light.md has the measurements.
 #pragma once
@@ -63,15 +64,14 @@ struct EnvAlignSettings {
   int bounces = 1;              // at most the inversion's
   float coarse_step_deg = 10.0f;
   float keep_margin = 0.01f;    // 0 degrees stays unless beaten by this relative share
-  float reference_albedo = 0.5f;  // "full" on masked photos: the grey world's mean albedo
-  float start_albedo = 0.3f;      // the materials' start the renders use (ParameterSettings::init_albedo)
+  float reference_albedo = 0.5f;  // "full" on masked photos: the object's mean albedo (luminance) assumed
 };
 
 struct EnvAlignResult {
   EnvAlignMode mode = EnvAlignMode::Off;
   double yaw_deg = 0;            // the rotation_z baked into the texels, in [0, 360)
   Vec3 scale{1.0f};              // per channel, applied to the texels
-  std::string scale_from = "none";  // "background", "grey world" or "none" (the map's own level)
+  std::string scale_from = "none";  // "background", "mean albedo" or "none" (the map's own level)
   Vec3 photo_level{0.0f};        // the photos' level against the render's, per channel (object)
   Vec3 background_level{0.0f};   // ... over the background (0: not seen)
   double score = 0, score_unaligned = 0;  // at the solved yaw, and at 0 degrees
