@@ -99,6 +99,12 @@ const std::set<std::string> kCommonOptions = {
     "--checkpoint-every", "--images", "--holdout", "--optimize-metallic", "--learn-exposure", "--estimate",
     "--quiet", "--force", "--budget"};
 
+// --env-align (optim/env_align.h; docs/known_light.md).
+const char* const kEnvAlignHelp =
+    "line the --env-init map up with the photos first: auto (its yaw, and its exposure and white balance where the "
+    "photos see the background), yaw, full (auto, and on masked photos an exposure that makes the object's mean "
+    "albedo 0.5) or off (as given); recorded in OUT/settings.json";
+
 // The command's own options around the set-up shared with the Python module.
 struct OptimizeCommand {
   std::string dataset, gaussians, scene, out;
@@ -562,11 +568,7 @@ Runner add_optimize_command(CLI::App& app) {
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();
   cmd->add_option("--env-init", o->opt.env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
   cmd->add_flag("--fix-env", o->opt.fix_env, "keep the --env-init environment fixed (known lighting)");
-  cmd->add_option("--env-align", o->opt.env_align,
-                  "line the --env-init map up with the photos first: auto (its yaw, and its exposure and white balance "
-                  "where the photos see the background), yaw, full (also exposure and white balance on masked photos, "
-                  "assuming the object's mean albedo is 0.5) or off (as given); recorded in OUT/settings.json (docs/known_light.md)")
-      ->capture_default_str();
+  cmd->add_option("--env-align", o->opt.env_align, kEnvAlignHelp)->capture_default_str();
   cmd->add_flag("--env-refine", o->opt.env_refine,
                 "learn the (aligned) --env-init map gently, at a tenth of the environment's rate (known light, refined)");
   cmd->add_flag("--fix-env-seen", o->opt.fix_env_seen,
