@@ -14,8 +14,8 @@ and tinted by --tint, then `ptir optimize` (geometry stage off) and `ptir eval` 
     refine     ... aligned (auto), then learnt at a tenth of the rate (--env-refine)
     off        the handed-over map as given, fixed (--env-align off)
     learn      no map: the environment learnt (the default inversion)
-Prints a Markdown table (albedo PSNR and per-channel scale from `ptir eval`, relight PSNR, the solved
-yaw and scale) and writes it to OUT/known_hdri.md. Runs are reused when OUT/<row>/eval exists.
+Prints a Markdown table (albedo PSNR and per-channel scale from `ptir eval`, the solved yaw and
+scale) and writes it to OUT/known_hdri.md. Runs are reused when OUT/<row>/eval exists.
 """
 
 import argparse
@@ -74,8 +74,8 @@ def main():
     handed = os.path.join(a.out, "handed.exr")
     truth = handed_over(ptir, true_env, handed, a.yaw, a.exposure, [float(x) for x in a.tint.split(",")])
     lines = [f"handed over: turned {truth:.1f} deg, x{a.exposure}, tint {a.tint}; {a.iters} iterations x {a.spp} spp",
-             "", "| row | albedo PSNR (dB) | albedo scale gt/ours | relight PSNR | solved yaw | solved scale | min |",
-             "|---|---|---|---|---|---|---|"]
+             "", "| row | albedo PSNR (dB) | albedo scale gt/ours | solved yaw | solved scale | min |",
+             "|---|---|---|---|---|---|"]
     for row in a.rows.split(","):
         out = os.path.join(a.out, row)
         t0 = time.time()
@@ -92,10 +92,8 @@ def main():
         rec = json.load(open(os.path.join(out, "settings.json"))).get("env_align", {})
         yaw = f"{rec['yaw_deg']:.0f}" if rec else "-"
         scale = " / ".join(f"{s:.2f}" for s in rec["scale"]) if rec else "-"
-        relight = m.get("relight_psnr_mean", m.get("relight_psnr", "-"))
-        relight = f"{relight:.2f}" if isinstance(relight, float) else relight
         lines.append(f"| {row} | {m['albedo_psnr']:.2f} | {' / '.join(f'{s:.2f}' for s in m['albedo_scale'])} | "
-                     f"{relight} | {yaw} | {scale} | {(time.time() - t0) / 60:.1f} |")
+                     f"{yaw} | {scale} | {(time.time() - t0) / 60:.1f} |")
         print(lines[-1], flush=True)
     open(os.path.join(a.out, "known_hdri.md"), "w").write("\n".join(lines) + "\n")
     print("\n".join(lines))

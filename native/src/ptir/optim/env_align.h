@@ -27,7 +27,7 @@
 //             compares albedo after a per-channel scale for this reason). "full" then
 //             assumes the object's mean albedo: one scale that makes its luminance
 //             reference_albedo (one exposure; the map's colour is kept:
-//             a tint measured harmless, a level not); "auto" keeps the map's level and colour.
+//             a tint measured 0-0.3 dB, a level 2-5 dB); "auto" keeps the map's level and colour.
 //
 // Modes: off (the map as given), yaw (rotation only), auto (rotation, and the scale
 // where the background shows it), full (rotation and scale; on masked photos the
