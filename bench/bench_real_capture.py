@@ -42,6 +42,15 @@ def psnr(a, b, m=None):
     return float(-10 * np.log10(max(float(np.mean(d)), 1e-12)))
 
 
+def with_meshes(scene_file, gaussians, env, camera, spp):
+    """The recovered splats with the scene file's meshes (e.g. a floor proxy) under the recovered light."""
+    scene = json.loads(Path(scene_file).read_text())
+    scene = {"version": 1, "gaussians": [{"file": str(Path(gaussians).resolve())}],
+             "meshes": scene.get("meshes", []), "lights": scene.get("lights", []),
+             "environment": {"type": "latlong", "file": str(Path(env).resolve())}}
+    return ptir.scene_from_dict(scene, base_dir=str(Path(scene_file).resolve().parent)).render(camera, spp=spp)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--dataset", required=True)
@@ -52,12 +61,15 @@ def main():
     ap.add_argument("--json")
     ap.add_argument("--sheet")
     ap.add_argument("--gaussians", help="render these instead of RESULT/gaussians.ply")
+    ap.add_argument("--scene", help="a scene file whose meshes (a floor proxy) take part in the recovered asset's render "
+                    "(OUT/scene.json when the run had one)")
     ap.add_argument("--radiance", action="store_true",
                     help="score the splats' own radiance (the preview AOV: a geometry-frozen SH refit, the "
                          "reference of what the geometry can show) instead of the recovered asset's render")
     a = ap.parse_args()
     cli = str(BUILD / "bin" / "ptir")
     res = Path(a.result)
+    scene_file = a.scene or (str(res / "scene.json") if (res / "scene.json").exists() else None)
     test = ptir.load_dataset(a.dataset, split="test", undistort_cache=a.undistort_cache)
     raw = ptir.load_dataset(a.dataset, split="test", undistort_cache=a.undistort_cache, exif_exposure=False)
     with tempfile.TemporaryDirectory() as tmp:
@@ -71,9 +83,13 @@ def main():
             out = Path(tmp) / ("%s.exr" % name)
             look = ["--aov", "preview", "--spp", "1"] if a.radiance else \
                 ["--env", str(res / "env.exr"), "--aov", "rgb", "--spp", str(a.spp)]
-            subprocess.run([cli, "render", "--gaussians", a.gaussians or str(res / "gaussians.ply"), "--cameras",
-                            str(cams), "--frame", str(i), "-o", str(out), "-q"] + look, check=True)
-            r = ptir.read_image(str(out))
+            if scene_file and not a.radiance:
+                r = with_meshes(scene_file, a.gaussians or str(res / "gaussians.ply"), str(res / "env.exr"),
+                                test.cameras[i], a.spp)
+            else:
+                subprocess.run([cli, "render", "--gaussians", a.gaussians or str(res / "gaussians.ply"), "--cameras",
+                                str(cams), "--frame", str(i), "-o", str(out), "-q"] + look, check=True)
+                r = ptir.read_image(str(out))
             rgb, alpha = r[..., :3], r[..., 3] if r.shape[2] > 3 else np.ones(r.shape[:2])
             photo = raw.target(i)[0]
             mask_file = res / "capture" / "masks" / (name + ".png")

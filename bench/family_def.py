@@ -64,6 +64,8 @@ def dataset_args(m, out):
         args += ["--metal-layout", m.get("metal_layout", "patches")]
     if m.get("neutral"):
         args.append("--neutral")
+    if m.get("capture_room"):  # also photographed as a capture on a floor before walls (scripts/dataset/room.py)
+        args.append("--capture-room")
     return args
 
 

@@ -9,7 +9,7 @@ Run inside Blender 3.4 (headless), or in PyPI's bpy 4.5 / 5.0 (tests/blender/bpy
         [--subdiv 2] [--train-env studio] [--relight-envs sunset,sky] [--env-size 128x64]
         [--threads N] [--save-blend FILE] [--textured] [--metal-fraction F] [--texture-seed N]
         [--capture-layouts] [--shape NAME] [--texture-kind smooth|edges|hifreq|perface]
-        [--roughness-range LO,HI] [--neutral]
+        [--roughness-range LO,HI] [--neutral] [--capture-room]
 
 The object: with --blend, the mesh objects of the file's collection "PTIR_Object"
 (else every renderable mesh); without, the bundled sample built in code
@@ -36,6 +36,11 @@ Writes (docs/dataset_format.md has the conventions):
                                                       layout PTIR reads, the COLMAP and nerfstudio ones through
                                                       a distorted OPENCV lens, with masks
                                                       (scripts/dataset/capture.py)
+    DIR/capture/room/                                 with --capture-room: the training views (and every 8th a
+                                                      test view) photographed on a floor before two walls, lit
+                                                      by the training environment, opaque film: a COLMAP text
+                                                      model, JPEGs with EXIF, four at other exposures, the true
+                                                      exposures in exposures.json (scripts/dataset/room.py)
 """
 
 import argparse
@@ -51,7 +56,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import blender_kit as kit  # noqa: E402  (also puts the add-on on sys.path)
-from dataset import capture, envmaps, exr, png, scene as dscene, splat, textures  # noqa: E402
+from dataset import capture, envmaps, exr, png, room, scene as dscene, splat, textures  # noqa: E402
 from dataset import shapes as dscene_shapes  # noqa: E402
 from ptir_blender.blender import compat  # noqa: E402
 
@@ -87,6 +92,9 @@ def parse_args():
     p.add_argument("--capture-layouts", action="store_true",
                    help="also write the views as a capture in every layout (DIR/capture/: NeRF, COLMAP bin and txt "
                         "with an OPENCV lens, nerfstudio)")
+    p.add_argument("--capture-room", action="store_true",
+                   help="also photograph the views as a real capture (DIR/capture/room/: the object on a floor before "
+                        "two walls, opaque film, JPEGs with EXIF, a few at other exposures, COLMAP text model)")
     a = p.parse_args(argv)
     a.relight_envs = [e for e in a.relight_envs.split(",") if e]
     try:
@@ -107,6 +115,9 @@ def parse_args():
         p.error("--env-size must be WxH, e.g. 128x64")
     if min(a.res, a.train, a.spp, a.env_w, a.env_h) < 1 or a.test < 1 or a.bounces < 0:
         p.error("sizes and counts must be positive")
+    if a.capture_room and a.test < -(-a.train // 7):
+        p.error("--capture-room holds out every 8th photo, one of the test views: %d training views need --test %d "
+                "or more" % (a.train, -(-a.train // 7)))
     return a
 
 
@@ -188,6 +199,27 @@ def render_view(scene, cam, matrix, seed):
         os.remove(path)
     bpy.ops.render.render(write_still=True)
     return dscene.read_passes(path, scene.view_layers[0].name)
+
+
+def render_room(scene, cam, objs, poses, env_file, seed0, coverage):
+    """The capture's photos (scripts/dataset/room.py): the floor and walls added, the film opaque,
+    every planned view rendered (linear RGB, with the object's coverage of the same view from
+    `coverage`); the room removed again. Returns (photos, floor z, floor half width)."""
+    named = {s: [("%s_%03d" % (s, i), m) for i, m in enumerate(poses[s])] for s in ("train", "test")}
+    views = capture.holdout_plan(named["train"], named["test"])
+    parts, floor_z, floor_half = room.build_room(objs)
+    kit.set_environment(scene, env_file)
+    scene.render.film_transparent = False
+    photos = []
+    for i, (name, m) in enumerate(views):
+        t0 = time.time()
+        rgb = render_view(scene, cam, m, seed0 + i + 1)["rgba"][..., :3]
+        photos.append(("%03d_%s" % (i, name), m, rgb, coverage[name]))
+        log("capture/room/%s (%.1f s)" % (name, time.time() - t0))
+    scene.render.film_transparent = True
+    for o in parts:
+        bpy.data.objects.remove(o, do_unlink=True)
+    return photos, floor_z, floor_half
 
 
 # ---------------------------------------------------------------- splats
@@ -304,6 +336,7 @@ def main():
     intrinsics = (f, f, 0.5 * a.res, 0.5 * a.res)
     train_env_map = envmaps.make_envmap(a.train_env, a.env_w, a.env_h)
     capture_views = []
+    coverage = {}  # view name ("train_003") -> the object's alpha under the training environment (the room's true masks)
     for env, split in jobs:
         kit.set_environment(scene, env_files[env])
         for i, m in enumerate(poses[split]):
@@ -318,10 +351,13 @@ def main():
             write_rgba_png(os.path.join(view_dir, name), rgba)
             if split == "test" and env == a.train_env:
                 write_gt_pngs(view_dir, passes, rgba[..., 3])
+            if env == a.train_env:
+                coverage["%s_%03d" % (split, i)] = rgba[..., 3]
             if a.capture_layouts and env == a.train_env:
                 photo = capture.composite_over_environment(rgba, m, intrinsics, train_env_map)
                 capture_views.append(("%s_%03d" % (split, i), m, photo, rgba[..., 3]))
             log("%s_%03d/%s (%.1f s)" % (split, i, name, time.time() - t0))
+    room_photos = render_room(scene, cam, objs, poses, env_files[a.train_env], n_renders, coverage) if a.capture_room else None
     shutil.rmtree(tmp, ignore_errors=True)
     render_s = time.time() - t_render
     if a.capture_layouts:
@@ -379,6 +415,12 @@ def main():
     if a.capture_layouts:  # each capture carries the set's record (surface model, pixel filter), as a converted set does
         for folder in made.values():
             shutil.copyfile(os.path.join(out, "dataset.json"), os.path.join(folder, "dataset.json"))
+    if room_photos is not None:
+        photos, floor_z, floor_half = room_photos
+        record = dict(meta, cycles=dict(meta["cycles"], film="opaque (floor and walls in view)"))
+        folder = room.write_capture(os.path.join(out, "capture", "room"), photos, intrinsics, a.res,
+                                    room.sparse_points(g["position"], floor_z, floor_half), record, floor_z)
+        log("room capture: %d photos -> %s" % (len(photos), folder))
     log("%d Gaussians, %d train + %d test views (%dx%d, %d spp, %d bounces), envs %s; %d renders in %.1f s, total %.1f s -> %s"
         % (len(g["position"]), a.train, a.test, a.res, a.res, a.spp, a.bounces, ",".join(env_files), n_renders,
            render_s, time.time() - t_start, out))

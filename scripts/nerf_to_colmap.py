@@ -56,16 +56,11 @@ def frames_of(root, split):
 
 
 def plan(train, test, holdout=8):
-    """The capture's views in name order: k test views at 0, holdout, 2 holdout, ...
-    (k the fewest that the holdout picks with all the training views), the rest the
-    training views in order."""
-    k = math.ceil(len(train) / (holdout - 1))
-    if k > len(test):
-        raise SystemExit("nerf_to_colmap: %d training views need %d test views at every %dth position, the set has %d"
-                         % (len(train), k, holdout, len(test)))
-    n = len(train) + k
-    tests, trains = iter(test[:k]), iter(train)
-    return [next(tests) if i % holdout == 0 else next(trains) for i in range(n)]
+    """The capture's views in name order (dataset/capture.py's holdout_plan)."""
+    try:
+        return capture.holdout_plan(train, test, holdout)
+    except ValueError as e:
+        raise SystemExit("nerf_to_colmap: %s" % e)
 
 
 def convert(nerf_dir, out_dir, text=False):

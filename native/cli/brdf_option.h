@@ -8,8 +8,7 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
-#include "ptir/core/error.h"
-#include "ptir/material/shading_model.h"
+#include "ptir/pipeline/brdf_choice.h"
 
 namespace ptir::cli {
 
@@ -21,11 +20,6 @@ inline void add_brdf_option(CLI::App* cmd, std::string* value) {
 }
 
 // Applies --brdf when it was given.
-inline void apply_brdf_option(const std::string& value, BsdfModel& model) {
-  if (value.empty()) return;
-  auto m = parse_bsdf_model(value);
-  if (!m) throw Error(std::string("--brdf must be one of ") + bsdf_model_names() + ", got '" + value + "'");
-  model = *m;
-}
+inline void apply_brdf_option(const std::string& value, BsdfModel& model) { pipeline::apply_brdf_choice(value, model); }
 
 }  // namespace ptir::cli

@@ -1,21 +1,15 @@
 // The dataset-reading switches `optimize` and `eval` share (real captures:
-// docs/dataset_format.md), and how they fill DatasetOptions.
+// docs/dataset_format.md); what they fill: pipeline/capture_options.h.
 #pragma once
 
 #include <CLI/CLI.hpp>
 #include <string>
 
-#include "ptir/scene/dataset.h"
+#include "ptir/pipeline/capture_options.h"
 
 namespace ptir::cli {
 
-struct CaptureFlags {
-  std::string layout = "auto", images, test_list, undistort_cache, dataparser_transforms, world = "auto";
-  int holdout = 8;
-  bool black_background = false;
-  bool ignore_exif = false;
-  std::string calibration;  // --calibration: a capture calibration (scene/capture_calibration.h)
-};
+using CaptureFlags = pipeline::CaptureOptions;
 
 inline void add_capture_flags(CLI::App* cmd, CaptureFlags* f) {
   cmd->add_option("--layout", f->layout, "dataset layout: auto, nerf, colmap, 3dgs, nerfstudio")->capture_default_str();
@@ -36,17 +30,6 @@ inline void add_capture_flags(CLI::App* cmd, CaptureFlags* f) {
                   "OUT/capture/calibration.json `ptir optimize` wrote (docs/captures.md)");
 }
 
-inline void apply_capture_flags(const CaptureFlags& f, DatasetOptions& d) {
-  d.layout = f.layout;
-  d.images = f.images;
-  d.holdout = f.holdout;
-  d.test_list = f.test_list;
-  d.undistort_dir = f.undistort_cache;
-  d.dataparser_transforms = f.dataparser_transforms;
-  d.world = f.world;
-  d.black_background = f.black_background;
-  d.exif_exposure = !f.ignore_exif;
-  d.calibration = f.calibration;
-}
+inline void apply_capture_flags(const CaptureFlags& f, DatasetOptions& d) { pipeline::apply_capture_options(f, d); }
 
 }  // namespace ptir::cli

@@ -22,18 +22,22 @@
 #include <memory>
 #include <optional>
 
+#include "capture_flags.h"
 #include "commands.h"
-#include "capture_stage.h"
-#include "fit_stage.h"
-#include "optimize_budget.h"
 #include "output_guard.h"
 #include "pyramid_flags.h"
 #include "ptir/core/error.h"
 #include "ptir/optim/budget_plan.h"
+#include "ptir/pipeline/capture_stage.h"
+#include "ptir/pipeline/fit_stage.h"
+#include "ptir/pipeline/optimize_budget.h"
 
 namespace ptir::cli {
 
 namespace {
+
+using pipeline::CaptureStage;
+using pipeline::FitStage;
 
 struct FitCommand {
   FitStage stage;
@@ -41,6 +45,7 @@ struct FitCommand {
   bool force = false;
   int threads = 0;
   bool sh_only = false;  // --sh-only: the geometry frozen, the radiance refitted
+  std::string progress = "text";  // --progress text|json (pipeline/progress_printer.h)
 };
 
 int run_fit(const FitCommand& o, const CLI::App& cmd) {
@@ -52,7 +57,7 @@ int run_fit(const FitCommand& o, const CLI::App& cmd) {
     stage.seconds = parse_duration(o.budget, "--budget");
     // As `ptir optimize --budget`'s geometry stage (the add-on's time presets run this one):
     // the resolution pyramid, its fine fraction planned from the time (fit_stage.h).
-    if (!cmd.count("--coarse-pixels")) stage.s.coarse_pixels = kBudgetCoarsePixels;
+    if (!cmd.count("--coarse-pixels")) stage.s.coarse_pixels = pipeline::kBudgetCoarsePixels;
     stage.plan_fine_fraction = !cmd.count("--fine-fraction");
   }
   if (o.sh_only) {  // what this geometry can show of the photos: only the SH learn, nothing is added or removed
@@ -60,19 +65,21 @@ int run_fit(const FitCommand& o, const CLI::App& cmd) {
     stage.s.lambda_distortion = 0.0f;
     stage.no_densify = true;
   }
-  check_fit_stage(stage);
+  pipeline::check_fit_stage(stage);
+  stage.progress = pipeline::ProgressPrinter(pipeline::parse_progress_format(o.progress), stage.quiet);
   // A real capture's photos measured against the splats first (capture_stage.h; the add-on's
   // optimise flow runs this command as its geometry stage): an object's coverage masks them.
-  const CaptureStage capture{stage.dataset, stage.gaussians, stage.out, stage.capture, {}, stage.resume, stage.quiet};
+  const CaptureStage capture{stage.dataset, stage.gaussians, stage.out, stage.capture,
+                             CaptureAnalysisSettings{}, stage.resume, stage.quiet, stage.progress};
   guard_outputs({{o.stage.gaussians}, {o.stage.dataset}, {}, {o.stage.dataset}}, {{}, {o.stage.out}}, o.force);
   guard_result_folder(o.stage.out, o.force);
   const auto lock = lock_output_folder(o.stage.out, "ptir fit");
   remove_stale_outputs({o.stage.out}, o.stage.quiet);
   if (!o.stage.dataset.empty()) {
-    const CaptureStageResult r = run_capture_stage(capture);
+    const pipeline::CaptureStageResult r = pipeline::run_capture_stage(capture);
     if (!r.calibration.empty()) stage.capture.calibration = r.calibration;
   }
-  return run_fit_stage(stage);
+  return pipeline::run_fit_stage(stage);
 }
 
 }  // namespace
@@ -130,9 +137,21 @@ Runner add_fit_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--k", o->stage.s.accel.k, "k-buffer size of the tracer")->capture_default_str();
   cmd->add_flag("-q,--quiet", o->stage.quiet, "no progress output");
+  cmd->add_option("--progress", o->progress,
+                  "progress lines on stderr: text, or json (one JSON object per line: docs/engine_protocol.md)")
+      ->capture_default_str();
   add_force_flag(cmd, o->force);
   add_capture_flags(cmd, &o->stage.capture);
-  return [o, cmd] { return run_fit(*o, *cmd); };
+  return [o, cmd] {
+    try {
+      return run_fit(*o, *cmd);
+    } catch (const Cancelled&) {
+      throw;
+    } catch (const std::exception& e) {  // the error line of --progress json (Ctrl-C is no error: 130)
+      if (!o->stage.quiet && o->progress == "json") pipeline::ProgressPrinter(pipeline::ProgressFormat::json, false).error(e.what());
+      throw;
+    }
+  };
 }
 
 }  // namespace ptir::cli

@@ -18,7 +18,7 @@
 // --no-geometric-criterion, --self-intersection backface|fixed. --threads N limits
 // TBB: the image does not depend on it (random numbers are keyed per pixel/sample).
 // -o is .exr or .png; an output (or --stats-json) that is an input file is refused
-// unless --force (cli/output_guard.h); sizes past --max-memory are refused before
+// unless --force (pipeline/output_guard.h); sizes past --max-memory are refused before
 // anything is allocated (cli/image_budget.h).
 //
 // Under MPI (`mpirun -np N ptir render ...`, native/mpi/world.h) the image is dealt

@@ -5,18 +5,11 @@
 
 #include <CLI/CLI.hpp>
 
-#include <memory>
-#include <string>
-
-#include "ptir/core/error.h"
-#include "ptir/math/pixel_filter.h"
+#include "ptir/pipeline/filter_options.h"
 
 namespace ptir::cli {
 
-struct FilterFlags {
-  std::string type;
-  float width = 1.5f;
-};
+using FilterFlags = pipeline::FilterOptions;
 
 inline void add_filter_flags(CLI::App* cmd, FilterFlags* f) {
   cmd->add_option("--pixel-filter", f->type,
@@ -27,12 +20,7 @@ inline void add_filter_flags(CLI::App* cmd, FilterFlags* f) {
 
 // Overrides `filter` (the scene's, or the default) with the switches given.
 inline void apply_filter_flags(const FilterFlags& f, const CLI::App& cmd, PixelFilter& filter) {
-  if (cmd.count("--pixel-filter")) filter.type = parse_pixel_filter(f.type);
-  if (cmd.count("--filter-width")) {
-    if (!(f.width >= 0.0f) || !std::isfinite(f.width))
-      throw Error("--filter-width must be a non-negative number of pixels, got " + std::to_string(f.width));
-    filter.width = f.width;
-  }
+  pipeline::apply_filter_options(f, cmd.count("--pixel-filter") > 0, cmd.count("--filter-width") > 0, filter);
 }
 
 }  // namespace ptir::cli

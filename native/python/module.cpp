@@ -13,6 +13,7 @@ void bind_image(py::module_& m);     // read_image / write_image
 void bind_losses(py::module_& m);    // ptir.losses
 void bind_optimize(py::module_& m);  // Dataset, Optimizer, optimize
 void bind_eval(py::module_& m);      // ptir.metrics, evaluate
+void bind_pipeline(py::module_& m);  // optimize_pipeline: the stages of `ptir optimize`
 
 PYBIND11_MODULE(ptir, m) {
   m.doc() = "PTIR: path-traced inverse rendering of 3D Gaussian splats";
@@ -32,4 +33,5 @@ PYBIND11_MODULE(ptir, m) {
   bind_losses(m);
   bind_optimize(m);
   bind_eval(m);
+  bind_pipeline(m);
 }

@@ -24,6 +24,7 @@ render covers the whole photo; the tangential terms are small enough that the
 few edge samples they push out are clamped to the border pixel.
 """
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -91,6 +92,18 @@ def composite_over_environment(rgba, c2w, intrinsics, env):
     d = d_cam @ np.asarray(c2w, np.float64)[:3, :3].T
     a = rgba[..., 3:4]
     return rgba[..., :3] + (1.0 - a) * envmaps.lookup(env, d)
+
+
+def holdout_plan(train, test, holdout=8):
+    """A capture's views in name order from a set's: k test views at 0, holdout, 2 holdout, ...
+    (k the fewest that the holdout picks with all the training views), the training views in
+    order between them, so that `--holdout` trains on exactly the set's training views."""
+    k = math.ceil(len(train) / (holdout - 1))
+    if k > len(test):
+        raise ValueError("%d training views need %d test views at every %dth position, the set has %d"
+                         % (len(train), k, holdout, len(test)))
+    tests, trains = iter(test[:k]), iter(train)
+    return [next(tests) if i % holdout == 0 else next(trains) for i in range(len(train) + k)]
 
 
 def _photo_8bit(rgb_linear):

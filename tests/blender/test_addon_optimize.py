@@ -38,7 +38,7 @@ def _run(mode, dataset, tmp_path, iterations=120, blender="3.4"):
 def test_optimize_writes_materials_back(blender, dataset, tmp_path):
     stats, r = _run("finish", dataset, tmp_path, blender=blender)
     print("optimise: %s" % stats)
-    assert "ptir: iter 120/120" in r.stdout  # blender -b prints the optimiser's progress
+    assert '"stage":"optimize","iteration":120,"total":120' in r.stdout  # blender -b prints the progress lines
 
 
 def test_optimize_from_scene_cameras(dataset, tmp_path):

@@ -41,7 +41,7 @@ def test_make_relightable_without_photos(blender, dc_only_ply, tmp_path):
     stats, r = _run("finish", dc_only_ply, tmp_path, blender=blender)
     print("make relightable: %s" % stats)
     assert "roughness and metallic are unconstrained" in r  # SH degree 0, said by the engine
-    assert "radiance: view 8/8 rendered" in r
+    assert '"event":"target","stage":"radiance","view":8,"total":8' in r  # the radiance targets' progress
 
 
 def test_cancelled_make_relightable_leaves_scene_unchanged(dc_only_ply, tmp_path):

@@ -51,12 +51,13 @@ def test_optimize_command_lines():
     assert args == ["ptir", "optimize", "--dataset", "/d", "--split", "train", "--gaussians", "/g.ply", "--out", "/out",
                     "--bounces", "2", "--env", "latlong", "--env-size", "128x64", "--seed", "3", "--fit-iters", "0",
                     "--indirect", "path", "--iters", "200", "--spp", "16", "--views-per-iter", "1", "--crop", "0",
-                    "--scene", "/s.json", "--optimize-meshes", "--optimize-metallic", "--threads", "2"]
+                    "--scene", "/s.json", "--optimize-meshes", "--progress", "json", "--optimize-metallic", "--threads",
+                    "2"]
     # A time preset: the fit takes FIT_SHARE of it, the inversion the rest (then what is left).
     budget = engine_client.preset_seconds(_settings(preset="DRAFT"))
     assert budget == 120.0
     fit = engine_client.fit_args("ptir", s, "/d", "train", "/g.ply", "/out/fit", budget)
-    assert fit[fit.index("--budget") + 1] == "48s"
+    assert fit[fit.index("--budget") + 1] == "48s" and fit[fit.index("--progress") + 1] == "json"
     inv = engine_client.optimize_args("ptir", s, "/d", "train", "/out/fit/gaussians.ply", "/out", True, budget, None,
                                       False)
     assert inv[inv.index("--budget") + 1] == "72s" and inv[inv.index("--indirect") + 1] == "field"

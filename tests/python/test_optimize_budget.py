@@ -1,4 +1,4 @@
-"""`ptir optimize --budget` (optim/budget_plan.h, cli/optimize_budget.h): the plan, the
+"""`ptir optimize --budget` (optim/budget_plan.h, pipeline/optimize_budget.h): the plan, the
 record --resume continues from, and the errors. Runs are a few seconds on the tiny
 sphere set of test_optimize_cli.py (6 views of 32x32, 1 thread). How close a budget
 lands to its time is a benchmark (bench/time_to_quality.py), not asserted here."""

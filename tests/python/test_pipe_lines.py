@@ -5,6 +5,7 @@ lines come whole and in order across carriage returns, chunk boundaries and an u
 more output than a pipe holds does not stall the child; the exit status and the last lines survive;
 and neither the job nor the persistent engine starts a thread."""
 
+import math
 import sys
 import threading
 from pathlib import Path
@@ -71,15 +72,36 @@ def test_engine_without_a_thread(cli, tmp_path):
 
 
 def test_optimize_progress_of_a_real_capture_names_its_subject():
-    """The capture stage's first line (`ptir fit` and `ptir optimize` on a real capture) names the subject
-    for the Optimise panel; the iterations' progress is read as before."""
+    """The capture stage's event (`ptir fit` and `ptir optimize --progress json` on a real capture) names
+    the subject for the Optimise panel; the iterations' progress is read after it."""
     p = cli_mod.Progress()
-    assert cli_mod.parse_optimize_progress(
-        "capture: an object against a background (the splat covers 21 % of the median photo): ...", p)
+    assert cli_mod.parse_optimize_progress('{"event":"subject","subject":"object","covered":0.21}', p)
     assert p.subject == "object against a background"
-    cli_mod.parse_optimize_progress("iter 1/2  loss 0.10163 (image 0.10163 tv 0.00000 prior 0.00000)  1.99 s/iter  "
-                                    "ETA 2.0s  [IMG_3510]", p)
+    cli_mod.parse_optimize_progress('{"event":"iteration","stage":"optimize","iteration":1,"total":2,"loss":0.10163,'
+                                    '"image":0.10163,"tv":0.0,"prior":0.0,"s_per_iter":1.99,"eta_s":2.0,"eta":"2.0s",'
+                                    '"views":"IMG_3510"}', p)
     assert abs(p.fraction - 0.5) < 1e-9 and p.subject == "object against a background"
     q = cli_mod.Progress()
-    cli_mod.parse_optimize_progress("capture: a scene (the splat covers 97 % of the median photo)", q)
+    cli_mod.parse_optimize_progress('{"event":"subject","subject":"scene","covered":0.97}', q)
     assert q.subject == "scene"
+
+
+def test_optimize_progress_events():
+    """The engine's own JSON lines (an estimate, radiance targets, iterations with a NaN loss, the end,
+    an error) as the Optimise panel reads them; text lines are the log, not progress."""
+    p = cli_mod.Progress()
+    assert not cli_mod.parse_optimize_progress("optimize: surface model principled-v2", p)
+    assert not cli_mod.parse_optimize_progress("iter 1/2  loss 0.1  1.99 s/iter  ETA 2.0s", p)
+    assert not cli_mod.parse_optimize_progress('{"estimate": {"setup_s": 1.0}}', p)  # --estimate's stdout line
+    cli_mod.parse_optimize_progress('{"event":"target","stage":"radiance","view":12,"total":24,"elapsed_s":3.0}', p)
+    assert p.targets and abs(p.fraction - 0.05) < 1e-9 and "view 12/24" in p.text
+    cli_mod.parse_optimize_progress('{"event":"estimate","s_per_iter":0.5,"iterations":400,"eta_s":200.0,'
+                                    '"eta":"3m20s"}', p)
+    assert p.estimate == "3m20s" and "400 iterations" in p.text
+    cli_mod.parse_optimize_progress('{"event":"iteration","stage":"optimize","iteration":200,"total":400,"loss":null,'
+                                    '"s_per_iter":0.5,"eta_s":100.0,"eta":"1m40s"}', p)
+    assert math.isnan(p.loss) and abs(p.fraction - 0.55) < 1e-9 and p.eta == "1m40s" and p.iteration == 200
+    assert cli_mod.parse_optimize_progress('{"event":"done","stage":"optimize","status":"finished","iterations":400,'
+                                           '"out":"/o"}', p)
+    assert cli_mod.parse_optimize_progress('{"event":"error","message":"/d: no such folder"}', p)
+    assert p.error == "/d: no such folder"

@@ -11,11 +11,13 @@ operator's timer, a render engine loop, or a blocking loop in blender -b) polls:
         print(job.progress.fraction, job.progress.text)
         time.sleep(0.1)
 
-Progress formats (native/cli):
+Progress formats:
     render:   "\\rrender rgb [#####     ]  45.0%  1.2s  ETA 1.5s"  (carriage-return redraws)
-    optimize: "iter 12/800  loss 0.04321 (image ... )  0.85 s/iter  ETA 11m10s  [r_3]"
+    optimize, fit (--progress json, src/ptir/pipeline/progress_printer.h; docs/engine_protocol.md):
+              {"event":"iteration","stage":"optimize","iteration":12,"total":800,"loss":0.04321,...}
 """
 
+import json
 import os
 import re
 import shutil
@@ -93,13 +95,12 @@ class Progress:
         self.targets = False   # optimize without --dataset: radiance targets were rendered first
         self.estimate = ""     # optimize's own duration estimate ("4m05s"), once printed
         self.subject = ""      # a real capture's splat: "object against a background" or "scene"
+        self.error = ""        # the engine's error message (its "error" event), once reported
 
 
 _RENDER_RE = re.compile(r"\]\s*([0-9.]+)%\s+([0-9.]+)s\s+ETA\s+([0-9.]+)s")
-_TARGET_RE = re.compile(r"^radiance: view\s+(\d+)/(\d+) rendered")
-_EST_RE = re.compile(r"^optimize: estimated ([0-9.]+) s/iter, (\S+) for (\d+) iterations")
 TARGET_SHARE = 0.1  # of the progress bar, for the radiance targets (no --dataset) before the iterations
-_OPT_RE = re.compile(r"^iter\s+(\d+)/(\d+)\s+loss\s+([-+0-9.eEinfa]+).*?([0-9.]+)\s*s/iter\s+ETA\s+(\S+)")
+SUBJECTS = {"object": "object against a background", "scene": "scene"}
 
 
 def parse_render_progress(line, progress):
@@ -114,43 +115,41 @@ def parse_render_progress(line, progress):
 
 
 def parse_optimize_progress(line, progress):
-    """Updates progress from one `ptir optimize` progress line (an iteration; without --dataset also a
-    radiance target and the duration estimate); returns True when it was one."""
-    if line.startswith("capture: an object against a background"):
-        progress.subject, progress.text = "object against a background", "capture: object against a background"
-        return True
-    if line.startswith("capture: a scene"):
-        progress.subject, progress.text = "scene", "capture: scene"
-        return True
-    line = line.strip()
-    m = _TARGET_RE.search(line)
-    if m:
-        done, total = int(m.group(1)), int(m.group(2))
+    """Updates progress from one progress line of `ptir optimize` or `ptir fit` run with --progress json
+    (one JSON object per line, docs/engine_protocol.md "Progress lines": a real capture's subject, the
+    radiance targets, the duration estimate, the iterations, the end or the error); returns True when it
+    was one. Other lines are the log."""
+    if not line.startswith('{"event"'):
+        return False
+    try:
+        e = json.loads(line)
+    except ValueError:
+        return False
+    kind = e.get("event")
+    if kind == "subject":
+        progress.subject = SUBJECTS.get(e.get("subject"), e.get("subject", ""))
+        progress.text = "capture: " + progress.subject
+    elif kind == "target":
+        done, total = int(e["view"]), int(e["total"])
         progress.targets = True
         progress.fraction = TARGET_SHARE * done / max(1, total)
         progress.text = "rendering the splats' radiance: view %d/%d" % (done, total)
-        return True
-    m = _EST_RE.search(line)
-    if m:
-        progress.estimate = m.group(2)
-        progress.text = "estimated %s for %s iterations" % (m.group(2), m.group(3))
-        return True
-    m = _OPT_RE.search(line)
-    if not m:
-        return False
-    it, total = int(m.group(1)), int(m.group(2))
-    progress.iteration, progress.iterations = it, total
-    try:
-        progress.loss = float(m.group(3))
-    except ValueError:
-        progress.loss = float("nan")
-    progress.seconds_per_iteration = float(m.group(4))
-    progress.eta = m.group(5)
-    progress.fraction = min(1.0, it / max(1, total))
-    if getattr(progress, "targets", False):
-        progress.fraction = TARGET_SHARE + (1.0 - TARGET_SHARE) * progress.fraction
-    progress.text = "iteration %d/%d, loss %.5f, %.2f s/iter, ETA %s" % (it, total, progress.loss,
-                                                                       progress.seconds_per_iteration, progress.eta)
+    elif kind == "estimate":
+        progress.estimate = e["eta"]
+        progress.text = "estimated %s for %d iterations" % (e["eta"], e["iterations"])
+    elif kind == "iteration":
+        it, total = int(e["iteration"]), int(e["total"])
+        progress.iteration, progress.iterations = it, total
+        progress.loss = float("nan") if e.get("loss") is None else float(e["loss"])
+        progress.seconds_per_iteration = float(e.get("s_per_iter") or 0.0)
+        progress.eta = e.get("eta", "?")
+        progress.fraction = min(1.0, it / max(1, total))
+        if progress.targets:
+            progress.fraction = TARGET_SHARE + (1.0 - TARGET_SHARE) * progress.fraction
+        progress.text = "iteration %d/%d, loss %.5f, %.2f s/iter, ETA %s" % (it, total, progress.loss,
+                                                                           progress.seconds_per_iteration, progress.eta)
+    elif kind == "error":
+        progress.error = e.get("message", "")
     return True
 
 

@@ -92,7 +92,7 @@ def render_args(cli_exe, scene_json, output, camera, settings, transparent=False
 
 # The Optimise panel's time presets (properties.py, `preset`): seconds the whole run may take,
 # of which the geometry stage takes at most FIT_SHARE (as `ptir optimize --budget` gives its own,
-# cli/optimize_budget.h's kFitShare); the inversion gets what the fit leaves (inversion_args).
+# pipeline/optimize_budget.h's kFitShare); the inversion gets what the fit leaves (inversion_args).
 PRESET_SECONDS = {"DRAFT": 120.0, "GOOD": 600.0, "FINAL": 1800.0}
 FIT_SHARE = 0.4
 
@@ -105,7 +105,7 @@ def preset_seconds(settings):
 def fit_args(cli_exe, settings, dataset_dir, split, splats, out_dir, budget):
     """`ptir fit`: the geometry stage of the Optimise flow (at most FIT_SHARE of a time preset's budget)."""
     args = [cli_exe, "fit", "--dataset", dataset_dir, "--split", split, "--gaussians", splats,
-            "--out", out_dir, "--iters", settings.fit_iterations, "--seed", settings.seed]
+            "--out", out_dir, "--iters", settings.fit_iterations, "--seed", settings.seed, "--progress", "json"]
     if budget:  # at most FIT_SHARE of a time preset (the fit's count re-planned as it runs)
         args += ["--budget", "%.0fs" % (FIT_SHARE * budget)]
     if settings.threads > 0:
@@ -155,7 +155,8 @@ def splats_only_args(cli_exe, settings, splats, out_dir, own_defaults):
 
 
 def with_common_args(args, settings):
-    """args with the switches every optimise run takes, as strings."""
+    """args with the switches every optimise run takes, as strings (the progress as JSON lines: cli.py)."""
+    args.extend(["--progress", "json"])
     if settings.optimize_metallic:
         args.append("--optimize-metallic")
     if settings.threads > 0:

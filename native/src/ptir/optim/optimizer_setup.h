@@ -1,4 +1,4 @@
-// The set-up shared by `ptir optimize` (cli/cmd_optimize.cpp) and the Python
+// The set-up shared by `ptir optimize` (pipeline/optimize_pipeline.h) and the Python
 // module's ptir.Optimizer / ptir.optimize (python/bind_optimize.cpp): the
 // options both take, checked and turned into OptimizerSettings, and the scene
 // the optimiser starts from.

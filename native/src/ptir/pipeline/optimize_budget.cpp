@@ -1,4 +1,4 @@
-#include "optimize_budget.h"
+#include "ptir/pipeline/optimize_budget.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -14,7 +14,7 @@
 #include "ptir/optim/iteration_estimate.h"
 #include "ptir/optim/optimizer.h"
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 namespace {
 std::string budget_text(double seconds) {
@@ -120,4 +120,4 @@ int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t
 }
 
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

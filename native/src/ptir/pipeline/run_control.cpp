@@ -1,10 +1,10 @@
-#include "run_control.h"
+#include "ptir/pipeline/run_control.h"
 
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 std::atomic<bool> g_interrupted{false};
 
@@ -30,4 +30,4 @@ std::string duration_text(double s) {
   return b;
 }
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

@@ -1,4 +1,4 @@
-#include "fit_stage.h"
+#include "ptir/pipeline/fit_stage.h"
 
 #include <chrono>
 #include <cmath>
@@ -6,14 +6,14 @@
 #include <filesystem>
 #include <memory>
 
-#include "run_control.h"
+#include "ptir/pipeline/run_control.h"
 #include "ptir/core/error.h"
 #include "ptir/optim/budget_plan.h"
 #include "ptir/optim/checkpoint.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/scene/gaussian_ply.h"
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 void check_fit_stage(const FitStage& f) {
   if (f.checkpoint_every < 0) throw Error("--checkpoint-every must be >= 0");
@@ -48,7 +48,7 @@ int run_fit_stage(const FitStage& f, const std::string& continue_hint) {
   check_fit_stage(f);
   DatasetOptions dopt;
   dopt.split = f.split;
-  apply_capture_flags(f.capture, dopt);
+  apply_capture_options(f.capture, dopt);
   std::shared_ptr<const Dataset> data = load_dataset(f.dataset, dopt);
   data->check_images();  // every photo decodes and fits its camera, before any iteration
   GeometryFitSettings s = f.s;
@@ -68,6 +68,7 @@ int run_fit_stage(const FitStage& f, const std::string& continue_hint) {
                  fit.field().size(), fit.settings().max_gaussians, data->size(), data->split.c_str(), data->width,
                  data->height, s.iterations, (unsigned long long)s.seed);
 
+  const ProgressPrinter progress = f.progress.quiet(f.quiet);
   const int start_it = fit.iteration();
   const auto t0 = std::chrono::steady_clock::now();
   FitRunOptions ro;
@@ -114,18 +115,14 @@ int run_fit_stage(const FitStage& f, const std::string& continue_hint) {
       const int total = std::min(s.iterations, replanned);
       if (total != fit.settings().iterations) fit.set_iterations(total);
     }
-    if (f.quiet) return true;
     const int done = fit.iteration() - start_it;
     const double eta = (done > 0 ? elapsed / done : l.seconds) * double(fit.settings().iterations - fit.iteration());
-    std::fprintf(stderr, "iter %d/%d  loss %.5f (image %.5f mask %.5f normal %.5f)  %zu Gaussians", l.iteration,
-                 fit.settings().iterations, l.loss, l.image, l.mask, l.normal, l.gaussians);
-    if (l.pruned || l.cloned || l.split) std::fprintf(stderr, " (-%d +%d clones +%d splits)", l.pruned, l.cloned, l.split);
-    if (l.flipped) std::fprintf(stderr, " (%d normals re-oriented)", l.flipped);
-    std::fprintf(stderr, "  %.2f s/iter  ETA %s\n", l.seconds, duration_text(eta).c_str());
+    progress.fit_iteration(l, fit.settings().iterations, eta);
     return true;
   };
   auto previous = install_sigint();
   const RunResult r = with_sigint_restored(previous, [&] { return run_geometry_fit(fit, ro); });
+  progress.done("fit", r != RunResult::Cancelled, fit.iteration(), f.out);
   if (r == RunResult::Cancelled) {
     std::fprintf(stderr, "ptir: interrupted after iteration %d; wrote %s and the outputs in %s (continue with %s)\n",
                  fit.iteration(), ckpt.c_str(), f.out.c_str(), continue_hint.c_str());
@@ -137,4 +134,4 @@ int run_fit_stage(const FitStage& f, const std::string& continue_hint) {
   return 0;
 }
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

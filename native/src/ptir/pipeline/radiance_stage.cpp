@@ -1,5 +1,5 @@
 // The radiance-target stage of `ptir optimize` without --dataset (radiance_stage.h).
-#include "radiance_stage.h"
+#include "ptir/pipeline/radiance_stage.h"
 
 #include <chrono>
 #include <cmath>
@@ -21,50 +21,17 @@
 #include "ptir/scene/dataset.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/splat_up_axis.h"
-#include "run_control.h"
+#include "ptir/pipeline/run_control.h"
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 namespace fs = std::filesystem;
 
-void add_radiance_flags(CLI::App* cmd, RadianceStage* r) {
-  const char* group = "Without --dataset: targets from the splats' own radiance (docs/relightable.md)";
-  cmd->add_option("--cameras", r->cameras,
-                  "a 3DGS output's cameras.json (or its folder): render the targets from these poses instead of an orbit "
-                  "(scenes, not only objects)")
-      ->group(group);
-  cmd->add_option("--up", r->up,
-                  "the splats' up axis: x, y, z, -x, -y, -z or X,Y,Z (default: decided from the data: the cameras, "
-                  "the SH, the file's convention; recorded in OUT/views.json)")
-      ->group(group);
-  cmd->add_option("--orbit-views", r->orbit.views, "virtual views around the splats (0: from the splat count, 24..96)")
-      ->group(group);
-  cmd->add_option("--orbit-size", r->orbit.size,
-                  "side of the square virtual views in pixels (0: from the splat count, 256..640); with --cameras the "
-                  "targets' long side (0: 800)")
-      ->group(group);
-  cmd->add_option("--orbit-elevation", r->orbit.elevation_min, "lowest camera elevation in degrees (default -30, 10 for flat extents)")
-      ->group(group);
-  cmd->add_option("--orbit-elevation-max", r->orbit.elevation_max, "highest camera elevation in degrees (default 75)")
-      ->group(group);
-  cmd->add_option("--orbit-fov", r->orbit.fov_deg, "the virtual cameras' field of view in degrees")
-      ->capture_default_str()
-      ->group(group);
-  cmd->add_option("--orbit-distance", r->orbit.distance_scale,
-                  "scale of the orbit's distance (1: the bounding sphere fills the view with a margin; a scale that "
-                  "brings the cameras inside the bounds is refused by nothing but warned about)")
-      ->capture_default_str()
-      ->group(group);
-  cmd->add_option("--target-spp", r->target_spp, "filter-jittered samples per pixel of each radiance target")
-      ->capture_default_str()
-      ->group(group);
-}
-
-void apply_radiance_defaults(OptimizeOptions& opt, const CLI::App& cmd) {
-  if (cmd.count("--iters") == 0) opt.iters = 400;
-  if (cmd.count("--spp") == 0) opt.spp = 16;
-  if (cmd.count("--crop") == 0) opt.crop = 128;
-  if (cmd.count("--neutral-light") == 0) opt.neutral_light = true;
+void apply_radiance_defaults(OptimizeOptions& opt, const GivenOptions& given) {
+  if (given.count("--iters") == 0) opt.iters = 400;
+  if (given.count("--spp") == 0) opt.spp = 16;
+  if (given.count("--crop") == 0) opt.crop = 128;
+  if (given.count("--neutral-light") == 0) opt.neutral_light = true;
 }
 
 std::vector<std::string> radiance_input_files(const RadianceStage& r) {
@@ -198,11 +165,11 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
   s.key = "ptir radiance targets v1\n" + file_identity(r.gaussians) + "\nspp " + std::to_string(r.target_spp) + "\n" +
           std::to_string(fnv1a(plan_text)) + "\n";
   s.cancel = &g_interrupted;
+  const ProgressPrinter progress = r.progress.quiet(r.quiet);
   s.progress = [&](int done, int total, bool rendered) {
-    if (!r.quiet && rendered) {
-      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::fprintf(stderr, "radiance: view %d/%d rendered  %s elapsed\n", done, total, duration_text(el).c_str());
-    }
+    if (rendered)
+      progress.radiance_target(done, total,
+                               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return !g_interrupted.load();
   };
   // Where the targets go: the probe's view alone in the estimate's scratch folder; the
@@ -256,4 +223,4 @@ int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_deg
   return 0;
 }
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

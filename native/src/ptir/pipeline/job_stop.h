@@ -11,7 +11,7 @@
 
 #include <string>
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 // Installs the SIGINT/SIGTERM handlers; only rank 0 (`print`) writes the message.
 void install_job_stop_handlers(bool print);
@@ -19,4 +19,4 @@ void install_job_stop_handlers(bool print);
 // with write(2) alone).
 void set_job_stop_message(const std::string& line);
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

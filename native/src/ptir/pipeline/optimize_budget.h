@@ -20,7 +20,7 @@ namespace ptir {
 class Optimizer;
 }
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 // The geometry stage's share of a budget, at most. Within it the stage plans its pyramid's
 // fine fraction (fit_stage.h): full-resolution iterations first, since the inversion after a
@@ -60,4 +60,4 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
 int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double budget_s,
                    double extra_setup_s);
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

@@ -1,4 +1,4 @@
-#include "capture_stage.h"
+#include "ptir/pipeline/capture_stage.h"
 
 #include <cstdio>
 #include <filesystem>
@@ -15,14 +15,14 @@
 #include "ptir/scene/dataset.h"
 #include "ptir/scene/gaussian_ply.h"
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 namespace fs = std::filesystem;
 
 CaptureStageResult run_capture_stage(const CaptureStage& c) {
   CaptureStageResult r;
   DatasetOptions dopt;
-  apply_capture_flags(c.capture, dopt);
+  apply_capture_options(c.capture, dopt);
   if (!dopt.calibration.empty()) return r;  // given: applied as it is
   const std::string layout = dopt.layout == "auto" ? detect_layout(c.dataset) : dopt.layout;
   if (layout == "nerf" || layout.empty()) return r;
@@ -46,6 +46,7 @@ CaptureStageResult run_capture_stage(const CaptureStage& c) {
   CaptureAnalysis a = analyse_capture(load_gaussians(c.gaussians), *all, c.s);
   if (!c.quiet)
     for (const std::string& line : capture_analysis_lines(a)) std::fprintf(stderr, "%s\n", line.c_str());
+  c.progress.quiet(c.quiet).subject(a.subject, a.median_covered);
   fs::remove_all(dir, ec);
   write_capture_analysis(a, *all, c.s, dir.string());
   r.calibration = cal.string();
@@ -55,7 +56,7 @@ CaptureStageResult run_capture_stage(const CaptureStage& c) {
 
 bool keep_fitted_geometry(const CaptureStage& c, const std::string& fitted) {
   DatasetOptions dopt;
-  apply_capture_flags(c.capture, dopt);
+  apply_capture_options(c.capture, dopt);
   if (dopt.calibration.empty()) return true;
   dopt.split = "test";
   std::unique_ptr<Dataset> test;
@@ -109,4 +110,4 @@ void write_env_with_detail(const std::string& out) {
   write_image(env.string(), env_with_detail(learnt, read_image(start.string()), read_image(seen.string())));
 }
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

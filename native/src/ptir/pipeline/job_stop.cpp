@@ -1,4 +1,4 @@
-#include "job_stop.h"
+#include "ptir/pipeline/job_stop.h"
 
 #include <unistd.h>
 
@@ -7,7 +7,7 @@
 #include <csignal>
 #include <cstring>
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 namespace {
 
@@ -43,4 +43,4 @@ void set_job_stop_message(const std::string& line) {
   g_current.store(next);
 }
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

@@ -5,7 +5,7 @@
 #include <atomic>
 #include <string>
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 // Set by the first Ctrl-C after install_sigint(); a second one ends the process at once.
 extern std::atomic<bool> g_interrupted;
@@ -32,4 +32,4 @@ auto with_sigint_restored(SignalHandler previous, F&& f) -> decltype(f()) {
 // "12.3s", "4m05s", "1h02m"; "?" for a negative or non-finite value.
 std::string duration_text(double seconds);
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

@@ -17,16 +17,16 @@
 // the run would learn nothing and write the untrained materials.
 #pragma once
 
-#include <CLI/CLI.hpp>
-
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "ptir/optim/optimizer_setup.h"
+#include "ptir/pipeline/given_options.h"
+#include "ptir/pipeline/progress_printer.h"
 #include "ptir/scene/orbit_views.h"
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 struct RadianceStage {
   std::string gaussians, out;
@@ -36,6 +36,7 @@ struct RadianceStage {
   int target_spp = 4;     // --target-spp (filter-jittered; docs/relightable.md)
   int max_side = 0;       // --orbit-size with --cameras: the long side of the targets (0: 800)
   bool quiet = false;
+  ProgressPrinter progress;  // the targets rendered (text or JSON; silent when quiet)
   // --estimate: only the first view is rendered (the probe's), into estimate_dir
   // (a scratch folder of the caller's, outside OUT: the estimate writes nothing
   // there); the time the others will take (that view's, each) goes to *remaining_s.
@@ -58,13 +59,11 @@ class ScratchFolder {
   std::string path_;
 };
 
-void add_radiance_flags(CLI::App* cmd, RadianceStage* r);
-
 // Its defaults (docs/relightable.md: a 100K-splat object in minutes on 2 cores):
 // random 128-pixel crops of the virtual views, 16 spp, 400 iterations, a neutral
 // light, where the flags are not given. Applied first, as the flags' own defaults
 // are: what a resumed budget recorded (its planned spp) goes over them.
-void apply_radiance_defaults(OptimizeOptions& opt, const CLI::App& cmd);
+void apply_radiance_defaults(OptimizeOptions& opt, const GivenOptions& given);
 
 // The files the stage reads besides the PLY (--cameras: the file, or a folder's
 // cameras.json), for the output guard: a plan's own OUT/views.json given back as
@@ -101,4 +100,4 @@ class PendingPlan {
 int run_radiance_stage(const RadianceStage& r, std::string* dataset, int* sh_degree, double* remaining_s,
                        std::shared_ptr<PendingPlan>* pending);
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

@@ -1,4 +1,4 @@
-// The geometry stage as the CLI runs it: `ptir fit` on its own, and `ptir
+// The geometry stage as the commands run it: `ptir fit` on its own, and `ptir
 // optimize` before the materials (--fit-iters; docs/method.md §9). Loads the
 // dataset and the splats, fits them (src/ptir/optim/geometry_fit.h) and writes
 // OUT/gaussians.ply, log.csv and checkpoint.bin atomically, with the progress
@@ -7,10 +7,11 @@
 
 #include <string>
 
-#include "capture_flags.h"
+#include "ptir/pipeline/capture_options.h"
+#include "ptir/pipeline/progress_printer.h"
 #include "ptir/optim/geometry_fit.h"
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 struct FitStage {
   std::string dataset, gaussians, out, split = "train";
@@ -25,7 +26,8 @@ struct FitStage {
   // (its checkpoint's fingerprint).
   bool plan_fine_fraction = false;
   GeometryFitSettings s;
-  CaptureFlags capture;
+  CaptureOptions capture;
+  ProgressPrinter progress;  // the iteration lines (text or JSON; silent when quiet)
 };
 
 // Throws Error for a setting out of range.
@@ -33,7 +35,7 @@ void check_fit_stage(const FitStage& f);
 
 // Runs the stage: 0 when it finished, 130 when Ctrl-C stopped it (the
 // checkpoint and the outputs are written; the message says how to continue,
-// naming `continue_hint`, e.g. "ptir fit ... --resume").
+// naming `continue_hint`, e.g. "ptir fit ... --resume"). Reports a "done" event.
 int run_fit_stage(const FitStage& f, const std::string& continue_hint = "--resume");
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline

@@ -7,16 +7,18 @@
 
 #include <string>
 
-#include "capture_flags.h"
+#include "ptir/pipeline/capture_options.h"
+#include "ptir/pipeline/progress_printer.h"
 #include "ptir/optim/capture_analysis.h"
 
-namespace ptir::cli {
+namespace ptir::pipeline {
 
 struct CaptureStage {
   std::string dataset, gaussians, out;
-  CaptureFlags capture;
+  CaptureOptions capture;
   CaptureAnalysisSettings s;
   bool resume = false, quiet = false;
+  ProgressPrinter progress;  // the subject found (an event; its text is the analysis' lines)
 };
 
 struct CaptureStageResult {
@@ -43,4 +45,4 @@ bool fit_kept_input(const std::string& fit_dir);
 // seen background.
 void write_env_with_detail(const std::string& out);
 
-}  // namespace ptir::cli
+}  // namespace ptir::pipeline
