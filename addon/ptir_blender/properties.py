@@ -106,6 +106,17 @@ class PTIROptimizeSettings(bpy.types.PropertyGroup):
         default="latlong")
     env_width: IntProperty(name="Env Width", default=128, min=4, max=4096)
     env_height: IntProperty(name="Env Height", default=64, min=2, max=2048)
+    # Issue 52: the light the artist knows. Known: the World's light (its Environment Texture, strength
+    # and Mapping rotation) handed to the engine as --env-init, lined up with the photos (yaw) and kept
+    # fixed; Known + Refine: learnt gently from there (--env-refine). Learn: recovered, as before.
+    light: EnumProperty(
+        name="Light", description="What the optimisation knows of the light",
+        items=[("LEARN", "Learn", "Recover the environment light from the photos"),
+               ("KNOWN", "Known (the World)", "The World's light, lined up with the photos (its rotation), "
+                                              "kept fixed"),
+               ("KNOWN_REFINE", "Known + Refine", "The World's light, lined up with the photos, then learnt "
+                                                  "gently")],
+        default="LEARN")
     write_environment: BoolProperty(
         name="Set World", default=True,
         description="Put the recovered environment into the world as an Environment Texture")

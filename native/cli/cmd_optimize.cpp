@@ -9,8 +9,8 @@
 //       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
-//       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env]] [--estimate] [--budget 10m]
-//       [--progress text|json] [-q]
+//       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env | --env-refine] [--env-align auto|yaw|full|off]]
+//       [--estimate] [--budget 10m] [--progress text|json] [-q]
 //   ptir optimize --gaussians IN.ply --out OUT [--cameras cameras.json]   (targets from the splats' own radiance)
 //
 // --scene adds the scene file's meshes and lights (its Gaussians must be given
@@ -50,6 +50,12 @@ const std::set<std::string> kCommonOptions = {
     "--checkpoint-every", "--images", "--holdout", "--optimize-metallic", "--learn-exposure", "--estimate",
     "--quiet", "--force", "--budget"};
 
+// --env-align (optim/env_align.h; docs/known_light.md).
+const char* const kEnvAlignHelp =
+    "line the --env-init map up with the photos first: auto (its yaw, and its exposure and white balance where the "
+    "photos see the background), yaw, full (auto, and on masked photos an exposure that makes the object's mean "
+    "albedo 0.5) or off (as given); recorded in OUT/settings.json";
+
 // The inputs, the stages' and the run's options (in the --help-all order).
 CLI::App* add_run_flags(CLI::App& app, OptimizePipelineOptions* o) {
   CLI::App* cmd = app.add_subcommand("optimize", "Recover materials and lighting from posed images (inverse rendering)");
@@ -86,6 +92,9 @@ CLI::App* add_run_flags(CLI::App& app, OptimizePipelineOptions* o) {
   cmd->add_option("--env-size", o->env_size, "lat-long environment size WxH")->capture_default_str();
   cmd->add_option("--env-init", o->opt.env_init, "start from this lat-long map (.exr/.hdr, Blender orientation) instead of a constant");
   cmd->add_flag("--fix-env", o->opt.fix_env, "keep the --env-init environment fixed (known lighting)");
+  cmd->add_option("--env-align", o->opt.env_align, kEnvAlignHelp)->capture_default_str();
+  cmd->add_flag("--env-refine", o->opt.env_refine,
+                "learn the (aligned) --env-init map gently, at a tenth of the environment's rate (known light, refined)");
   cmd->add_flag("--fix-env-seen", o->opt.fix_env_seen,
                 "hold the --env-init map's texels whose alpha is 1 fixed (the environment the photos saw) and learn the "
                 "rest (a real capture of an object sets it with its background: docs/captures.md)");

@@ -90,7 +90,7 @@ std::unique_ptr<PyOptimizer> make_optimizer(py::object dataset, py::object gauss
                                             const std::string& loss_space, float lambda_tv, bool optimize_metallic,
                                             bool optimize_meshes, const std::string& split, std::optional<std::string> prior,
                                             std::optional<int> threads, int k, std::optional<std::string> env_init,
-                                            bool fix_env, const std::string& indirect) {
+                                            bool fix_env, const std::string& indirect, const std::string& env_align) {
   OptimizeOptions o;
   o.iters = iters;
   o.spp = spp;
@@ -106,6 +106,7 @@ std::unique_ptr<PyOptimizer> make_optimizer(py::object dataset, py::object gauss
   o.env_height = env_size.second;
   o.env_init = env_init ? *env_init : "";
   o.fix_env = fix_env;
+  o.env_align = env_align;
   o.optimize_metallic = optimize_metallic;
   o.optimize_meshes = optimize_meshes;
   o.k = k;
@@ -181,8 +182,17 @@ void def_optimizer_class(py::module_& m) {
            py::arg("crop") = 0, py::arg("loss_space") = "srgb-blur-first", py::arg("lambda_tv") = 0.095f,
            py::arg("optimize_metallic") = false, py::arg("optimize_meshes") = false, py::arg("split") = "train",
            py::arg("prior") = py::none(), py::arg("threads") = py::none(), py::arg("k") = 16,
-           py::arg("env_init") = py::none(), py::arg("fix_env") = false, py::arg("indirect") = "path")
+           py::arg("env_init") = py::none(), py::arg("fix_env") = false, py::arg("indirect") = "path",
+           py::arg("env_align") = "auto")
       .def_property_readonly("iteration", [](const PyOptimizer& p) { return p.opt->iteration(); })
+      .def_property_readonly(
+          "env_alignment",
+          [](const PyOptimizer& p) -> py::object {
+            if (p.opt->env_alignment().mode == EnvAlignMode::Off) return py::none();
+            return py::module_::import("json").attr("loads")(p.opt->env_alignment().json());
+          },
+          "what lining the env_init map up with the photos found (yaw_deg, scale, candidates...; "
+          "OUT/settings.json 'env_align'), or None")
       .def_property("iterations", [](const PyOptimizer& p) { return p.opt->settings().iterations; },
                     [](PyOptimizer& p, int n) {
                       if (n < 0) throw Error("iterations must be >= 0");
@@ -241,10 +251,10 @@ void def_optimize_function(py::module_& m) {
            int views_per_iter, int crop, const std::string& loss_space, float lambda_tv, bool optimize_metallic,
            bool optimize_meshes, const std::string& split, std::optional<std::string> prior, std::optional<int> threads,
            int checkpoint_every, py::object callback, std::optional<std::string> env_init, bool fix_env,
-           const std::string& indirect) {
+           const std::string& indirect, const std::string& env_align) {
           auto p = make_optimizer(dataset, gaussians, scene, iters, spp, bounces, env, env_size, seed, views_per_iter, crop,
                                   loss_space, lambda_tv, optimize_metallic, optimize_meshes, split, prior, threads, 16,
-                                  env_init, fix_env, indirect);
+                                  env_init, fix_env, indirect, env_align);
           if (resume) {
             std::string ckpt = (std::filesystem::path(out) / "checkpoint.bin").string();
             if (!std::filesystem::exists(ckpt)) throw Error(ckpt, "resume: no checkpoint to continue from");
@@ -267,7 +277,7 @@ void def_optimize_function(py::module_& m) {
         py::arg("optimize_metallic") = false, py::arg("optimize_meshes") = false, py::arg("split") = "train",
         py::arg("prior") = py::none(), py::arg("threads") = py::none(), py::arg("checkpoint_every") = 50,
         py::arg("callback") = py::none(), py::arg("env_init") = py::none(), py::arg("fix_env") = false,
-        py::arg("indirect") = "path",
+        py::arg("indirect") = "path", py::arg("env_align") = "auto",
         "`ptir optimize` from Python (no geometry stage: `indirect` 'field' takes the bounce light from the splats' SH, "
         "right when they were fitted to these photos): writes out/gaussians.ply, env.exr, log.csv, checkpoint.bin. Returns "
         "{'result': 'finished'|'cancelled', 'iteration': n, 'log': [...]}.");

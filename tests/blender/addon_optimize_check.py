@@ -14,6 +14,12 @@ MODE
   fail     a dataset whose images are missing: the operator reports the engine's error, and nothing in
            the scene changed
   cancel   a long run cancelled after a few iterations (as Esc / the Cancel button do): nothing changed
+  known    Light = Known (the World): the World (an Environment Texture at a quarter of the dataset's
+           white sky, Strength 2, a Mapping Z rotation) goes to the engine as --env-init with the
+           strength and rotation baked (the rotation checked against a one-column map), --fix-env
+           (Known + Refine: --env-refine; Learn: neither); the run's OUT/settings.json records the
+           alignment: yaw 0 (a uniform World), exposure 2 from the sky the photos see, and the fixed
+           OUT/env.exr is the photos' sky
 """
 
 import json
@@ -137,6 +143,71 @@ def check_written_back(splats, mat, out_dir, stats):
     h.check(tuple(env.image.size) == (16, 8), "env image size %s" % (tuple(env.image.size),))
 
 
+def world_with_texture(value, size=(16, 8), strength=2.0, rotation_z=0.4):
+    """A World whose Background takes a float image (each texel `value`, or a (h, w, 3) array) through a
+    Mapping node turning it by rotation_z."""
+    img = bpy.data.images.new("known_sky", size[0], size[1], float_buffer=True)
+    rgb = np.broadcast_to(np.asarray(value, np.float32), (size[1], size[0], 3))
+    px = np.concatenate([rgb[::-1], np.ones((size[1], size[0], 1), np.float32)], axis=2)  # rows bottom-up
+    img.pixels.foreach_set(px.ravel())
+    world = bpy.data.worlds.new("Known")
+    compat.ensure_nodes(world)
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    tex = nodes.new("ShaderNodeTexEnvironment")
+    tex.image = img
+    mapping, coords = nodes.new("ShaderNodeMapping"), nodes.new("ShaderNodeTexCoord")
+    mapping.inputs["Rotation"].default_value[2] = rotation_z
+    links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    links.new(tex.outputs["Color"], nodes["Background"].inputs["Color"])
+    nodes["Background"].inputs["Strength"].default_value = strength
+    bpy.context.scene.world = world
+    return world
+
+
+def check_known_light(splats, dataset, work, iterations, stats):
+    from ptir_blender.blender import known_world, optimize_job
+    engine = h.native_module()  # (the build's: the add-on ships none in the tests)
+    cli = os.environ.get("PTIR_CLI", "ptir")
+    # The rotation baked as the engine reads a Mapping node (lights/environment.h): what the texture holds
+    # at direction d shows in the world at Rz(-rotation_z) d, so column 0 (u = 0, toward -x) turned by
+    # 90 degrees shows toward Rz(-90) (-x) = +y, u = 0.25: column 4 of 16.
+    col = np.zeros((8, 16, 3), np.float32)
+    col[:, 0] = 1.0
+    turned = known_world.rotate_yaw(col, np.pi / 2)
+    h.check(np.argmax(turned[0, :, 0]) == 4 and abs(turned.sum() - col.sum()) < 1e-4,
+            "a 90-degree Mapping rotation moves column 0 to 4: %s" % turned[0, :, 0])
+    world_with_texture(0.25)  # x Strength 2: half the photos' white sky
+    s = configure(splats, dataset, work, iterations)
+    s.optimize_meshes = False
+    expected = {"LEARN": [], "KNOWN": ["--fix-env"], "KNOWN_REFINE": ["--env-refine"]}
+    for light, flags in expected.items():
+        s.light = light
+        job_dir = os.path.join(work, "job_" + light)
+        os.makedirs(job_dir, exist_ok=True)
+        args = optimize_job.prepare(bpy.context, s, job_dir, cli).args
+        for f in ("--fix-env", "--env-refine"):
+            h.check((f in args) == (f in flags), "Light %s: %s %s in %s" % (light, f, "not" * (f not in flags), args))
+        h.check(("--env-init" in args) == (light != "LEARN"), "Light %s: --env-init in %s" % (light, args))
+        if light != "LEARN":
+            known = engine.read_image(args[args.index("--env-init") + 1])
+            h.check(np.allclose(known[:, :, :3], 0.5, atol=1e-3), "strength 2 x 0.25 baked: %s" % known.mean())
+    s.light = "KNOWN"
+    result, msg = run_op()
+    h.check(result == {"FINISHED"}, "optimize with the known World returned %s %s" % (result, msg))
+    out = os.path.join(work, "out")
+    rec = json.load(open(os.path.join(out, "settings.json")))["env_align"]
+    h.check(rec["mode"] == "auto" and rec["yaw_deg"] == 0.0, "the World's orientation kept: yaw 0 (%s)" % rec)
+    # The photos see the sky around the sphere: its level is the exposure (twice the World's), and the
+    # fixed light is the photos' white sky (to their 8-bit steps).
+    h.check(rec["scale_from"] == "background" and np.allclose(rec["scale"], 2.0, rtol=0.01),
+            "the exposure from the background: %s" % rec)
+    env = engine.read_image(os.path.join(out, "env.exr"))
+    h.check(np.allclose(env[:, :, :3], 1.0, rtol=0.01), "the fixed light is the photos' sky: %s" % env.mean(axis=(0, 1)))
+    stats["env_align"] = {k: rec[k] for k in ("mode", "yaw_deg", "scale", "scale_from", "score")}
+    stats["albedo_mean"] = splat_object.read_data_from_object(splats).albedo.mean(axis=0).tolist()
+
+
 def main():
     mode, dataset, work = h.argv()[:3]
     iterations = int(h.argv()[3]) if len(h.argv()) > 3 else 60
@@ -195,6 +266,8 @@ def main():
         problem = same(before, snapshot(splats, mat))
         h.check(problem is None, "a cancelled run changed the scene: %s" % problem)
         h.check(bpy.context.scene.ptir_optimize.status == "cancelled", bpy.context.scene.ptir_optimize.status)
+    elif mode == "known":
+        check_known_light(splats, dataset, work, iterations, stats)
     else:
         raise SystemExit("unknown mode " + mode)
     h.check(not bpy.context.scene.ptir_optimize.running, "no job left running")

@@ -55,3 +55,12 @@ def test_failed_optimize_leaves_scene_unchanged(dataset, tmp_path):
 def test_cancelled_optimize_leaves_scene_unchanged(blender, dataset, tmp_path):
     stats, _ = _run("cancel", dataset, tmp_path, blender=blender)
     assert stats["seconds"] < 60
+
+
+@pytest.mark.parametrize("blender", blenders.params(needs=blenders.v2_needs()))
+def test_optimize_with_the_known_world(blender, dataset, tmp_path):
+    """Light = Known (the World) / Known + Refine / Learn: the engine's command line, the World's map it
+    gets (strength and Mapping rotation baked), and the alignment OUT/settings.json records (issue 52)."""
+    stats, _ = _run("known", dataset, tmp_path, iterations=20, blender=blender)
+    print("optimise (known World): %s" % stats)
+    assert stats["env_align"]["yaw_deg"] == 0.0

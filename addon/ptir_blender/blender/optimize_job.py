@@ -28,7 +28,7 @@ import bpy
 import numpy as np
 
 from ..io import capture_cameras, dataset_file, engine_client, scene_file, splat_ply, splat_transform
-from . import compat, material_export, material_writeback, scene_bridge, scene_export, splat_object
+from . import compat, known_world, material_export, material_writeback, scene_bridge, scene_export, splat_object
 from ..errors import OptimizeError
 
 ENV_NODE = "PTIR Environment"
@@ -269,8 +269,12 @@ def prepare(context, settings, job_dir, cli_exe, out_dir=None, source=None, own_
         job.fit_dir = os.path.join(job.out_dir, "fit")
         gaussians = os.path.join(job.fit_dir, "gaussians.ply")
         job.fit_args = engine_client.fit_args(cli_exe, settings, dataset_dir, split, splats, job.fit_dir, budget)
+    light = []
+    # The World's light, known (known_world.py); with Environment None the scene's lamps are all the light.
+    if settings.light != "LEARN" and settings.env != "none":
+        light = known_world.light_args(settings, known_world.write_known_world(context.scene, job_dir, job.warnings))
     job.args = engine_client.optimize_args(cli_exe, settings, dataset_dir, split, gaussians, job.out_dir,
-                                           bool(job.fit_args), budget, scene_json, want_meshes)
+                                           bool(job.fit_args), budget, scene_json, want_meshes, light)
     return job
 
 

@@ -114,10 +114,11 @@ def fit_args(cli_exe, settings, dataset_dir, split, splats, out_dir, budget):
 
 
 def optimize_args(cli_exe, settings, dataset_dir, split, gaussians, out_dir, fitted, budget, scene_json,
-                  optimize_meshes):
+                  optimize_meshes, light=()):
     """`ptir optimize` on photos (a dataset or the scene's cameras), after the flow's own fit when `fitted`.
     The scene file's lamps, emissive meshes and meshes are fixed light and occluders; settings.env "none"
-    (scene lights only) removes the environment, any other model learns one for the rest."""
+    (scene lights only) removes the environment, any other model learns one for the rest. `light`: the
+    known light's arguments (blender/known_world.py: --env-init MAP --fix-env | --env-refine)."""
     args = [cli_exe, "optimize", "--dataset", dataset_dir, "--split", split, "--gaussians", gaussians,
             "--out", out_dir,
             "--bounces", settings.bounces, "--env", settings.env,
@@ -137,6 +138,7 @@ def optimize_args(cli_exe, settings, dataset_dir, split, gaussians, out_dir, fit
         args.append("--optimize-meshes")
     if settings.learn_exposure:
         args.append("--learn-exposure")
+    args += list(light)
     return with_common_args(args, settings)
 
 

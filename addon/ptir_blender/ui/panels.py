@@ -185,6 +185,7 @@ class VIEW3D_PT_ptir_optimize(_SidebarPanel, bpy.types.Panel):
             col.operator("ptir.import_capture_cameras", icon="OUTLINER_OB_CAMERA")
         col.prop(s, "split")
         col.prop_search(s, "splat_object", context.scene, "objects", text="Splats")
+        col.prop(s, "light")
         col.prop(s, "env")
         if s.env == "latlong":
             row = col.row(align=True)

@@ -103,6 +103,10 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
     int rays_per_camera = std::max(4096, int(262144 / std::max<size_t>(1, cams.size())));
     orient_normals_to_cameras(field, tracer_->accel(), cams, rays_per_camera);
   }
+  if (settings_.env_align.mode != EnvAlignMode::Off) {  // the known map lined up with the photos (env_align.h)
+    env_align_ = align_environment(*scene_, *tracer_, *dataset_, settings_.integrator, settings_.env_align);
+    if (ParameterGroup* g = params_.find(ParamKind::Environment)) scene_->environment->get_raw(g->raw.data());
+  }
   grads_ = SceneGradients::zeros_like(*scene_);
   mask_box_.assign(dataset_->size(), {0, 0, -1, -1});
 }

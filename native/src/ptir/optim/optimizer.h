@@ -62,6 +62,7 @@
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/adam.h"
 #include "ptir/optim/checkpoint.h"
+#include "ptir/optim/env_align.h"
 #include "ptir/optim/exposure.h"
 #include "ptir/optim/losses.h"
 #include "ptir/optim/parameters.h"
@@ -181,6 +182,8 @@ struct OptimizerSettings {
   // that the replay need not walk them again; the samples beyond it walk.
   size_t sample_cache_bytes = size_t(256) << 20;
   AccelSettings accel;
+  // The --env-init map lined up with the photos before the first iteration (env_align.h).
+  EnvAlignSettings env_align;
 };
 
 class Optimizer {
@@ -250,6 +253,8 @@ class Optimizer {
   const Dataset& dataset() const { return *dataset_; }
   std::shared_ptr<const Dataset> dataset_ptr() const { return dataset_; }
   const Parameters& parameters() const { return params_; }
+  // What the known map's alignment found (mode off: none ran); OUT/settings.json "env_align".
+  const EnvAlignResult& env_alignment() const { return env_align_; }
   const std::vector<Adam>& adam() const { return adam_; }
   const std::vector<IterationLog>& log() const { return log_; }
   size_t nonfinite_gradients() const { return nonfinite_; }
@@ -296,6 +301,7 @@ class Optimizer {
   std::shared_ptr<const Dataset> dataset_;
   std::unique_ptr<PathTracer> tracer_;
   Parameters params_;
+  EnvAlignResult env_align_;
   std::vector<Adam> adam_;
   SceneGradients grads_;
   std::vector<IterationLog> log_;

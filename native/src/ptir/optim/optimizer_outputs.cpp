@@ -95,6 +95,8 @@ void Optimizer::write_outputs(const std::string& dir) const {
   for (const auto& kv : fingerprint()) rec[kv.first] = kv.second;
   // A real capture's analysis (scene/capture_calibration.h): subject, EXIF, colours, geometry kept.
   if (!dataset_->calibration_record.empty()) rec["capture"] = ojson::parse(dataset_->calibration_record);
+  // The known map's alignment (env_align.h): yaw, scale, every candidate's score.
+  if (env_align_.mode != EnvAlignMode::Off) rec["env_align"] = ojson::parse(env_align_.json());
   io::write_text_atomic((out / "settings.json").string(), rec.dump(1) + "\n");
 }
 

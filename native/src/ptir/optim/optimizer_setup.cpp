@@ -93,6 +93,13 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
     throw Error(names("fix_env_seen") + " needs " + names("env_init") + " (a map whose alpha marks the seen texels)");
   if (o.fix_env && o.env_init.empty())
     throw Error(names("fix_env") + " needs " + names("env_init") + " (the known environment map)");
+  s.env_align.mode = parse_env_align_mode(o.env_align, names("env_align"));
+  if (o.env_init.empty() || o.fix_env_seen) s.env_align.mode = EnvAlignMode::Off;
+  if (o.env_refine) {
+    if (o.env_init.empty()) throw Error(names("env_refine") + " needs " + names("env_init") + " (the map to refine)");
+    if (o.fix_env) throw Error("give " + names("env_refine") + " or " + names("fix_env") + ", not both");
+    s.params.lr_env *= kEnvRefineRate;
+  }
   s.params.optimize_metallic = o.optimize_metallic;
   s.params.optimize_meshes = o.optimize_meshes;
   s.params.learn_exposure = o.learn_exposure;

@@ -82,6 +82,12 @@ struct OptimizeOptions {
   std::string env_init;          // "" = constant start
   bool fix_env = false;
   bool fix_env_seen = false;     // hold env_init's seen texels (its alpha) fixed
+  // The env_init map lined up with the photos first (env_align.h): auto, off, yaw or full.
+  // Not for the seen texels (--fix-env-seen: a map made from the photos is theirs already).
+  std::string env_align = "auto";
+  // Learn the (aligned) env_init map gently: at env_refine_rate times lr_env (the issue-52
+  // middle ground between --fix-env and a map learnt like an unknown one).
+  bool env_refine = false;
   bool optimize_metallic = false;
   bool optimize_meshes = false;
   bool learn_exposure = false;  // one exposure scale per training view (exposure.h)

@@ -64,6 +64,8 @@ std::unique_ptr<Optimizer> make_optimizer(const PipelineRun& o, std::shared_ptr<
   apply_brdf_choice(o.brdf, s.integrator.brdf);
   if (!o.quiet) std::fprintf(stderr, "optimize: surface model %s\n", to_string(s.integrator.brdf));
   auto optimizer = std::make_unique<Optimizer>(std::move(scene), *data, s);
+  if (!o.quiet && optimizer->env_alignment().mode != EnvAlignMode::Off)
+    std::fprintf(stderr, "optimize: %s\n", optimizer->env_alignment().summary().c_str());
   if (o.resume) {
     std::error_code ec;
     if (!std::filesystem::exists(ckpt, ec)) throw Error(ckpt, "--resume: no checkpoint to continue from");

@@ -82,6 +82,7 @@ void capture_stage(PipelineRun& o) {
     // Its start, learnt from there: holding the seen texels (--fix-env-seen) measured 2 dB lower on the
     // dog's held-out object pixels (docs/captures.md: a wall and paper at infinity light it wrongly).
     o.opt.env_init = r.background_env;
+    o.opt.env_align = "off";  // made from the photos: already theirs
     o.env_detail = true;
   }
 }

@@ -1,0 +1,98 @@
+// A known environment map lined up with the photos before the inversion (issue 52):
+// its rotation about the up axis (+z, the yaw), and where the photos can tell, its
+// exposure and white balance (one scale per channel).
+//
+// A user's HDRI (a 360-degree camera, a chrome ball, a downloaded sky) is never in the
+// scene's orientation or exposure. `--env-init MAP` takes it as given unless aligned:
+//
+//   yaw     every candidate rotation_z (radians, the Mapping node's Z rotation of
+//           lights/environment.h: the yaw a Blender World would need) is scored by a
+//           forward render of a few training views, reduced to at most max_pixels
+//           pixels, at low spp and bounces, with the materials at their start. The
+//           score is scale-invariant per channel: the photos' share the render does
+//           not explain after the best scale of each channel,
+//             score = sum_c (sum P^2 - (sum P R)^2 / sum R^2) / sum_c sum P^2
+//           over the object's pixels (photo alpha and render coverage both >= 0.99),
+//           plus the same over the background where the photos see the environment
+//           (opaque photos, the render's coverage <= 0.01). A coarse search every
+//           coarse_step degrees, then every degree within one coarse step of the best.
+//           Every candidate uses the same random numbers, so their differences are
+//           not Monte Carlo noise. A map that already fits keeps 0: the best wins
+//           only if its score is lower than 0's by more than keep_margin (relative).
+//   scale   the photos' level against the render's, per channel (sum P R / sum R^2):
+//           - over the background where the photos see it: that IS the map's
+//             exposure and white balance (the background is the map itself);
+//           - over the object only (masked photos): the level is the albedo's times
+//             the light's, and no image tells one from the other (the evaluation
+//             compares albedo after a per-channel scale for this reason). "full" then
+//             assumes the object's mean albedo: one scale that makes its luminance
+//             reference_albedo (one exposure; the map's colour is kept:
+//             a tint measured 0-0.3 dB, a level 2-5 dB); "auto" keeps the map's level and colour.
+//
+// Modes: off (the map as given), yaw (rotation only), auto (rotation, and the scale
+// where the background shows it), full (rotation and scale; on masked photos the
+// exposure from the mean-albedo assumption). The result is baked into the texels (the rotation by linear interpolation
+// along each row; yaw 0 leaves them bit for bit), so OUT/env.exr stays in the
+// scene's orientation. docs/known_light.md has the measurements.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ptir/io/image.h"
+#include "ptir/math/vec.h"
+#include "ptir/scene/dataset.h"
+#include "ptir/scene/render_settings.h"
+#include "ptir/scene/scene.h"
+#include "ptir/transport/path_tracer.h"
+
+namespace ptir {
+
+enum class EnvAlignMode { Off, Yaw, Auto, Full };
+const char* env_align_mode_name(EnvAlignMode m);
+EnvAlignMode parse_env_align_mode(const std::string& name, const std::string& what);
+
+// --env-refine: the known map learnt at this share of the environment's rate (both levels).
+constexpr float kEnvRefineRate = 0.1f;
+
+struct EnvAlignSettings {
+  EnvAlignMode mode = EnvAlignMode::Off;
+  int views = 6;                // training views scored, spread over the set
+  int max_pixels = 64 * 64;     // each reduced (view_pyramid.h) to at most this many pixels
+  int spp = 4;
+  int bounces = 1;              // at most the inversion's
+  float coarse_step_deg = 10.0f;
+  float keep_margin = 0.01f;    // 0 degrees stays unless beaten by this relative share
+  float reference_albedo = 0.5f;  // "full" on masked photos: the object's mean albedo (luminance) assumed
+};
+
+struct EnvAlignResult {
+  EnvAlignMode mode = EnvAlignMode::Off;
+  double yaw_deg = 0;            // the rotation_z baked into the texels, in [0, 360)
+  Vec3 scale{1.0f};              // per channel, applied to the texels
+  std::string scale_from = "none";  // "background", "mean albedo" or "none" (the map's own level)
+  Vec3 photo_level{0.0f};        // the photos' level against the render's, per channel (object)
+  Vec3 background_level{0.0f};   // ... over the background (0: not seen)
+  double score = 0, score_unaligned = 0;  // at the solved yaw, and at 0 degrees
+  std::vector<std::pair<double, double>> candidates;  // (yaw in degrees, score), in the order scored
+  int views = 0, pixels = 0;     // views scored, and their object pixels in all
+  double seconds = 0;
+  // The record OUT/settings.json keeps under "env_align" (a JSON object).
+  std::string json() const;
+  // One line for the log.
+  std::string summary() const;
+};
+
+// The lat-long texels (row-major RGB, width x height) with rotation_z = yaw_rad baked
+// in: looked up without rotation they give what the input gives with it.
+std::vector<float> rotate_latlong_yaw(const std::vector<float>& texels, int width, int height, double yaw_rad);
+
+// Aligns scene.environment (a lat-long Environment holding the map as given) to the
+// dataset's photos: renders with `tracer` (built on `scene`, its materials at their
+// start), leaves the aligned texels in scene.environment (sampling rebuilt) and
+// returns what it found. `base` is the inversion's integrator (filter, interaction).
+EnvAlignResult align_environment(Scene& scene, const PathTracer& tracer, const Dataset& data,
+                                 const IntegratorSettings& base, const EnvAlignSettings& s);
+
+}  // namespace ptir
