@@ -98,6 +98,14 @@ CLI::App* add_run_flags(CLI::App& app, OptimizePipelineOptions* o) {
   cmd->add_flag("--fix-env-seen", o->opt.fix_env_seen,
                 "hold the --env-init map's texels whose alpha is 1 fixed (the environment the photos saw) and learn the "
                 "rest (a real capture of an object sets it with its background: docs/captures.md)");
+  cmd->add_option("--background-loss", o->opt.background_loss,
+                  "a real capture's object: supervise every pixel of a patch, so the background seen around the "
+                  "object supervises the environment, its coverage mask picking where the patches go (on, off; auto: "
+                  "on for an object, docs/captures.md)")
+      ->capture_default_str();
+  cmd->add_option("--object-patch-share", o->opt.object_patch_share,
+                  "with --background-loss: the share of patches centred on the object, the rest anywhere")
+      ->capture_default_str();
   cmd->add_option("--seed", o->opt.seed, "random seed (views, crops, paths)")->capture_default_str();
   add_brdf_option(cmd, &o->brdf);
   cmd->add_flag("--resume", o->resume, "continue from OUT/checkpoint.bin");

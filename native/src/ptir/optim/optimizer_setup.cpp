@@ -35,6 +35,12 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (o.coarse_spp < 0) throw Error(names("coarse_spp") + " must be >= 0 (0: the same as " + names("spp") + ")");
   s.coarse_spp = o.coarse_spp;
   s.lambda_tv = o.lambda_tv;
+  if (o.background_loss != "auto" && o.background_loss != "on" && o.background_loss != "off")
+    throw Error(names("background_loss") + " must be auto, on or off, got '" + o.background_loss + "'");
+  s.background_loss = o.background_loss == "on";
+  if (!(o.object_patch_share >= 0.0f && o.object_patch_share <= 1.0f))
+    throw Error(names("object_patch_share") + " must be in [0, 1]");
+  s.object_patch_share = o.object_patch_share;
   if (!(o.lr_final > 0.0f && o.lr_final <= 1.0f)) throw Error(names("lr_final") + " must be in (0, 1]");
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");
   s.lr_final = o.lr_final;

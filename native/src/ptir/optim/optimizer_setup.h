@@ -88,6 +88,11 @@ struct OptimizeOptions {
   // Learn the (aligned) env_init map gently: at env_refine_rate times lr_env (the issue-52
   // middle ground between --fix-env and a map learnt like an unknown one).
   bool env_refine = false;
+  // A real capture's object: every pixel of a patch supervised, its coverage mask picking where
+  // the patches go (OptimizerSettings::background_loss): on, off, or auto (off here; the
+  // pipeline resolves it from the capture's subject).
+  std::string background_loss = "auto";
+  float object_patch_share = OptimizerSettings{}.object_patch_share;
   bool optimize_metallic = false;
   bool optimize_meshes = false;
   bool learn_exposure = false;  // one exposure scale per training view (exposure.h)

@@ -76,6 +76,7 @@ void capture_stage(PipelineRun& o) {
   if (o.subject != "auto" && o.subject != "object" && o.subject != "scene")
     throw Error("--subject must be auto, object or scene, got '" + o.subject + "'");
   const CaptureStageResult r = run_capture_stage(capture_stage_of(o));
+  if (o.opt.background_loss == "auto") o.opt.background_loss = r.background_env.empty() ? "off" : "on";
   if (r.calibration.empty()) return;
   o.capture.calibration = r.calibration;
   if (o.opt.env_init.empty() && !r.background_env.empty() && o.opt.env == "latlong") {
