@@ -52,6 +52,7 @@ VARIANTS = [
     ("room_mask_loss", "room capture, --background-loss off (the loss on the coverage masks only)", "room",
      ["--background-loss", "off"]),
     ("room_fix_env", "room capture, --fix-env-seen", "room", ["--fix-env-seen"]),
+    ("room_warm0", "room capture, --albedo-warmup 0", "room", ["--albedo-warmup", "0"]),
     ("room_scene", "room capture, --subject scene (no mask)", "room", ["--subject", "scene"]),
     # A perfect floor-and-walls proxy (the true room as meshes with their true materials, --scene): what
     # building one could win at most.

@@ -94,7 +94,9 @@ Fingerprint Optimizer::fingerprint() const {
       {"metallic", ps.optimize_metallic ? "optimised" : "fixed"},
       {"env", env_settings_text(ps)},
       {"env_init", (ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()) +
-                       (ps.env_init_seen_fixed ? " (seen texels fixed)" : "")},
+                       (ps.env_init_seen_fixed    ? " (seen texels fixed)"
+                        : ps.env_init_seen_coarse ? " (seen texels: coarse change only)"
+                                                  : "")},
       {"env_optimised", ps.optimize_env && ps.env != EnvMode::None ? "1" : "0"},
       {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
       {"exposure", ps.learn_exposure ? "learned" : "fixed"},

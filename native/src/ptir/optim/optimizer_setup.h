@@ -82,6 +82,11 @@ struct OptimizeOptions {
   std::string env_init;          // "" = constant start
   bool fix_env = false;
   bool fix_env_seen = false;     // hold env_init's seen texels (its alpha) fixed
+  // What the env_init map's seen texels learn: learn (both levels, as every texel), coarse (their
+  // fine level held at the photos' detail, the coarse level's smooth change learnt; unseen texels
+  // learn both), fixed (= fix_env_seen); auto: learn here, coarse where the pipeline starts the
+  // map from a real capture's seen background.
+  std::string env_seen = "auto";
   // The env_init map lined up with the photos first (env_align.h): auto, off, yaw or full.
   // Not for the seen texels (--fix-env-seen: a map made from the photos is theirs already).
   std::string env_align = "auto";

@@ -84,6 +84,7 @@ void capture_stage(PipelineRun& o) {
     // dog's held-out object pixels (docs/captures.md: a wall and paper at infinity light it wrongly).
     o.opt.env_init = r.background_env;
     o.opt.env_align = "off";  // made from the photos: already theirs
+    if (o.opt.env_seen == "auto") o.opt.env_seen = "coarse";  // the photos' detail kept, its change learnt smooth
     o.env_detail = true;
   }
 }
