@@ -53,6 +53,7 @@ VARIANTS = [
      ["--background-loss", "off"]),
     ("room_fix_env", "room capture, --fix-env-seen", "room", ["--fix-env-seen"]),
     ("room_warm0", "room capture, --albedo-warmup 0", "room", ["--albedo-warmup", "0"]),
+    ("room_tv3", "room capture, --lambda-tv 0.3", "room", ["--lambda-tv", "0.3"]),
     ("room_scene", "room capture, --subject scene (no mask)", "room", ["--subject", "scene"]),
     # A perfect floor-and-walls proxy (the true room as meshes with their true materials, --scene): what
     # building one could win at most.
