@@ -26,7 +26,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))
-from relight_any_splat import floor_and_sphere, floor_height, run  # noqa: E402
+from relight_any_splat import build_tools, floor_and_sphere, floor_height, new_environments, run  # noqa: E402
 
 
 def mean_up(frames):
@@ -61,11 +61,7 @@ def main():
     args = ap.parse_args()
     if not (args.result / "gaussians.ply").is_file():
         sys.exit("relight_capture: error: %s has no gaussians.ply (run ptir optimize --dataset first)" % args.result)
-    if args.env is not None and len(args.env) != 2:
-        sys.exit("relight_capture: error: give --env twice (two new environments), or not at all")
-    cli = args.build / "bin" / "ptir"
-    sys.path.insert(0, str(args.build / "python"))
-    import ptir  # noqa: E402  (the build's module)
+    cli, ptir = build_tools(args, "relight_capture")
 
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
@@ -86,14 +82,7 @@ def main():
     photo = np.asarray(ptir.read_image(str(photo_path)), np.float32)[..., :3]
     height = int(round(args.width * photo.shape[0] / photo.shape[1]))
 
-    envs = args.env
-    if envs is None:
-        from dataset import envmaps  # the dataset maker's presets (numpy only)
-        envs = []
-        for name in ("sunset", "overcast"):
-            path = out / ("env_%s.exr" % name)
-            ptir.write_image(str(path), np.ascontiguousarray(envmaps.make_envmap(name, 256, 128), np.float32))
-            envs.append(path)
+    envs = new_environments(ptir, out, args.env)
 
     ply = args.result / "gaussians.ply"
     up = mean_up(doc["frames"])
