@@ -111,6 +111,10 @@ struct OptimizerSettings {
   bool srgb_after_blur = true;
   float mask_threshold = 0.99f;
   float lambda_tv = 0.095f;
+  // The albedo TV's guide: 0 the loss-space target (intensity edges); > 0 the linear
+  // target's chromaticity at this sharpness (losses.h: chroma_guide), so a shadow edge
+  // over one colour is smoothed and a colour edge is not. Roughness keeps the target.
+  float tv_chroma = 0.0f;
   float prior_start = 0.5f, prior_end = 0.005f;
   int prior_iterations = 400;
   ParameterSettings params;

@@ -35,6 +35,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (o.coarse_spp < 0) throw Error(names("coarse_spp") + " must be >= 0 (0: the same as " + names("spp") + ")");
   s.coarse_spp = o.coarse_spp;
   s.lambda_tv = o.lambda_tv;
+  if (!(o.tv_chroma >= 0.0f)) throw Error(names("tv_chroma") + " must be >= 0 (0: the intensity guide)");
+  s.tv_chroma = o.tv_chroma;
   if (!(o.lr_final > 0.0f && o.lr_final <= 1.0f)) throw Error(names("lr_final") + " must be in (0, 1]");
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");
   s.lr_final = o.lr_final;
