@@ -10,15 +10,6 @@ void add_learning_flags(CLI::App* cmd, OptimizeOptions* opt) {
                   "the albedo TV's edges from the target's chromaticity at this sharpness (a shadow edge is smoothed, "
                   "a colour edge is not); 0: from its intensity")
       ->capture_default_str();
-  cmd->add_option("--lambda-albedo-graph", opt->lambda_albedo_graph,
-                  "pull the Gaussians' albedo chromaticities together along a k-nearest-neighbour graph of their "
-                  "centres (0: off)")
-      ->capture_default_str();
-  cmd->add_option("--albedo-graph-k", opt->albedo_graph_k, "the albedo graph's neighbours per Gaussian")
-      ->capture_default_str();
-  cmd->add_option("--albedo-graph-sharpness", opt->albedo_graph_sharpness,
-                  "the albedo graph's edges weighted by the input splats' radiance chromaticity at this sharpness (0: all 1)")
-      ->capture_default_str();
   cmd->add_option("--lr-final", opt->lr_final,
                   "learning rate at the last iteration, as a fraction of the initial one (1: constant)")
       ->capture_default_str();

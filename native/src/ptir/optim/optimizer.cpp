@@ -22,7 +22,6 @@
 #include "ptir/render/material_maps.h"
 #include "ptir/render/render_path.h"
 #include "ptir/render/row_bands.h"
-#include "ptir/transport/field_radiance.h"
 #include "ptir/transport/orient_normals.h"
 
 namespace ptir {
@@ -109,9 +108,6 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
     if (ParameterGroup* g = params_.find(ParamKind::Environment)) scene_->environment->get_raw(g->raw.data());
   }
   grads_ = SceneGradients::zeros_like(*scene_);
-  if (settings_.lambda_albedo_graph > 0.0f && n > 0)  // before any step: the input splats' radiance as they came
-    albedo_graph_ = build_albedo_graph(field.position, settings_.albedo_graph_k, field_radiance(field),
-                                       settings_.albedo_graph_sharpness);
   mask_box_.assign(dataset_->size(), {0, 0, -1, -1});
 }
 
@@ -533,13 +529,6 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
     if (settings_.lambda_albedo_grey > 0.0f && params_.find(ParamKind::LightBalance)) {  // after the sum: once
       const auto prior = albedo_chroma_prior(params_, *scene_);
       for (int c = 0; c < 3; ++c) balance_grad_[c] += double(settings_.lambda_albedo_grey) * prior[c];
-    }
-    if (settings_.lambda_albedo_graph > 0.0f && params_.find(ParamKind::GaussianAlbedo)) {  // once, after the sum
-      std::vector<Vec3> d;
-      const double lg = settings_.lambda_albedo_graph;
-      log.prior += lg * albedo_graph_term(albedo_graph_, scene_->gaussians->albedo, &d);
-      for (size_t i = 0; i < d.size(); ++i)
-        for (int c = 0; c < 3; ++c) grads_.gaussian_albedo[i][c] += float(lg) * d[i][c];
     }
   }
   log.loss = log.image + log.tv + log.prior;

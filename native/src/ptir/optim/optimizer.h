@@ -61,7 +61,6 @@
 #include "ptir/core/communicator.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/optim/adam.h"
-#include "ptir/optim/albedo_graph.h"
 #include "ptir/optim/checkpoint.h"
 #include "ptir/optim/env_align.h"
 #include "ptir/optim/exposure.h"
@@ -116,12 +115,6 @@ struct OptimizerSettings {
   // target's chromaticity at this sharpness (losses.h: chroma_guide), so a shadow edge
   // over one colour is smoothed and a colour edge is not. Roughness keeps the target.
   float tv_chroma = 0.0f;
-  // The Gaussians' albedo chromaticity pulled together along a k-nearest-neighbour graph
-  // of their centres (albedo_graph.h), at this weight (0: off); edges weighted by the
-  // input splats' radiance chromaticity at albedo_graph_sharpness (0: all 1).
-  float lambda_albedo_graph = 0.0f;
-  int albedo_graph_k = 8;
-  float albedo_graph_sharpness = 0.0f;
   float prior_start = 0.5f, prior_end = 0.005f;
   int prior_iterations = 400;
   ParameterSettings params;
@@ -316,7 +309,6 @@ class Optimizer {
   std::vector<Adam> adam_;
   SceneGradients grads_;
   std::vector<IterationLog> log_;
-  AlbedoGraph albedo_graph_;  // with lambda_albedo_graph > 0
   int iteration_ = 0;
   size_t nonfinite_ = 0;
   std::array<double, 3> balance_grad_{};  // dL/d balance of the image terms (light_balance.h)

@@ -114,9 +114,6 @@ Fingerprint Optimizer::fingerprint() const {
   if (is.indirect_from_field) fp.push_back({"indirect", "field"});
   if (settings_.neutral_light) fp.push_back({"light", "neutral"});
   if (settings_.tv_chroma > 0.0f) fp.push_back({"tv_guide", "chroma " + num(settings_.tv_chroma)});
-  if (settings_.lambda_albedo_graph > 0.0f)
-    fp.push_back({"albedo_graph", num(settings_.lambda_albedo_graph) + " k " + std::to_string(settings_.albedo_graph_k) +
-                                      " sharpness " + num(settings_.albedo_graph_sharpness)});
   if (settings_.coarse_pixels > 0)
     fp.push_back({"pyramid", std::to_string(settings_.coarse_pixels) + " until " + num(1.0f - settings_.fine_fraction) +
                                  (spp_at(2) != is.spp ? ", coarse spp " + std::to_string(spp_at(2)) : std::string())});

@@ -37,12 +37,6 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.lambda_tv = o.lambda_tv;
   if (!(o.tv_chroma >= 0.0f)) throw Error(names("tv_chroma") + " must be >= 0 (0: the intensity guide)");
   s.tv_chroma = o.tv_chroma;
-  if (!(o.lambda_albedo_graph >= 0.0f)) throw Error(names("lambda_albedo_graph") + " must be >= 0 (0: off)");
-  if (o.albedo_graph_k < 1) throw Error(names("albedo_graph_k") + " must be >= 1");
-  if (!(o.albedo_graph_sharpness >= 0.0f)) throw Error(names("albedo_graph_sharpness") + " must be >= 0");
-  s.lambda_albedo_graph = o.lambda_albedo_graph;
-  s.albedo_graph_k = o.albedo_graph_k;
-  s.albedo_graph_sharpness = o.albedo_graph_sharpness;
   if (!(o.lr_final > 0.0f && o.lr_final <= 1.0f)) throw Error(names("lr_final") + " must be in (0, 1]");
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");
   s.lr_final = o.lr_final;

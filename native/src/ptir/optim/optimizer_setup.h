@@ -40,9 +40,6 @@ struct OptimizeOptions {
   std::string loss_space = "srgb-blur-first";  // srgb-blur-first, srgb or linear (optimizer.h)
   float lambda_tv = 0.095f;
   float tv_chroma = OptimizerSettings{}.tv_chroma;  // the albedo TV's chromaticity guide (0: intensity)
-  float lambda_albedo_graph = OptimizerSettings{}.lambda_albedo_graph;  // albedo_graph.h (0: off)
-  int albedo_graph_k = OptimizerSettings{}.albedo_graph_k;
-  float albedo_graph_sharpness = OptimizerSettings{}.albedo_graph_sharpness;
   float lr_final = OptimizerSettings{}.lr_final;
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
   // The albedos' start: PTIR's 0.3. A 0.5 start measured +1.5 / +2.0 dB albedo and
