@@ -8,7 +8,7 @@ void add_learning_flags(CLI::App* cmd, OptimizeOptions* opt) {
   cmd->add_option("--lambda-tv", opt->lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
   cmd->add_option("--tv-chroma", opt->tv_chroma,
                   "the albedo TV's edges from the target's chromaticity at this sharpness (a shadow edge is smoothed, "
-                  "a colour edge is not); 0: from its intensity")
+                  "a colour edge is not); 0: from its intensity (PTIR's, with --lambda-tv 0.095)")
       ->capture_default_str();
   cmd->add_option("--lr-final", opt->lr_final,
                   "learning rate at the last iteration, as a fraction of the initial one (1: constant)")
