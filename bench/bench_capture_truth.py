@@ -48,8 +48,12 @@ import make_family  # noqa: E402
 VARIANTS = [
     ("nerf", "masked NeRF set, transparent film (today's synthetic path: the reference)", "nerf", []),
     ("room_true_masks", "room photos with the object's true masks (no capture stage)", "room_masked", []),
-    ("room", "room capture: coverage masks, background starts the environment, learnt (default)", "room", []),
+    ("room", "room capture (default): coverage masks pick the patches, every pixel supervised, background starts the environment", "room", []),
+    ("room_mask_loss", "room capture, --background-loss off (the loss on the coverage masks only)", "room",
+     ["--background-loss", "off"]),
     ("room_fix_env", "room capture, --fix-env-seen", "room", ["--fix-env-seen"]),
+    ("room_warm0", "room capture, --albedo-warmup 0", "room", ["--albedo-warmup", "0"]),
+    ("room_tv3", "room capture, --lambda-tv 0.3", "room", ["--lambda-tv", "0.3"]),
     ("room_scene", "room capture, --subject scene (no mask)", "room", ["--subject", "scene"]),
     # A perfect floor-and-walls proxy (the true room as meshes with their true materials, --scene): what
     # building one could win at most.

@@ -10,9 +10,11 @@ stored (JPEG), on
   - the object's pixels: the input splat's coverage > 0.5 (OUT/capture/masks, or the
     --input splat's opacity rendered), and
   - the whole frame,
-once as rendered and once with the render scaled by the photo's EXIF exposure relative
-to the capture's median (as `ptir cameras` reports it). Prints a table (per photo and
-the mean) and writes it as JSON (--json); --sheet: photo | recovered | error rows.
+once as rendered, once with the render scaled by the photo's EXIF exposure relative
+to the capture's median (as `ptir cameras` reports it) and once by the photo's own gain
+against the capture's consensus (its white balance and exposure, OUT/capture/calibration.json).
+Prints a table (per photo and the mean) and writes it as JSON (--json); --sheet: photo |
+recovered | error rows.
 """
 import argparse
 import json
@@ -70,6 +72,8 @@ def main():
     cli = str(BUILD / "bin" / "ptir")
     res = Path(a.result)
     scene_file = a.scene or (str(res / "scene.json") if (res / "scene.json").exists() else None)
+    calibration = res / "capture" / "calibration.json"
+    gains = json.loads(calibration.read_text()).get("views", {}) if calibration.exists() else {}
     test = ptir.load_dataset(a.dataset, split="test", undistort_cache=a.undistort_cache)
     raw = ptir.load_dataset(a.dataset, split="test", undistort_cache=a.undistort_cache, exif_exposure=False)
     with tempfile.TemporaryDirectory() as tmp:
@@ -99,7 +103,11 @@ def main():
                 m = cover.render_aov(test.cameras[i], "opacity")[..., 0] > 0.5
             e = test.exposures[i]
             row = {"view": name, "exposure": e}
-            for tag, k in (("", 1.0), ("_exif", e)):
+            # The photo's own white balance and exposure against the capture's consensus, where the
+            # capture stage measured it from the input splat (OUT/capture/calibration.json): what a
+            # camera's auto white balance leaves that no asset can know.
+            g = np.asarray(gains.get(name, {}).get("gain", [1.0, 1.0, 1.0]), np.float32)
+            for tag, k in (("", 1.0), ("_exif", e), ("_gain", g)):
                 shown = srgb(rgb * k)
                 row["object" + tag] = psnr(shown, srgb(photo), m)
                 row["frame" + tag] = psnr(shown, srgb(photo))
@@ -107,11 +115,14 @@ def main():
             if a.sheet:
                 err = np.abs(srgb(rgb) - srgb(photo)).mean(axis=2, keepdims=True) * 4
                 sheet.append(np.concatenate([srgb(photo), srgb(rgb), np.repeat(np.clip(err, 0, 1), 3, 2)], axis=1))
-            print("%-10s exposure %.3f  object %.2f dB (EXIF-scaled %.2f)  frame %.2f dB (EXIF-scaled %.2f)  coverage %.2f"
-                  % (name, e, row["object"], row["object_exif"], row["frame"], row["frame_exif"], alpha.mean()), flush=True)
-    mean = {k: float(np.mean([r[k] for r in rows])) for k in ("object", "object_exif", "frame", "frame_exif")}
-    print("mean       object %.2f dB (EXIF-scaled %.2f)  frame %.2f dB (EXIF-scaled %.2f)"
-          % (mean["object"], mean["object_exif"], mean["frame"], mean["frame_exif"]))
+            print("%-10s exposure %.3f  object %.2f dB (EXIF-scaled %.2f, gain-scaled %.2f)  frame %.2f dB (EXIF-scaled "
+                  "%.2f, gain-scaled %.2f)  coverage %.2f" % (name, e, row["object"], row["object_exif"], row["object_gain"],
+                                                              row["frame"], row["frame_exif"], row["frame_gain"],
+                                                              alpha.mean()), flush=True)
+    keys = ("object", "object_exif", "object_gain", "frame", "frame_exif", "frame_gain")
+    mean = {k: float(np.mean([r[k] for r in rows])) for k in keys}
+    print("mean       object %.2f dB (EXIF-scaled %.2f, gain-scaled %.2f)  frame %.2f dB (EXIF-scaled %.2f, gain-scaled %.2f)"
+          % tuple(mean[k] for k in keys))
     if a.json:
         Path(a.json).write_text(json.dumps({"views": rows, "mean": mean}, indent=1) + "\n")
     if a.sheet:

@@ -49,6 +49,29 @@ def horizontal_axes(up):
     return e1, np.cross(up, e1)
 
 
+def build_tools(args, tool):
+    """(the CLI's path, the build's Python module) after checking --env was given twice or not at all."""
+    if args.env is not None and len(args.env) != 2:
+        sys.exit("%s: error: give --env twice (two new environments), or not at all" % tool)
+    sys.path.insert(0, str(args.build / "python"))
+    import ptir  # noqa: E402  (the build's module)
+    return args.build / "bin" / "ptir", ptir
+
+
+def new_environments(ptir, out, envs):
+    """The two environments to relight under: the given ones, else the dataset maker's `sunset` and
+    `overcast` presets written into OUT/env_*.exr."""
+    if envs is not None:
+        return envs
+    from dataset import envmaps  # the dataset maker's presets (numpy only)
+    envs = []
+    for name in ("sunset", "overcast"):
+        path = out / ("env_%s.exr" % name)
+        ptir.write_image(str(path), np.ascontiguousarray(envmaps.make_envmap(name, 256, 128), np.float32))
+        envs.append(path)
+    return envs
+
+
 def three_quarter_camera(bounds, up, fov_x, width, height):
     """A NeRF transforms document with one camera looking at the bounds' centre, 30 degrees above it
     about `up` (a unit vector), its image upright."""
@@ -125,25 +148,14 @@ def main():
     args = ap.parse_args()
     if not args.ply.is_file():
         sys.exit("relight_any_splat: error: %s: no such file" % args.ply)
-    if args.env is not None and len(args.env) != 2:
-        sys.exit("relight_any_splat: error: give --env twice (two new environments), or not at all")
-    cli = args.build / "bin" / "ptir"
-    sys.path.insert(0, str(args.build / "python"))
-    import ptir  # noqa: E402  (the build's module)
+    cli, ptir = build_tools(args, "relight_any_splat")
 
     out = args.out
     result = out / "result"
     out.mkdir(parents=True, exist_ok=True)
     if not (result / "gaussians.ply").is_file():
         run([cli, "optimize", "--gaussians", args.ply, "--out", result] + shlex.split(args.optimize))
-    envs = args.env
-    if envs is None:
-        from dataset import envmaps  # the dataset maker's presets (numpy only)
-        envs = []
-        for name in ("sunset", "overcast"):
-            path = out / ("env_%s.exr" % name)
-            ptir.write_image(str(path), np.ascontiguousarray(envmaps.make_envmap(name, 256, 128), np.float32))
-            envs.append(path)
+    envs = new_environments(ptir, out, args.env)
 
     views = json.loads((result / "views.json").read_text())
     bounds = views["bounds"]

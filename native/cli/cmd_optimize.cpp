@@ -98,6 +98,19 @@ CLI::App* add_run_flags(CLI::App& app, OptimizePipelineOptions* o) {
   cmd->add_flag("--fix-env-seen", o->opt.fix_env_seen,
                 "hold the --env-init map's texels whose alpha is 1 fixed (the environment the photos saw) and learn the "
                 "rest (a real capture of an object sets it with its background: docs/captures.md)");
+  cmd->add_option("--env-seen", o->opt.env_seen,
+                  "what the --env-init map's seen texels (alpha 1) learn: learn (like every texel), coarse (the "
+                  "photos' detail kept, its change learnt smooth at the coarse level), fixed (= --fix-env-seen); auto: "
+                  "coarse for a real capture's seen background, else learn")
+      ->capture_default_str();
+  cmd->add_option("--background-loss", o->opt.background_loss,
+                  "a real capture's object: supervise every pixel of a patch, so the background seen around the "
+                  "object supervises the environment, its coverage mask picking where the patches go (on, off; auto: "
+                  "on for an object, docs/captures.md)")
+      ->capture_default_str();
+  cmd->add_option("--object-patch-share", o->opt.object_patch_share,
+                  "with --background-loss: the share of patches centred on the object, the rest anywhere")
+      ->capture_default_str();
   cmd->add_option("--seed", o->opt.seed, "random seed (views, crops, paths)")->capture_default_str();
   add_brdf_option(cmd, &o->brdf);
   cmd->add_flag("--resume", o->resume, "continue from OUT/checkpoint.bin");

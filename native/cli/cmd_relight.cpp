@@ -153,8 +153,10 @@ Scene relight_scene_and_cameras(const RelightOptions& o, std::vector<Camera>* ca
       // Resize keeping the horizontal field of view (and the aspect ratio when only one is given).
       int w = o.width > 0 ? o.width : int(std::lround(double(o.height) * c.width / c.height));
       int h = o.height > 0 ? o.height : int(std::lround(double(o.width) * c.height / c.width));
-      c.width = std::max(1, w);
-      c.height = std::max(1, h);
+      w = std::max(1, w);
+      h = std::max(1, h);
+      check_image_budget(w, h, o.max_memory_gib, "camera '" + c.name + "'");  // before the size's own checks
+      c = c.resized(w, h);  // the intrinsics scale with it (a capture's principal point too)
     }
   for (const Camera& c : *cameras) check_image_budget(c.width, c.height, o.max_memory_gib, "camera '" + c.name + "'");
   return scene;

@@ -14,6 +14,7 @@ and reach absolute levels that only a working inversion reaches on this object.
 """
 
 import json
+import math
 import subprocess
 
 import numpy as np
@@ -154,6 +155,35 @@ def test_relight_command(e2e, cli):
     r = subprocess.run([str(cli), "relight", "--result", str(opt), "--cameras", str(data / "transforms_test.json"),
                         "-o", str(root / "r_none")], capture_output=True, text=True)
     assert r.returncode == 1 and "no light" in r.stderr
+
+
+def test_relight_resizes_the_intrinsics(e2e, cli):
+    """--width/--height scale a camera's focal lengths and principal point together: a capture's
+    off-centre principal point keeps the object where the photo has it (it once kept cx, cy in the
+    old size's pixels, shifting the object off the frame)."""
+    data, opt, root = e2e["data"], e2e["opt"], e2e["root"]
+    doc = json.loads((data / "transforms_test.json").read_text())
+    frame = doc["frames"][0]
+    w = h = 48
+    fl = 0.5 * w / math.tan(0.5 * doc["camera_angle_x"])
+    cams = {"w": w, "h": h, "fl_x": fl, "fl_y": fl, "cx": 0.62 * w, "cy": 0.41 * h,
+            "camera_angle_x": doc["camera_angle_x"], "frames": [frame]}
+    (root / "offcentre.json").write_text(json.dumps(cams))
+    base = [cli, "relight", "--result", opt, "--cameras", root / "offcentre.json", "--frame", "0", "--spp", "8",
+            "--env", data / "envmaps" / "sky.exr", "--transparent", "-q"]
+    run([*base, "-o", root / "r_full"], timeout=300)
+    run([*base, "--width", "24", "--height", "24", "-o", root / "r_half"], timeout=300)
+
+    def centroid(path):
+        a = skimage.io.imread(path)[..., 3].astype(float)
+        ys, xs = np.mgrid[0:a.shape[0], 0:a.shape[1]]
+        return np.array([(a * xs).sum(), (a * ys).sum()]) / a.sum() + 0.5, a.shape
+
+    full, full_shape = centroid(root / "r_full" / "test_000.png")
+    half, half_shape = centroid(root / "r_half" / "test_000.png")
+    assert full_shape == (48, 48) and half_shape == (24, 24)
+    # The coverage's centre at half size is half the full size's (pixel-centre convention), within a pixel.
+    assert np.abs(2.0 * half - full).max() < 1.0, (full, half)
 
 
 @pytest.fixture(scope="module")

@@ -114,9 +114,11 @@ def test_the_environment_seen_directly_starts_the_light_and_details_it(short_run
     start = ptir.read_image(str(out / "capture" / "background_env.exr"))
     seen = start[..., 3] > 0.5
     assert 0.2 < seen.mean() < 0.9, seen.mean()
-    # The settings say the light started from it; the output map is the fine one with the photos' detail.
+    # The settings say the light started from it, its seen texels learning at the coarse level only;
+    # the output map is the fine one with the photos' detail.
     settings = json.loads((out / "settings.json").read_text())
-    assert settings["env_init"].endswith("background_env.exr"), settings["env_init"]
+    assert settings["env_init"].endswith("background_env.exr (seen texels: coarse change only)"), settings["env_init"]
+    assert settings["background_loss"].startswith("object share"), settings.get("background_loss")
     env = ptir.read_image(str(out / "env.exr"))
     fine = ptir.read_image(str(out / "capture" / "background_seen.exr"))
     assert env.shape[:2] == fine.shape[:2] and env.shape[1] >= 1024

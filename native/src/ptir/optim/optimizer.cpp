@@ -216,8 +216,10 @@ std::vector<Optimizer::ViewPick> Optimizer::pick_views(int it) const {
     if (cs > 0 && (cs < W || cs < H)) {
       p.w = std::min(cs, W);
       p.h = std::min(cs, H);
-      const auto b = mask_box(p.view, f);
       Rng r(hash_combine(settings_.seed, kTagCrop), uint64_t(it), uint64_t(v));
+      // With the background supervised, a share of the patches goes anywhere in the view.
+      const bool anywhere = settings_.background_loss && r.at(2) >= settings_.object_patch_share;
+      const std::array<int, 4> b = anywhere ? std::array<int, 4>{0, 0, W - 1, H - 1} : mask_box(p.view, f);
       int cx = b[0] + std::min(b[2] - b[0], int(r.at(0) * float(b[2] - b[0] + 1)));
       int cy = b[1] + std::min(b[3] - b[1], int(r.at(1) * float(b[3] - b[1] + 1)));
       p.x0 = std::clamp(cx - p.w / 2, 0, W - p.w);
@@ -374,8 +376,9 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   }
   Image mask(pk.w, pk.h, {"A"});
   size_t masked = 0;
+  const bool masked_loss = w.full->has_alpha && !settings_.background_loss;
   for (size_t p = 0; p < w.px; ++p) {
-    bool in = !w.full->has_alpha || (w.target_alpha.pixels[p] >= settings_.mask_threshold &&
+    bool in = !masked_loss || (w.target_alpha.pixels[p] >= settings_.mask_threshold &&
                                      render.pixels[p * 4 + 3] >= settings_.mask_threshold);
     mask.pixels[p] = in ? 1.0f : 0.0f;
     masked += in;
@@ -390,7 +393,7 @@ void Optimizer::image_term(const ViewWork& w, float inv_k, bool with_gradients, 
   const ImageLossSettings& loss_settings = space.loss();
   auto loss_space = [&](const Image& r) { return space.encode(r); };
   auto through_curve = [&](const Image& d_pred, const Image& r) { return space.adjoint(d_pred, r); };
-  const Image* mask_ptr = w.full->has_alpha ? &mask : nullptr;
+  const Image* mask_ptr = masked_loss ? &mask : nullptr;
   // dL/d(linear render) of one image: through the loss and the loss-space curve.
   auto adjoint = [&](const Image& r, double* loss) {
     Image d_pred;

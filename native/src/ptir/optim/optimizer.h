@@ -110,6 +110,13 @@ struct OptimizerSettings {
   // With srgb_loss and the loss's blur: blur the linear render, then take the curve ("srgb-blur-first").
   bool srgb_after_blur = true;
   float mask_threshold = 0.99f;
+  // A real capture's object (pipeline/capture_stage.h): its coverage masks pick where the
+  // patches go, but every pixel of a patch is supervised, so the background seen around the
+  // object supervises the environment (the way targets without alpha do). object_patch_share
+  // of the patches are centred on the mask's box, the rest anywhere in the view. The
+  // regularisers keep to the mask.
+  bool background_loss = false;
+  float object_patch_share = 0.75f;
   // The edge-aware TV of the albedo and roughness maps, and the albedo's guide: 0 the
   // loss-space target (intensity edges); > 0 the linear target's chromaticity at this
   // sharpness (losses.h: chroma_guide), so a shadow edge over one colour is smoothed and

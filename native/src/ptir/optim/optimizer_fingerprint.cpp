@@ -94,7 +94,9 @@ Fingerprint Optimizer::fingerprint() const {
       {"metallic", ps.optimize_metallic ? "optimised" : "fixed"},
       {"env", env_settings_text(ps)},
       {"env_init", (ps.env_init_path.empty() ? std::string("constant") : fs::absolute(ps.env_init_path).string()) +
-                       (ps.env_init_seen_fixed ? " (seen texels fixed)" : "")},
+                       (ps.env_init_seen_fixed    ? " (seen texels fixed)"
+                        : ps.env_init_seen_coarse ? " (seen texels: coarse change only)"
+                                                  : "")},
       {"env_optimised", ps.optimize_env && ps.env != EnvMode::None ? "1" : "0"},
       {"mesh_materials", ps.optimize_meshes ? "optimised" : "fixed"},
       {"exposure", ps.learn_exposure ? "learned" : "fixed"},
@@ -114,6 +116,7 @@ Fingerprint Optimizer::fingerprint() const {
   if (is.indirect_from_field) fp.push_back({"indirect", "field"});
   if (settings_.neutral_light) fp.push_back({"light", "neutral"});
   if (settings_.tv_chroma > 0.0f) fp.push_back({"tv_guide", "chroma " + num(settings_.tv_chroma)});
+  if (settings_.background_loss) fp.push_back({"background_loss", "object share " + num(settings_.object_patch_share)});
   if (settings_.coarse_pixels > 0)
     fp.push_back({"pyramid", std::to_string(settings_.coarse_pixels) + " until " + num(1.0f - settings_.fine_fraction) +
                                  (spp_at(2) != is.spp ? ", coarse spp " + std::to_string(spp_at(2)) : std::string())});

@@ -37,6 +37,12 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.lambda_tv = o.lambda_tv;
   if (!(o.tv_chroma >= 0.0f)) throw Error(names("tv_chroma") + " must be >= 0 (0: the intensity guide)");
   s.tv_chroma = o.tv_chroma;
+  if (o.background_loss != "auto" && o.background_loss != "on" && o.background_loss != "off")
+    throw Error(names("background_loss") + " must be auto, on or off, got '" + o.background_loss + "'");
+  s.background_loss = o.background_loss == "on";
+  if (!(o.object_patch_share >= 0.0f && o.object_patch_share <= 1.0f))
+    throw Error(names("object_patch_share") + " must be in [0, 1]");
+  s.object_patch_share = o.object_patch_share;
   if (!(o.lr_final > 0.0f && o.lr_final <= 1.0f)) throw Error(names("lr_final") + " must be in (0, 1]");
   if (!(o.lr_decay_start >= 0.0f && o.lr_decay_start < 1.0f)) throw Error(names("lr_decay_start") + " must be in [0, 1)");
   s.lr_final = o.lr_final;
@@ -90,13 +96,18 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.params.env_height = o.env_height;
   s.params.env_init_path = o.env_init;
   s.params.optimize_env = !o.fix_env;
-  s.params.env_init_seen_fixed = o.fix_env_seen;
-  if (o.fix_env_seen && o.env_init.empty())
-    throw Error(names("fix_env_seen") + " needs " + names("env_init") + " (a map whose alpha marks the seen texels)");
+  if (o.env_seen != "auto" && o.env_seen != "learn" && o.env_seen != "coarse" && o.env_seen != "fixed")
+    throw Error(names("env_seen") + " must be auto, learn, coarse or fixed, got '" + o.env_seen + "'");
+  s.params.env_init_seen_fixed = o.fix_env_seen || o.env_seen == "fixed";
+  s.params.env_init_seen_coarse = o.env_seen == "coarse" && !s.params.env_init_seen_fixed;
+  if ((s.params.env_init_seen_fixed || s.params.env_init_seen_coarse) && o.env_init.empty())
+    throw Error(names(o.fix_env_seen ? "fix_env_seen" : "env_seen") + " needs " + names("env_init") +
+                " (a map whose alpha marks the seen texels)");
   if (o.fix_env && o.env_init.empty())
     throw Error(names("fix_env") + " needs " + names("env_init") + " (the known environment map)");
   s.env_align.mode = parse_env_align_mode(o.env_align, names("env_align"));
-  if (o.env_init.empty() || o.fix_env_seen) s.env_align.mode = EnvAlignMode::Off;
+  if (o.env_init.empty() || s.params.env_init_seen_fixed || s.params.env_init_seen_coarse)
+    s.env_align.mode = EnvAlignMode::Off;
   if (o.env_refine) {
     if (o.env_init.empty()) throw Error(names("env_refine") + " needs " + names("env_init") + " (the map to refine)");
     if (o.fix_env) throw Error("give " + names("env_refine") + " or " + names("fix_env") + ", not both");

@@ -83,12 +83,22 @@ struct OptimizeOptions {
   std::string env_init;          // "" = constant start
   bool fix_env = false;
   bool fix_env_seen = false;     // hold env_init's seen texels (its alpha) fixed
+  // What the env_init map's seen texels learn: learn (both levels, as every texel), coarse (their
+  // fine level held at the photos' detail, the coarse level's smooth change learnt; unseen texels
+  // learn both), fixed (= fix_env_seen); auto: learn here, coarse where the pipeline starts the
+  // map from a real capture's seen background.
+  std::string env_seen = "auto";
   // The env_init map lined up with the photos first (env_align.h): auto, off, yaw or full.
   // Not for the seen texels (--fix-env-seen: a map made from the photos is theirs already).
   std::string env_align = "auto";
   // Learn the (aligned) env_init map gently: at env_refine_rate times lr_env (the issue-52
   // middle ground between --fix-env and a map learnt like an unknown one).
   bool env_refine = false;
+  // A real capture's object: every pixel of a patch supervised, its coverage mask picking where
+  // the patches go (OptimizerSettings::background_loss): on, off, or auto (off here; the
+  // pipeline resolves it from the capture's subject).
+  std::string background_loss = "auto";
+  float object_patch_share = OptimizerSettings{}.object_patch_share;
   bool optimize_metallic = false;
   bool optimize_meshes = false;
   bool learn_exposure = false;  // one exposure scale per training view (exposure.h)

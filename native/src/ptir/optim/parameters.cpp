@@ -139,7 +139,10 @@ Parameters make_parameters(const Scene& scene, const ParameterSettings& s) {
       }
     }
   }
-  if (s.env_init_seen_fixed && s.optimize_env) p.env_known = known_environment(scene, s);
+  if ((s.env_init_seen_fixed || s.env_init_seen_coarse) && s.optimize_env) {
+    p.env_known = known_environment(scene, s);
+    p.env_known_coarse = !s.env_init_seen_fixed;
+  }
   // Fixed lighting (or none): no group.
   if (s.optimize_env && scene.environment.present()) {
     std::vector<float> raw(scene.environment.parameter_count());
@@ -174,7 +177,7 @@ void check_size(const ParameterGroup& g, size_t n) {
 std::vector<float> environment_raw(const Parameters& p, const ParameterGroup& fine, const Scene& scene) {
   std::vector<float> raw = fine.raw;
   if (const ParameterGroup* coarse = p.find(ParamKind::EnvironmentCoarse)) coarse_upsampler(*coarse, scene).add_up(coarse->raw.data(), raw.data());
-  if (p.env_known.size() == raw.size())  // the seen texels are known
+  if (p.env_known.size() == raw.size() && !p.env_known_coarse)  // the seen texels are known
     for (size_t i = 0; i < raw.size(); ++i)
       if (!std::isnan(p.env_known[i])) raw[i] = p.env_known[i];
   return raw;
@@ -286,7 +289,7 @@ std::vector<std::vector<float>> raw_gradients(const Parameters& p, const SceneGr
         if (!fine) throw Error("a coarse environment level without the environment group");
         std::vector<float> d_fine(fine->raw.size());
         scene.environment->raw_gradient(environment_raw(p, *fine, scene).data(), gr.environment.data(), d_fine.data());
-        drop_known(p, d_fine);
+        if (!p.env_known_coarse) drop_known(p, d_fine);  // (held fine texels still move the coarse level)
         coarse_upsampler(g, scene).adjoint(d_fine.data(), d.data());
         break;
       }

@@ -64,6 +64,10 @@ struct ParameterSettings {
   // the env_init_path map's texels whose 4th channel is over 0.5 are known and held at their
   // value; the others are learnt (the coarse level learns from those alone).
   bool env_init_seen_fixed = false;
+  // ... or their fine level held (the photos' detail) while the coarse level's smooth change
+  // still learns from them; the unseen texels learn both levels (a real capture's background
+  // start, pipeline/capture_stage.h: docs/captures.md).
+  bool env_init_seen_coarse = false;
   bool optimize_env = true;              // false: the environment is held fixed
   int sg_lobes = 24;
   // Coarse-to-fine lat-long environment (env_pyramid.h): the width of the coarse
@@ -134,6 +138,7 @@ struct Parameters {
   // Per raw value of the environment: the known log radiance (NaN: learnt); empty: none
   // (ParameterSettings::env_init_seen_fixed).
   std::vector<float> env_known;
+  bool env_known_coarse = false;  // ParameterSettings::env_init_seen_coarse: env_known holds the fine level only
   const ParameterGroup* find(ParamKind k) const;
   ParameterGroup* find(ParamKind k);
   size_t count() const;  // scalars in all groups

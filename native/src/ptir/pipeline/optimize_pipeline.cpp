@@ -76,6 +76,7 @@ void capture_stage(PipelineRun& o) {
   if (o.subject != "auto" && o.subject != "object" && o.subject != "scene")
     throw Error("--subject must be auto, object or scene, got '" + o.subject + "'");
   const CaptureStageResult r = run_capture_stage(capture_stage_of(o));
+  if (o.opt.background_loss == "auto") o.opt.background_loss = r.background_env.empty() ? "off" : "on";
   if (r.calibration.empty()) return;
   o.capture.calibration = r.calibration;
   if (o.opt.env_init.empty() && !r.background_env.empty() && o.opt.env == "latlong") {
@@ -83,6 +84,7 @@ void capture_stage(PipelineRun& o) {
     // dog's held-out object pixels (docs/captures.md: a wall and paper at infinity light it wrongly).
     o.opt.env_init = r.background_env;
     o.opt.env_align = "off";  // made from the photos: already theirs
+    if (o.opt.env_seen == "auto") o.opt.env_seen = "coarse";  // the photos' detail kept, its change learnt smooth
     o.env_detail = true;
   }
 }
