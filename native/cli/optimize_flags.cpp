@@ -6,6 +6,10 @@ namespace ptir::cli {
 void add_learning_flags(CLI::App* cmd, OptimizeOptions* opt) {
   cmd->add_option("--loss-space", opt->loss_space, "compare images in srgb-blur-first (the sRGB of the render after the loss's 3x3 blur, not before: its noise biases the loss 7x less), srgb (the sRGB of each pixel, then the blur) or linear space; a resumed run keeps its own")->capture_default_str();
   cmd->add_option("--lambda-tv", opt->lambda_tv, "weight of the edge-aware TV regulariser")->capture_default_str();
+  cmd->add_option("--tv-chroma", opt->tv_chroma,
+                  "the albedo TV's edges from the target's chromaticity at this sharpness (a shadow edge is smoothed, "
+                  "a colour edge is not); 0: from its intensity (PTIR's, with --lambda-tv 0.095)")
+      ->capture_default_str();
   cmd->add_option("--lr-final", opt->lr_final,
                   "learning rate at the last iteration, as a fraction of the initial one (1: constant)")
       ->capture_default_str();

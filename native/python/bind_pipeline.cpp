@@ -69,6 +69,7 @@ const std::map<std::string, Setter>& options_by_keyword() {
       PTIR_OPTION("coarse_pixels", opt.coarse_pixels), PTIR_OPTION("fine_fraction", opt.fine_fraction),
       PTIR_OPTION("coarse_spp", opt.coarse_spp), PTIR_OPTION("checkpoint_every", checkpoint_every),
       PTIR_OPTION("threads", threads), PTIR_OPTION("loss_space", opt.loss_space), PTIR_OPTION("lambda_tv", opt.lambda_tv),
+      PTIR_OPTION("tv_chroma", opt.tv_chroma),
       PTIR_OPTION("lr_final", opt.lr_final), PTIR_OPTION("lr_decay_start", opt.lr_decay_start),
       PTIR_OPTION("sample_cache_mb", opt.sample_cache_mb), PTIR_OPTION("env_coarse", opt.env_coarse),
       PTIR_OPTION("albedo_warmup", opt.albedo_warmup), PTIR_OPTION("tv_warmup", opt.tv_warmup),

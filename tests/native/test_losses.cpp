@@ -375,6 +375,56 @@ TEST(Losses, EdgeAwareTvGradientMatchesFiniteDifferences) {
                  1e-4, 1e-8, "edge-aware TV, 1 channel");
 }
 
+TEST(Losses, ChromaGuideSmoothsShadowEdgesNotColourEdges) {
+  // One row of three pixels, linear RGB: a cream surface in light, the same cream in
+  // shadow (x 0.2), and a lavender surface as bright as the lit cream.
+  const float cream[3] = {0.9f, 0.85f, 0.7f}, lavender[3] = {0.75f, 0.7f, 0.95f};
+  Image rgb = make_image(3, 1, 3);
+  for (int c = 0; c < 3; ++c) {
+    rgb.at(0, 0, c) = cream[c];
+    rgb.at(1, 0, c) = 0.2f * cream[c];
+    rgb.at(2, 0, c) = lavender[c];
+  }
+  const float k = 30.0f;
+  Image g = chroma_guide(rgb, k);
+  // Closed form: k c / (r + g + b + eps).
+  const double lit = 0.9 + 0.85 + 0.7, dark = 0.2 * lit, lav = 0.75 + 0.7 + 0.95;
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(g.at(0, 0, c), k * cream[c] / (lit + kChromaGuideEps), 1e-5);
+    EXPECT_NEAR(g.at(1, 0, c), k * 0.2 * cream[c] / (dark + kChromaGuideEps), 1e-5);
+    EXPECT_NEAR(g.at(2, 0, c), k * lavender[c] / (lav + kChromaGuideEps), 1e-5);
+  }
+  // Each pair's TV weight, read from edge_aware_tv on a map with a unit step at that pair
+  // only: value = weight * 1 / (number of pairs).
+  auto weight = [](const Image& guide, int x0) {
+    Image one = make_image(2, 1, 1), pair_guide = make_image(2, 1, 3);
+    one.at(1, 0, 0) = 1.0f;
+    for (int x = 0; x < 2; ++x)
+      for (int c = 0; c < 3; ++c) pair_guide.at(x, 0, c) = guide.at(x0 + x, 0, c);
+    return edge_aware_tv(one, pair_guide, nullptr, nullptr);
+  };
+  double shadow = 0.0, colour = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    shadow += std::abs(double(g.at(0, 0, c)) - double(g.at(1, 0, c)));
+    colour += std::abs(double(g.at(0, 0, c)) - double(g.at(2, 0, c)));
+  }
+  EXPECT_NEAR(weight(g, 0), std::exp(-shadow / 3.0), 1e-6);
+  EXPECT_GT(weight(g, 0), 0.9);  // the shadow edge: smoothed (only eps tells it from the lit side)
+  Image lit_lav = make_image(2, 1, 3);
+  for (int c = 0; c < 3; ++c) {
+    lit_lav.at(0, 0, c) = g.at(0, 0, c);
+    lit_lav.at(1, 0, c) = g.at(2, 0, c);
+  }
+  EXPECT_NEAR(weight(lit_lav, 0), std::exp(-colour / 3.0), 1e-6);
+  EXPECT_LT(weight(lit_lav, 0), 0.25);  // the colour edge: hardly
+  // The intensity guide (the loss-space target) does the opposite: the shadow edge is
+  // its strongest, the equally bright colour edge its weakest.
+  Image srgb = make_image(3, 1, 3);
+  for (size_t i = 0; i < srgb.pixels.size(); ++i) srgb.pixels[i] = srgb_encode_unclamped(rgb.pixels[i]);
+  EXPECT_LT(weight(srgb, 0), weight(g, 0) - 0.2);
+  EXPECT_THROW(chroma_guide(make_image(2, 2, 1), k), Error);
+}
+
 TEST(Losses, PriorL2) {
   Image map = make_image(2, 1, 1), prior = make_image(2, 1, 1);
   map.at(0, 0, 0) = 0.5f;

@@ -525,6 +525,18 @@ double edge_aware_tv(const Image& map, const Image& guide, const Image* mask, Im
   return sum / pair_weight;
 }
 
+Image chroma_guide(const Image& rgb_linear, float sharpness) {
+  if (rgb_linear.channels < 3) throw Error("chroma_guide: the image needs 3 colour channels");
+  const int w = rgb_linear.width, h = rgb_linear.height, ch = rgb_linear.channels;
+  Image g = image_like(w, h, 3);
+  for (size_t p = 0; p < size_t(w) * size_t(h); ++p) {
+    float c[3], sum = kChromaGuideEps;
+    for (int k = 0; k < 3; ++k) sum += c[k] = std::max(0.0f, rgb_linear.pixels[p * ch + k]);
+    for (int k = 0; k < 3; ++k) g.pixels[p * 3 + k] = sharpness * c[k] / sum;
+  }
+  return g;
+}
+
 double prior_l2(const Image& map, const Image& prior, const Image* mask, Image* d_map) {
   check_size(map, prior, "prior_l2: map", "prior");
   const int w = map.width, h = map.height, mc = map.channels;

@@ -69,6 +69,13 @@ Image binomial_filter_adjoint(const Image& d_filtered);
 // (guide: the ground-truth RGB image), averaged over masked pairs. d_map gets the gradient.
 double edge_aware_tv(const Image& map, const Image& guide, const Image* mask, Image* d_map);
 
+// A guide for edge_aware_tv that sees colour edges and not intensity ones: per pixel
+// sharpness * c / (r + g + b + kChromaGuideEps) of the linear RGB (negative values
+// clamped to 0), so a pair's weight is exp(-sharpness * mean_c |chroma_p - chroma_q|):
+// a shadow or shading edge over one colour keeps full smoothing, a colour edge none.
+constexpr float kChromaGuideEps = 0.003f;  // linear; far below a shadow's r + g + b (0.1-0.5 in the family)
+Image chroma_guide(const Image& rgb_linear, float sharpness);
+
 // Masked mean squared difference to a prior map; d_map gets the gradient.
 double prior_l2(const Image& map, const Image& prior, const Image* mask, Image* d_map);
 

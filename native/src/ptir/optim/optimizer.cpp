@@ -472,7 +472,8 @@ void Optimizer::regulariser_terms(const ViewWork& w, float inv_k, bool with_grad
     };
     if (lambda_tv > 0.0f) {
       Image da, dr;
-      double tv = edge_aware_tv(alb, w.target, &aov_mask, with_gradients ? &da : nullptr) +
+      const Image alb_guide = settings_.tv_chroma > 0.0f ? chroma_guide(w.target_rgb, settings_.tv_chroma) : w.target;
+      double tv = edge_aware_tv(alb, alb_guide, &aov_mask, with_gradients ? &da : nullptr) +
                   edge_aware_tv(rough, w.target, &aov_mask, with_gradients ? &dr : nullptr);
       log.tv += inv_k * lambda_tv * tv;
       if (with_gradients) {

@@ -35,6 +35,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (o.coarse_spp < 0) throw Error(names("coarse_spp") + " must be >= 0 (0: the same as " + names("spp") + ")");
   s.coarse_spp = o.coarse_spp;
   s.lambda_tv = o.lambda_tv;
+  if (!(o.tv_chroma >= 0.0f)) throw Error(names("tv_chroma") + " must be >= 0 (0: the intensity guide)");
+  s.tv_chroma = o.tv_chroma;
   if (o.background_loss != "auto" && o.background_loss != "on" && o.background_loss != "off")
     throw Error(names("background_loss") + " must be auto, on or off, got '" + o.background_loss + "'");
   s.background_loss = o.background_loss == "on";

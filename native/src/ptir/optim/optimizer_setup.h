@@ -38,7 +38,8 @@ struct OptimizeOptions {
   float fine_fraction = OptimizerSettings{}.fine_fraction;  // its last share at full resolution
   int coarse_spp = OptimizerSettings{}.coarse_spp;          // its coarse phase's spp (0: spp)
   std::string loss_space = "srgb-blur-first";  // srgb-blur-first, srgb or linear (optimizer.h)
-  float lambda_tv = 0.095f;
+  float lambda_tv = OptimizerSettings{}.lambda_tv;
+  float tv_chroma = OptimizerSettings{}.tv_chroma;  // the albedo TV's chromaticity guide (0: intensity)
   float lr_final = OptimizerSettings{}.lr_final;
   float lr_decay_start = OptimizerSettings{}.lr_decay_start;
   // The albedos' start: PTIR's 0.3. A 0.5 start measured +1.5 / +2.0 dB albedo and
