@@ -62,6 +62,4 @@ def test_optimise_with_scene_lights(blender, tmp_path):
           % (blender, psnr_known, scale_known, psnr_blind, scale_blind))
     assert all(abs(s - 1.0) < 0.15 for s in scale_known), scale_known
     assert any(abs(s - 1.0) > 0.15 for s in scale_blind), scale_blind
-    # Measured (3.4): 30.39 against 24.89 dB with the release's TV; 30.00 against 25.60 with the
-    # chromaticity-guided TV (docs/blind_light.md), which helps the blind run by 0.7 dB.
-    assert psnr_known > psnr_blind + 4.0
+    assert psnr_known > psnr_blind + 5.0
