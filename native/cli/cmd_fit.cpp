@@ -30,6 +30,7 @@
 #include "ptir/optim/budget_plan.h"
 #include "ptir/pipeline/capture_stage.h"
 #include "ptir/pipeline/fit_stage.h"
+#include "ptir/pipeline/trained_fit.h"
 #include "ptir/pipeline/optimize_budget.h"
 
 namespace ptir::cli {
@@ -60,11 +61,7 @@ int run_fit(const FitCommand& o, const CLI::App& cmd) {
     if (!cmd.count("--coarse-pixels")) stage.s.coarse_pixels = pipeline::kBudgetCoarsePixels;
     stage.plan_fine_fraction = !cmd.count("--fine-fraction");
   }
-  if (o.sh_only) {  // what this geometry can show of the photos: only the SH learn, nothing is added or removed
-    stage.s.lr_position = stage.s.lr_scale = stage.s.lr_rotation = stage.s.lr_opacity = stage.s.lr_normal = 0.0f;
-    stage.s.lambda_distortion = 0.0f;
-    stage.no_densify = true;
-  }
+  if (o.sh_only) pipeline::freeze_geometry(stage);  // what this geometry can show of the photos
   pipeline::check_fit_stage(stage);
   stage.progress = pipeline::ProgressPrinter(pipeline::parse_progress_format(o.progress), stage.quiet);
   // A real capture's photos measured against the splats first (capture_stage.h; the add-on's
@@ -79,6 +76,12 @@ int run_fit(const FitCommand& o, const CLI::App& cmd) {
     const pipeline::CaptureStageResult r = pipeline::run_capture_stage(capture);
     if (!r.calibration.empty()) stage.capture.calibration = r.calibration;
   }
+  // A trained splat on real photos: its colours refitted first, a change of geometry kept only
+  // where the held-out photos prove it better (pipeline/trained_fit.h).
+  CaptureStage check = capture;
+  check.capture = stage.capture;
+  if (!o.sh_only && !stage.capture.calibration.empty() && pipeline::trained_fit_applies(check))
+    return pipeline::run_trained_fit_stage(stage, check, "ptir fit ... --resume").rc;
   return pipeline::run_fit_stage(stage);
 }
 

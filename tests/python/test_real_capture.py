@@ -5,6 +5,7 @@ Test data only, outside the project: every test here skips with a message when i
 """
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -84,16 +85,26 @@ def test_the_geometry_stage_never_makes_the_held_out_photos_worse(short_run, pti
     test = ptir.load_dataset(str(DOG), split="test", undistort_cache=str(undist),
                              calibration=str(out / "capture" / "calibration.json"))
     masks = out / "capture" / "masks"
+    # The three fields the stage weighs (trained_fit.h): the input, its geometry with the colours refitted,
+    # and the refinement of that; the kept one is OUT/fit/gaussians.ply, the refined one beside it if not kept.
     before = held_out_psnr(ptir, PLY, test, masks)
-    fitted = held_out_psnr(ptir, out / "fit" / "gaussians.ply", test, masks)
-    kept = PLY if check["kept"] == "input" else out / "fit" / "gaussians.ply"
+    recoloured = held_out_psnr(ptir, out / "fit" / "recolour" / "gaussians.ply", test, masks)
+    refined_ply = out / "fit" / ("gaussians.ply" if check["kept"] == "fitted" else "refined.ply")
+    fitted = held_out_psnr(ptir, refined_ply, test, masks)
+    kept = held_out_psnr(ptir, out / "fit" / "gaussians.ply", test, masks)
     settings = json.loads((out / "settings.json").read_text())
     assert settings["capture"]["geometry"]["kept"] == check["kept"]
-    # What the inversion ran on is the better of the two, measured independently of the engine's check.
+    # What the inversion ran on is the best of the three, measured independently of the engine's check.
     # (The module's preview AOV and the fit's own compositing differ slightly at soft edges: 0.2 dB.)
-    assert held_out_psnr(ptir, kept, test, masks) >= max(before, fitted) - 0.2, (before, fitted, check)
-    assert abs(before - check["held_out_psnr_input"]) < 0.3 and abs(fitted - check["held_out_psnr_fitted"]) < 0.3, \
-        (before, fitted, check)
+    assert kept >= max(before, recoloured, fitted) - 0.2, (before, recoloured, fitted, check)
+    for mine, engine in ((before, "input"), (recoloured, "recoloured"), (fitted, "fitted")):
+        assert abs(mine - check["held_out_psnr_" + engine]) < 0.3, (engine, mine, check)
+    # The photos' own colours, refitted on the user's geometry, show the held-out photos better than the
+    # graded input even after its best per-channel gain (measured: +2.6 dB at 30 iterations).
+    assert recoloured > before + 1.0, (before, recoloured)
+    # The inversion ran on the kept field: the result has its count (the recolouring keeps the input's).
+    count = lambda ply: int(re.search(rb"element vertex (\d+)", Path(ply).read_bytes()[:4096]).group(1))
+    assert count(out / "gaussians.ply") == count(out / "fit" / "gaussians.ply"), check["kept"]
 
 
 def test_the_geometry_stage_creates_no_coverage_outside_the_users_splat(short_run, ptir):

@@ -7,10 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "ptir/core/error.h"
-#include "ptir/io/atomic_file.h"
 #include "ptir/io/image.h"
 #include "ptir/lights/env_detail.h"
-#include "ptir/optim/geometry_check.h"
 #include "ptir/scene/capture_calibration.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/scene/gaussian_ply.h"
@@ -52,41 +50,6 @@ CaptureStageResult run_capture_stage(const CaptureStage& c) {
   r.calibration = cal.string();
   if (a.background.width > 0) r.background_env = env.string();
   return r;
-}
-
-bool keep_fitted_geometry(const CaptureStage& c, const std::string& fitted) {
-  DatasetOptions dopt;
-  apply_capture_options(c.capture, dopt);
-  if (dopt.calibration.empty()) return true;
-  dopt.split = "test";
-  std::unique_ptr<Dataset> test;
-  try {
-    test = load_dataset(c.dataset, dopt);
-  } catch (const Error&) {
-    return true;  // no held-out photos (--holdout 0): nothing to check against
-  }
-  const HeldOutScore before = held_out_radiance_psnr(load_gaussians(c.gaussians), *test);
-  const HeldOutScore after = held_out_radiance_psnr(load_gaussians(fitted), *test);
-  const bool keep = after.mean_psnr >= before.mean_psnr;
-  using ojson = nlohmann::ordered_json;
-  const ojson check = {{"kept", keep ? "fitted" : "input"},
-                       {"held_out_psnr_input", before.mean_psnr},
-                       {"held_out_psnr_fitted", after.mean_psnr},
-                       {"per_view_input", before.psnr},
-                       {"per_view_fitted", after.psnr}};
-  io::write_text_atomic((fs::path(fitted).parent_path() / "check.json").string(), check.dump(1) + "\n");
-  CaptureCalibration cal = read_capture_calibration(dopt.calibration);
-  ojson rec = cal.record_json.empty() ? ojson::object() : ojson::parse(cal.record_json);
-  rec["geometry"] = {{"kept", check["kept"]}, {"held_out_psnr_input", before.mean_psnr},
-                     {"held_out_psnr_fitted", after.mean_psnr}};
-  cal.record_json = rec.dump();
-  write_capture_calibration(dopt.calibration, cal);
-  if (!c.quiet)
-    std::fprintf(stderr,
-                 "fit: held-out photos %.2f dB with the fitted splats, %.2f dB with the input's geometry: %s\n",
-                 after.mean_psnr, before.mean_psnr,
-                 keep ? "the fitted splats are kept" : "the input splats are kept (the fit did not show the photos better)");
-  return keep;
 }
 
 bool fit_kept_input(const std::string& fit_dir) {

@@ -1,8 +1,8 @@
 // Real photos before any fitting (`ptir optimize --dataset CAPTURE`; docs/captures.md,
 // "Real photos"): the capture analysis (src/ptir/optim/capture_analysis.h) of the
 // user's splat against every photo, into OUT/capture/ (calibration.json, masks/,
-// background_env.exr), and the geometry stage's check against the held-out photos
-// (src/ptir/optim/geometry_check.h).
+// background_env.exr); the geometry stage's check against the held-out photos is
+// trained_fit.h's.
 #pragma once
 
 #include <string>
@@ -30,12 +30,6 @@ struct CaptureStageResult {
 // they are); a resumed run reuses what its first
 // run wrote. Prints the analysis' lines unless quiet.
 CaptureStageResult run_capture_stage(const CaptureStage& c);
-
-// The geometry check: the fitted splats are kept where they show the held-out photos
-// at least as well as the input (else the input, with a note); records both scores in
-// the calibration (OUT/settings.json "capture" "geometry") and OUT/fit/check.json.
-// True when the fitted splats are kept; true without held-out photos (nothing to check).
-bool keep_fitted_geometry(const CaptureStage& c, const std::string& fitted);
 
 // Whether the check kept the input splats over FIT_DIR/gaussians.ply (FIT_DIR/check.json).
 bool fit_kept_input(const std::string& fit_dir);

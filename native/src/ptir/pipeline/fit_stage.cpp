@@ -24,6 +24,12 @@ void check_fit_stage(const FitStage& f) {
   if (f.s.accel.k < 1 || f.s.accel.k > SceneAccel::kMaxK) throw Error("--k must be in 1..64");
 }
 
+void freeze_geometry(FitStage& f) {
+  f.s.lr_position = f.s.lr_scale = f.s.lr_rotation = f.s.lr_opacity = f.s.lr_normal = 0.0f;
+  f.s.lambda_distortion = 0.0f;
+  f.no_densify = true;
+}
+
 namespace {
 
 constexpr int kPlanAfterCoarse = 8;  // coarse iterations timed before the fine fraction is planned

@@ -33,6 +33,10 @@ struct FitStage {
 // Throws Error for a setting out of range.
 void check_fit_stage(const FitStage& f);
 
+// The geometry frozen (positions, shapes, opacities, normals, the count): only the SH radiance
+// learns (`ptir fit --sh-only`; what a geometry can show of the photos).
+void freeze_geometry(FitStage& f);
+
 // Runs the stage: 0 when it finished, 130 when Ctrl-C stopped it (the
 // checkpoint and the outputs are written; the message says how to continue,
 // naming `continue_hint`, e.g. "ptir fit ... --resume"). Reports a "done" event.

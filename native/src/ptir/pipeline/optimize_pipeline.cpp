@@ -51,6 +51,7 @@
 #include "ptir/pipeline/fit_stage.h"
 #include "ptir/pipeline/output_guard.h"
 #include "ptir/pipeline/pipeline_run.h"
+#include "ptir/pipeline/trained_fit.h"
 #include "ptir/scene/dataset.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene_json.h"
@@ -140,7 +141,8 @@ int geometry_stage(PipelineRun& o, const Communicator& comm, double fit_seconds)
     return 0;
   }
   if (o.estimate) return 0;  // the estimate is the inversion's alone
-  const bool fit_resumes = o.resume && fs::exists(fit_dir / "checkpoint.bin", ec);
+  const bool fit_resumes = o.resume && (fs::exists(fit_dir / "checkpoint.bin", ec) ||
+                                        fs::exists(fit_dir / "recolour" / "checkpoint.bin", ec));
   if (o.resume && !fit_resumes)
     throw Error((fs::path(o.out) / "checkpoint.bin").string(), "--resume: no checkpoint to continue from");
   o.resume = false;  // the inversion had not started: it starts after the fit
@@ -171,11 +173,17 @@ int geometry_stage(PipelineRun& o, const Communicator& comm, double fit_seconds)
   f.capture = o.capture;
   f.progress = o.progress;
   remove_stale_outputs({f.out}, o.quiet);
-  const int rc = run_fit_stage(f, "ptir optimize ... --resume");
-  if (rc == 0 && !keep_fitted_geometry(capture_stage_of(o), fitted)) return 0;  // the input splats stay
+  const CaptureStage check = capture_stage_of(o);
+  if (trained_fit_applies(check)) {  // a trained splat on real photos: its colours first (trained_fit.h)
+    const TrainedFitResult r = run_trained_fit_stage(f, check, "ptir optimize ... --resume");
+    if (r.rc != 0) return r.rc;
+    if (r.kept == "input") return 0;  // the input splats stay
+  } else if (const int rc = run_fit_stage(f, "ptir optimize ... --resume"); rc != 0) {
+    return rc;
+  }
   o.gaussians = fitted;
   o.fitted = true;
-  return rc;
+  return 0;
 }
 
 // No dataset: the targets are rendered from the splats' own radiance into
