@@ -14,6 +14,8 @@ and tinted by --tint, then `ptir optimize` (geometry stage off) and `ptir eval` 
     refine     ... aligned (auto), then learnt at a tenth of the rate (--env-refine)
     off        the handed-over map as given, fixed (--env-align off)
     learn      no map: the environment learnt (the default inversion)
+    search     the handed-over map, fixed, aligned; its level from short inversions (--env-align search)
+    exact_search the true map through the same (what the search costs where the level was right)
 Prints a Markdown table (albedo PSNR and per-channel scale from `ptir eval`, the solved yaw and
 scale) and writes it to OUT/known_hdri.md. Runs are reused when OUT/<row>/eval exists.
 """
@@ -37,6 +39,8 @@ ROWS = {
     "refine": ["--env-init", "{handed}", "--env-refine"],
     "off": ["--env-init", "{handed}", "--fix-env", "--env-align", "off"],
     "learn": [],
+    "search": ["--env-init", "{handed}", "--fix-env", "--env-align", "search"],
+    "exact_search": ["--env-init", "{true}", "--fix-env", "--env-align", "search"],
 }
 
 

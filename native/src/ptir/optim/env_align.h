@@ -49,7 +49,7 @@
 
 namespace ptir {
 
-enum class EnvAlignMode { Off, Yaw, Auto, Full };
+enum class EnvAlignMode { Off, Yaw, Auto, Full, Search };
 const char* env_align_mode_name(EnvAlignMode m);
 EnvAlignMode parse_env_align_mode(const std::string& name, const std::string& what);
 
@@ -65,13 +65,26 @@ struct EnvAlignSettings {
   float coarse_step_deg = 10.0f;
   float keep_margin = 0.01f;    // 0 degrees stays unless beaten by this relative share
   float reference_albedo = 0.5f;  // "full" on masked photos: the object's mean albedo (luminance) assumed
+  // "search" on masked photos: short inversions of this share of the run's iterations (at
+  // least level_min_iterations) at levels level_step apart (log2) around the mean-albedo one.
+  float level_iterations_share = 0.5f;
+  int level_min_iterations = 30;
+  float level_step = 0.5f;
+  float level_max_log2 = 2.0f;  // the search goes at most this far (log2) from its start
 };
 
 struct EnvAlignResult {
   EnvAlignMode mode = EnvAlignMode::Off;
   double yaw_deg = 0;            // the rotation_z baked into the texels, in [0, 360)
   Vec3 scale{1.0f};              // per channel, applied to the texels
-  std::string scale_from = "none";  // "background", "mean albedo" or "none" (the map's own level)
+  std::string scale_from = "none";  // "background", "mean albedo", "short inversions" or "none" (the map's own level)
+  // Mode search on masked photos (the optimiser's search_known_level): each candidate's
+  // factor on the mean-albedo start and its short inversion's loss, the factor chosen
+  // (already in `scale`), the iterations of each and the seconds they took in all.
+  std::vector<std::pair<double, double>> level_candidates;
+  double level_factor = 1;
+  int level_iterations = 0;
+  double level_seconds = 0;
   Vec3 photo_level{0.0f};        // the photos' level against the render's, per channel (object)
   Vec3 background_level{0.0f};   // ... over the background (0: not seen)
   double score = 0, score_unaligned = 0;  // at the solved yaw, and at 0 degrees
@@ -87,6 +100,10 @@ struct EnvAlignResult {
 // The lat-long texels (row-major RGB, width x height) with rotation_z = yaw_rad baked
 // in: looked up without rotation they give what the input gives with it.
 std::vector<float> rotate_latlong_yaw(const std::vector<float>& texels, int width, int height, double yaw_rad);
+
+// The vertex of the least-squares parabola through (t, score) points, if it opens
+// upward and lies within [-limit, limit]; else NaN.
+double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double limit);
 
 // Aligns scene.environment (a lat-long Environment holding the map as given) to the
 // dataset's photos: renders with `tracer` (built on `scene`, its materials at their

@@ -298,6 +298,9 @@ class Optimizer {
   Primal primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients, size_t cache_bytes, int part,
                 const RenderControl& control, IterationLog& log) const;
   void apply();
+  // Mode search on masked photos: the fixed known map's level from short inversions
+  // at a few candidate levels (env_align.h; optimizer_known_level.cpp).
+  void search_known_level();
   const std::array<int, 4>& mask_box(size_t view) const;
   std::array<int, 4> mask_box(size_t view, int f) const;  // of the view reduced by f
   // The training image of view `view` reduced by f (cached for the current factor).
