@@ -279,7 +279,9 @@ EnvAlignResult align_environment(Scene& scene, const PathTracer& tracer, const D
   if (s.mode != EnvAlignMode::Yaw && background) {
     r.scale = r.background_level;
     r.scale_from = "background";
-  } else if ((s.mode == EnvAlignMode::Full || s.mode == EnvAlignMode::Search) && luminance(r.photo_level) > 0) {
+  } else if ((s.mode == EnvAlignMode::Full || s.mode == EnvAlignMode::Search ||
+              (s.mode == EnvAlignMode::Auto && s.map_fixed)) &&
+             luminance(r.photo_level) > 0) {
     // The renders' albedo is the materials' start: under the map, the object's mean albedo
     // is about their mean times the level; one exposure for all channels (the map's colour
     // kept) makes its luminance reference_albedo. "search" starts there (the optimiser's

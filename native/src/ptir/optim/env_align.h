@@ -65,7 +65,10 @@ struct EnvAlignSettings {
   float coarse_step_deg = 10.0f;
   float keep_margin = 0.01f;    // 0 degrees stays unless beaten by this relative share
   float reference_albedo = 0.5f;  // "full" on masked photos: the object's mean albedo (luminance) assumed
-  // "search" on masked photos: short inversions of this share of the run's iterations (at
+  // The map is held fixed in the inversion (--fix-env): "auto" then searches its level on
+  // masked photos as "search" does (a learnt map's level moves with the inversion itself).
+  bool map_fixed = false;
+  // "search" (and "auto" on a fixed map) on masked photos: short inversions of this share of the run's iterations (at
   // least level_min_iterations) at levels level_step apart (log2) around the mean-albedo one.
   float level_iterations_share = 0.5f;
   int level_min_iterations = 30;
