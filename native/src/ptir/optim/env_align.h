@@ -27,11 +27,16 @@
 //             compares albedo after a per-channel scale for this reason). "full" then
 //             assumes the object's mean albedo: one scale that makes its luminance
 //             reference_albedo (one exposure; the map's colour is kept:
-//             a tint measured 0-0.3 dB, a level 2-5 dB); "auto" keeps the map's level and colour.
+//             a tint measured 0-0.3 dB, a level 2-5 dB). "search" starts there and the
+//             optimiser picks the exposure by short inversions at candidate levels
+//             (Optimizer::search_known_level: the highlights, the bounce light and the
+//             albedo's bound, read with a roughness the inversion has fitted).
 //
-// Modes: off (the map as given), yaw (rotation only), auto (rotation, and the scale
-// where the background shows it), full (rotation and scale; on masked photos the
-// exposure from the mean-albedo assumption). The result is baked into the texels (the rotation by linear interpolation
+// Modes: off (the map as given), yaw (rotation only: the map's level kept), auto
+// (rotation, the scale where the background shows it, and on masked photos of a map held
+// fixed the search's exposure), full (rotation and scale; on masked photos the exposure
+// from the mean-albedo assumption), search (auto, searching on masked photos whether the
+// map is fixed or learnt). The result is baked into the texels (the rotation by linear interpolation
 // along each row; yaw 0 leaves them bit for bit), so OUT/env.exr stays in the
 // scene's orientation. docs/known_light.md has the measurements.
 #pragma once
