@@ -9,7 +9,7 @@ Rows (each changes one thing against `base`, the given iterations x spp; the row
 options since removed -- --env-adam, --lambda-env-smooth/-chroma,
 --env-fine-warmup, --light-solve, --ssim-cross, --average-from, --huber-delta -- are at commit aa311c4, their tables in docs/inversion.md):
     base          ptir optimize with the defaults but --iters/--spp
-    gt_env        the true training environment given and frozen (--env-init + --fix-env)
+    gt_env        the true training environment given and frozen (--env-init + --fix-env, its level kept: --env-align yaw)
     gt_normals    the true (face) normals in the PLY (oracle/gaussians.ply; its materials are not used)
     gt_both       both of the above
     spp4          4x the samples per pixel
@@ -55,9 +55,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 ROWS = {
     "base": [],
-    "gt_env": ["--env-init", "{env}", "--fix-env"],
+    "gt_env": ["--env-init", "{env}", "--fix-env", "--env-align", "yaw"],
     "gt_normals": ["--gaussians", "{oracle_ply}"],
-    "gt_both": ["--env-init", "{env}", "--fix-env", "--gaussians", "{oracle_ply}"],
+    "gt_both": ["--env-init", "{env}", "--fix-env", "--env-align", "yaw", "--gaussians", "{oracle_ply}"],
     "spp4": ["--spp", "{spp4}"],
     "iters4": ["--iters", "{iters4}"],
     "views4": ["--views-per-iter", "4"],

@@ -7,13 +7,17 @@
 The dataset's true training map (dataset.json's train_env) is turned by --yaw about the up axis
 (whole texel columns: the yaw a World's Mapping node would need to undo it), scaled by --exposure
 and tinted by --tint, then `ptir optimize` (geometry stage off) and `ptir eval` run once per row:
-    exact      the true map, fixed (--env-init TRUE --fix-env; aligned by default: it must stay at 0)
-    auto       the handed-over map, fixed, aligned (--env-align auto: yaw; level as given on masked photos)
+    exact      the true map, fixed (--env-init TRUE --fix-env --env-align yaw: it must stay at 0, its level kept)
+    auto       the handed-over map, fixed, aligned (--env-align auto: yaw; on masked photos the level from
+               short inversions at candidate levels)
+    yaw        ... aligned in yaw only: the map's own level kept (what auto did on masked photos before)
     full       ... aligned with an exposure from the mean-albedo assumption (--env-align full)
     exact_full the true map through the same (what the assumption costs where the level was right)
     refine     ... aligned (auto), then learnt at a tenth of the rate (--env-refine)
     off        the handed-over map as given, fixed (--env-align off)
     learn      no map: the environment learnt (the default inversion)
+    search     ... its level from short inversions whether the map is fixed or learnt (--env-align search)
+    exact_search the true map through the search (what it costs where the level was right)
 Prints a Markdown table (albedo PSNR and per-channel scale from `ptir eval`, the solved yaw and
 scale) and writes it to OUT/known_hdri.md. Runs are reused when OUT/<row>/eval exists.
 """
@@ -30,13 +34,16 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 ROWS = {
-    "exact": ["--env-init", "{true}", "--fix-env"],
+    "exact": ["--env-init", "{true}", "--fix-env", "--env-align", "yaw"],
     "auto": ["--env-init", "{handed}", "--fix-env"],
+    "yaw": ["--env-init", "{handed}", "--fix-env", "--env-align", "yaw"],
     "full": ["--env-init", "{handed}", "--fix-env", "--env-align", "full"],
     "exact_full": ["--env-init", "{true}", "--fix-env", "--env-align", "full"],
     "refine": ["--env-init", "{handed}", "--env-refine"],
     "off": ["--env-init", "{handed}", "--fix-env", "--env-align", "off"],
     "learn": [],
+    "search": ["--env-init", "{handed}", "--fix-env", "--env-align", "search"],
+    "exact_search": ["--env-init", "{true}", "--fix-env", "--env-align", "search"],
 }
 
 

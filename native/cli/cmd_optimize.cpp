@@ -9,7 +9,7 @@
 //       [--dataparser-transforms F] [--world auto|data|dataparser|colmap] [--black-background]
 //       [--split train] [--prior DIR] [--views-per-iter K] [--crop N] [--checkpoint-every N]
 //       [--threads N] [--loss-space srgb|linear] [--lambda-tv X] [--optimize-metallic]
-//       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env | --env-refine] [--env-align auto|yaw|full|off]]
+//       [--optimize-meshes] [--env-size WxH] [--env-init MAP [--fix-env | --env-refine] [--env-align auto|yaw|full|search|off]]
 //       [--estimate] [--budget 10m] [--progress text|json] [-q]
 //   ptir optimize --gaussians IN.ply --out OUT [--cameras cameras.json]   (targets from the splats' own radiance)
 //
@@ -53,8 +53,10 @@ const std::set<std::string> kCommonOptions = {
 // --env-align (optim/env_align.h; docs/known_light.md).
 const char* const kEnvAlignHelp =
     "line the --env-init map up with the photos first: auto (its yaw, and its exposure and white balance where the "
-    "photos see the background), yaw, full (auto, and on masked photos an exposure that makes the object's mean "
-    "albedo 0.5) or off (as given); recorded in OUT/settings.json";
+    "photos see the background; on masked photos with --fix-env, its exposure from short inversions at candidate "
+    "levels), yaw (the yaw only: the map's level kept), full (on masked photos an exposure that makes the object's "
+    "mean albedo 0.5), search (the short inversions, the map fixed or learnt) or off (as given); recorded in "
+    "OUT/settings.json";
 
 // The inputs, the stages' and the run's options (in the --help-all order).
 CLI::App* add_run_flags(CLI::App& app, OptimizePipelineOptions* o) {

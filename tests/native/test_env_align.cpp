@@ -53,7 +53,7 @@ TEST(EnvAlign, ZeroYawIsTheIdentity) {
 }
 
 TEST(EnvAlign, ModeNamesRoundTrip) {
-  for (EnvAlignMode m : {EnvAlignMode::Off, EnvAlignMode::Yaw, EnvAlignMode::Auto, EnvAlignMode::Full})
+  for (EnvAlignMode m : {EnvAlignMode::Off, EnvAlignMode::Yaw, EnvAlignMode::Auto, EnvAlignMode::Full, EnvAlignMode::Search})
     EXPECT_EQ(parse_env_align_mode(env_align_mode_name(m), "--env-align"), m);
   EXPECT_THROW(parse_env_align_mode("sideways", "--env-align"), std::exception);
 }

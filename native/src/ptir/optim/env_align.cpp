@@ -147,8 +147,8 @@ double start_albedo_luminance(const Scene& scene) {
   return sum / double(scene.gaussians->albedo.size());
 }
 
-// The vertex of the least-squares parabola through (t, score) points, if it opens
-// upward and lies within [-limit, limit]; else NaN.
+}  // namespace
+
 double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double limit) {
   double m[3][4] = {};  // normal equations of score = a + b t + c t^2
   for (const auto& p : pts) {
@@ -171,6 +171,8 @@ double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double
   const double v = -b / (2.0 * c);
   return std::abs(v) <= limit ? v : std::nan("");
 }
+
+namespace {
 
 // The yaw search: every coarse step, then every degree within one step of the
 // best, then the parabola of the basin's walls. Fills r.candidates.
@@ -223,14 +225,15 @@ const char* env_align_mode_name(EnvAlignMode m) {
     case EnvAlignMode::Yaw: return "yaw";
     case EnvAlignMode::Auto: return "auto";
     case EnvAlignMode::Full: return "full";
+    case EnvAlignMode::Search: return "search";
   }
   return "?";
 }
 
 EnvAlignMode parse_env_align_mode(const std::string& name, const std::string& what) {
-  for (EnvAlignMode m : {EnvAlignMode::Off, EnvAlignMode::Yaw, EnvAlignMode::Auto, EnvAlignMode::Full})
+  for (EnvAlignMode m : {EnvAlignMode::Off, EnvAlignMode::Yaw, EnvAlignMode::Auto, EnvAlignMode::Full, EnvAlignMode::Search})
     if (name == env_align_mode_name(m)) return m;
-  throw Error(what + " must be 'auto', 'off', 'yaw' or 'full', got '" + name + "'");
+  throw Error(what + " must be 'auto', 'off', 'yaw', 'full' or 'search', got '" + name + "'");
 }
 
 std::vector<float> rotate_latlong_yaw(const std::vector<float>& texels, int width, int height, double yaw_rad) {
@@ -288,12 +291,15 @@ EnvAlignResult align_environment(Scene& scene, const PathTracer& tracer, const D
   if (s.mode != EnvAlignMode::Yaw && background) {
     r.scale = r.background_level;
     r.scale_from = "background";
-  } else if (s.mode == EnvAlignMode::Full && luminance(r.photo_level) > 0) {
+  } else if ((s.mode == EnvAlignMode::Full || s.mode == EnvAlignMode::Search ||
+              (s.mode == EnvAlignMode::Auto && s.map_fixed)) &&
+             luminance(r.photo_level) > 0) {
     // The renders' albedo is the materials' start: under the map, the object's mean albedo
     // is about their mean times the level; one exposure for all channels (the map's colour
-    // kept) makes its luminance reference_albedo.
+    // kept) makes its luminance reference_albedo. "search" starts there (the optimiser's
+    // short inversions then pick the level).
     r.scale = Vec3(float(luminance(r.photo_level) * start_albedo_luminance(scene) / s.reference_albedo));
-    r.scale_from = "mean albedo";
+    r.scale_from = s.mode == EnvAlignMode::Full ? "mean albedo" : "short inversions";
   }
   for (size_t i = 0; i < env->texels().size(); ++i)
     env->texels()[i] = std::max(env->texels()[i] * r.scale[int(i % 3)], 1e-6f);
@@ -313,6 +319,14 @@ std::string EnvAlignResult::json() const {
   j["exposure"] = exposure;
   j["white_balance"] = vec(exposure > 0 ? scale * float(1.0 / exposure) : scale);
   j["scale_from"] = scale_from;
+  if (scale_from == "short inversions") {
+    ojson lc = ojson::array();
+    for (const auto& fl : level_candidates) lc.push_back({fl.first, fl.second});
+    j["level_candidates"] = lc;
+    j["level_factor"] = level_factor;
+    j["level_iterations"] = level_iterations;
+    j["level_seconds"] = level_seconds;
+  }
   j["photo_level"] = vec(photo_level);
   j["background_level"] = vec(background_level);
   j["score"] = score;

@@ -27,11 +27,16 @@
 //             compares albedo after a per-channel scale for this reason). "full" then
 //             assumes the object's mean albedo: one scale that makes its luminance
 //             reference_albedo (one exposure; the map's colour is kept:
-//             a tint measured 0-0.3 dB, a level 2-5 dB); "auto" keeps the map's level and colour.
+//             a tint measured 0-0.3 dB, a level 2-5 dB). "search" starts there and the
+//             optimiser picks the exposure by short inversions at candidate levels
+//             (Optimizer::search_known_level: the highlights, the bounce light and the
+//             albedo's bound, read with a roughness the inversion has fitted).
 //
-// Modes: off (the map as given), yaw (rotation only), auto (rotation, and the scale
-// where the background shows it), full (rotation and scale; on masked photos the
-// exposure from the mean-albedo assumption). The result is baked into the texels (the rotation by linear interpolation
+// Modes: off (the map as given), yaw (rotation only: the map's level kept), auto
+// (rotation, the scale where the background shows it, and on masked photos of a map held
+// fixed the search's exposure), full (rotation and scale; on masked photos the exposure
+// from the mean-albedo assumption), search (auto, searching on masked photos whether the
+// map is fixed or learnt). The result is baked into the texels (the rotation by linear interpolation
 // along each row; yaw 0 leaves them bit for bit), so OUT/env.exr stays in the
 // scene's orientation. docs/known_light.md has the measurements.
 #pragma once
@@ -49,7 +54,7 @@
 
 namespace ptir {
 
-enum class EnvAlignMode { Off, Yaw, Auto, Full };
+enum class EnvAlignMode { Off, Yaw, Auto, Full, Search };
 const char* env_align_mode_name(EnvAlignMode m);
 EnvAlignMode parse_env_align_mode(const std::string& name, const std::string& what);
 
@@ -65,13 +70,29 @@ struct EnvAlignSettings {
   float coarse_step_deg = 10.0f;
   float keep_margin = 0.01f;    // 0 degrees stays unless beaten by this relative share
   float reference_albedo = 0.5f;  // "full" on masked photos: the object's mean albedo (luminance) assumed
+  // The map is held fixed in the inversion (--fix-env): "auto" then searches its level on
+  // masked photos as "search" does (a learnt map's level moves with the inversion itself).
+  bool map_fixed = false;
+  // "search" (and "auto" on a fixed map) on masked photos: short inversions of this share of the run's iterations (at
+  // least level_min_iterations) at levels level_step apart (log2) around the mean-albedo one.
+  float level_iterations_share = 0.5f;
+  int level_min_iterations = 30;
+  float level_step = 0.5f;
+  float level_max_log2 = 2.0f;  // the search goes at most this far (log2) from its start
 };
 
 struct EnvAlignResult {
   EnvAlignMode mode = EnvAlignMode::Off;
   double yaw_deg = 0;            // the rotation_z baked into the texels, in [0, 360)
   Vec3 scale{1.0f};              // per channel, applied to the texels
-  std::string scale_from = "none";  // "background", "mean albedo" or "none" (the map's own level)
+  std::string scale_from = "none";  // "background", "mean albedo", "short inversions" or "none" (the map's own level)
+  // Mode search on masked photos (the optimiser's search_known_level): each candidate's
+  // factor on the mean-albedo start and its short inversion's loss, the factor chosen
+  // (already in `scale`), the iterations of each and the seconds they took in all.
+  std::vector<std::pair<double, double>> level_candidates;
+  double level_factor = 1;
+  int level_iterations = 0;
+  double level_seconds = 0;
   Vec3 photo_level{0.0f};        // the photos' level against the render's, per channel (object)
   Vec3 background_level{0.0f};   // ... over the background (0: not seen)
   double score = 0, score_unaligned = 0;  // at the solved yaw, and at 0 degrees
@@ -87,6 +108,10 @@ struct EnvAlignResult {
 // The lat-long texels (row-major RGB, width x height) with rotation_z = yaw_rad baked
 // in: looked up without rotation they give what the input gives with it.
 std::vector<float> rotate_latlong_yaw(const std::vector<float>& texels, int width, int height, double yaw_rad);
+
+// The vertex of the least-squares parabola through (t, score) points, if it opens
+// upward and lies within [-limit, limit]; else NaN.
+double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double limit);
 
 // Aligns scene.environment (a lat-long Environment holding the map as given) to the
 // dataset's photos: renders with `tracer` (built on `scene`, its materials at their

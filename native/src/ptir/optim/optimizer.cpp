@@ -111,6 +111,7 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   if (settings_.albedo_from_radiance) start_albedo_from_radiance();
   grads_ = SceneGradients::zeros_like(*scene_);
   mask_box_.assign(dataset_->size(), {0, 0, -1, -1});
+  if (env_align_.scale_from == "short inversions") search_known_level();  // optimizer_known_level.cpp
 }
 
 Optimizer::~Optimizer() = default;

@@ -306,6 +306,9 @@ class Optimizer {
   void apply();
   void start_albedo_from_radiance();  // albedo_demodulation.h
   Vec3 albedo_start_level_{0.0f};     // its level check's per-channel scale (0: not started so)
+  // Mode search on masked photos: the fixed known map's level from short inversions
+  // at a few candidate levels (env_align.h; optimizer_known_level.cpp).
+  void search_known_level();
   const std::array<int, 4>& mask_box(size_t view) const;
   std::array<int, 4> mask_box(size_t view, int f) const;  // of the view reduced by f
   // The training image of view `view` reduced by f (cached for the current factor).

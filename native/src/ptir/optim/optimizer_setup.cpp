@@ -109,6 +109,7 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (o.fix_env && o.env_init.empty())
     throw Error(names("fix_env") + " needs " + names("env_init") + " (the known environment map)");
   s.env_align.mode = parse_env_align_mode(o.env_align, names("env_align"));
+  s.env_align.map_fixed = o.fix_env;
   if (o.env_init.empty() || s.params.env_init_seen_fixed || s.params.env_init_seen_coarse)
     s.env_align.mode = EnvAlignMode::Off;
   if (o.env_refine) {
