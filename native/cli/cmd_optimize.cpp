@@ -110,11 +110,6 @@ CLI::App* add_run_flags(CLI::App& app, OptimizePipelineOptions* o) {
                   "object supervises the environment, its coverage mask picking where the patches go (on, off; auto: "
                   "on for an object, docs/captures.md)")
       ->capture_default_str();
-  cmd->add_option("--albedo-start", o->opt.albedo_start,
-                  "the albedo's start: constant (--init-albedo), radiance (the splats' radiance fitted to the photos "
-                  "over the start light's irradiance, per Gaussian); auto: radiance for a real capture's object whose "
-                  "splats the geometry stage fitted, else constant (docs/captures.md)")
-      ->capture_default_str();
   cmd->add_option("--object-patch-share", o->opt.object_patch_share,
                   "with --background-loss: the share of patches centred on the object, the rest anywhere")
       ->capture_default_str();

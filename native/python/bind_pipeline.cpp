@@ -60,7 +60,7 @@ const std::map<std::string, Setter>& options_by_keyword() {
       PTIR_OPTION("iters", opt.iters), PTIR_OPTION("spp", opt.spp), PTIR_OPTION("bounces", opt.bounces),
       PTIR_OPTION("indirect", opt.indirect), PTIR_OPTION("env", opt.env), PTIR_OPTION("env_size", env_size),
       PTIR_OPTION("env_init", opt.env_init), PTIR_OPTION("fix_env", opt.fix_env),
-      PTIR_OPTION("fix_env_seen", opt.fix_env_seen), PTIR_OPTION("background_loss", opt.background_loss), PTIR_OPTION("albedo_start", opt.albedo_start),
+      PTIR_OPTION("fix_env_seen", opt.fix_env_seen), PTIR_OPTION("background_loss", opt.background_loss),
       PTIR_OPTION("env_seen", opt.env_seen),
       PTIR_OPTION("object_patch_share", opt.object_patch_share), PTIR_OPTION("env_align", opt.env_align),
       PTIR_OPTION("env_refine", opt.env_refine), PTIR_OPTION("seed", opt.seed), PTIR_OPTION("brdf", brdf),

@@ -121,18 +121,6 @@ CandidateScore score_views(const PathTracer& tracer, const std::vector<ScoredVie
   return c;
 }
 
-}  // namespace
-
-Vec3 photo_level_on_object(const PathTracer& tracer, const Dataset& data, const IntegratorSettings& is,
-                           const EnvAlignSettings& s) {
-  IntegratorSettings scored = is;
-  scored.spp = s.spp;
-  scored.max_bounces = std::min(is.max_bounces, std::max(0, s.bounces));
-  return score_views(tracer, scored_views(data, s), scored).object.level();
-}
-
-namespace {
-
 double wrap_degrees(double d) {
   d = std::fmod(d, 360.0);
   return d < 0 ? d + 360.0 : d;

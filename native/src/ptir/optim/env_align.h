@@ -120,11 +120,4 @@ double parabola_vertex(const std::vector<std::pair<double, double>>& pts, double
 EnvAlignResult align_environment(Scene& scene, const PathTracer& tracer, const Dataset& data,
                                  const IntegratorSettings& base, const EnvAlignSettings& s);
 
-// The photos' level against the render's over the object's pixels (photo alpha and render
-// coverage >= 0.99; every covered pixel of photos without alpha), per channel, sum P R / sum R^2:
-// s.views training views reduced to at most s.max_pixels, at s.spp, under the scene's materials
-// and light as they are now (the albedo's start checks its level with it, albedo_demodulation.h).
-Vec3 photo_level_on_object(const PathTracer& tracer, const Dataset& data, const IntegratorSettings& is,
-                           const EnvAlignSettings& s);
-
 }  // namespace ptir

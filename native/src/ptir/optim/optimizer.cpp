@@ -23,7 +23,6 @@
 #include "ptir/render/render_path.h"
 #include "ptir/render/row_bands.h"
 #include "ptir/transport/orient_normals.h"
-#include "ptir/optim/albedo_demodulation.h"
 
 namespace ptir {
 
@@ -108,7 +107,6 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
     env_align_ = align_environment(*scene_, *tracer_, *dataset_, settings_.integrator, settings_.env_align);
     if (ParameterGroup* g = params_.find(ParamKind::Environment)) scene_->environment->get_raw(g->raw.data());
   }
-  if (settings_.albedo_from_radiance) start_albedo_from_radiance();
   grads_ = SceneGradients::zeros_like(*scene_);
   mask_box_.assign(dataset_->size(), {0, 0, -1, -1});
   if (env_align_.scale_from == "short inversions") search_known_level();  // optimizer_known_level.cpp
@@ -117,42 +115,6 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
 Optimizer::~Optimizer() = default;
 
 void Optimizer::apply() { apply_parameters(params_, settings_.params, *scene_); }
-
-constexpr int kLevelPasses = 2;  // the albedo start's level checks
-
-// The albedo group's start: each Gaussian's fitted radiance over the start light's irradiance
-// (albedo_demodulation.h); nothing where the field has no SH radiance.
-void Optimizer::start_albedo_from_radiance() {
-  ParameterGroup* g = params_.find(ParamKind::GaussianAlbedo);
-  if (g == nullptr || tracer_->radiance() == nullptr) return;
-  const GaussianField& field = *scene_->gaussians;
-  const std::vector<Vec3> radiance(tracer_->radiance(), tracer_->radiance() + field.size());
-  DemodulationSettings ds;
-  ds.seed = settings_.integrator.seed;
-  std::vector<Vec3> a = demodulated_albedo(tracer_->accel(), radiance, scene_->environment, ds);
-  auto install = [&] {
-    for (size_t i = 0; i < a.size(); ++i)
-      for (int c = 0; c < 3; ++c) g->raw[3 * i + size_t(c)] = logit_clamped(a[i][c]);
-    apply();
-  };
-  install();
-  // The estimate's level against the path tracer's (its interactions aggregate several splats and
-  // their shadow rays are stochastic; measured on the plush dog 0.69 / 0.86 / 0.92 photo over
-  // render): one per-channel scale from a few reduced training views.
-  EnvAlignSettings level;
-  level.views = 8;
-  level.max_pixels = 128 * 128;
-  level.bounces = settings_.integrator.max_bounces;
-  albedo_start_level_ = Vec3(1.0f);
-  for (int pass = 0; pass < kLevelPasses; ++pass) {  // the clamp and the bounce light: not quite linear
-    const Vec3 l = photo_level_on_object(*tracer_, *dataset_, settings_.integrator, level);
-    for (Vec3& ai : a)
-      for (int c = 0; c < 3; ++c)
-        if (l[c] > 0.0f) ai[c] = std::clamp(ai[c] * l[c], ds.min_albedo, ds.max_albedo);
-    albedo_start_level_ = albedo_start_level_ * l;
-    install();
-  }
-}
 
 double Optimizer::prior_weight(int it) const {
   if (settings_.prior_iterations <= 0) return settings_.prior_end;

@@ -117,9 +117,6 @@ struct OptimizerSettings {
   // regularisers keep to the mask.
   bool background_loss = false;
   float object_patch_share = 0.75f;
-  // The albedo started from the splats' fitted radiance over the start light's irradiance
-  // (albedo_demodulation.h) instead of init_albedo everywhere.
-  bool albedo_from_radiance = false;
   // The edge-aware TV of the albedo and roughness maps (PTIR's 0.095), and the albedo's
   // guide: 0 the loss-space target (intensity edges); > 0 the linear target's chromaticity at
   // this sharpness (losses.h: chroma_guide), so a shadow edge over one colour is smoothed and a
@@ -273,9 +270,6 @@ class Optimizer {
   const Parameters& parameters() const { return params_; }
   // What the known map's alignment found (mode off: none ran); OUT/settings.json "env_align".
   const EnvAlignResult& env_alignment() const { return env_align_; }
-  // The albedo started from the radiance (albedo_demodulation.h): its level check's per-channel
-  // scale (photos over render); 0 where the albedo started constant.
-  Vec3 albedo_start_level() const { return albedo_start_level_; }
   const std::vector<Adam>& adam() const { return adam_; }
   const std::vector<IterationLog>& log() const { return log_; }
   size_t nonfinite_gradients() const { return nonfinite_; }
@@ -304,8 +298,6 @@ class Optimizer {
   Primal primal(const ViewWork& w, const IntegratorSettings& is, bool with_gradients, size_t cache_bytes, int part,
                 const RenderControl& control, IterationLog& log) const;
   void apply();
-  void start_albedo_from_radiance();  // albedo_demodulation.h
-  Vec3 albedo_start_level_{0.0f};     // its level check's per-channel scale (0: not started so)
   // Mode search on masked photos: the fixed known map's level from short inversions
   // at a few candidate levels (env_align.h; optimizer_known_level.cpp).
   void search_known_level();

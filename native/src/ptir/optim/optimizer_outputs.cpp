@@ -97,9 +97,6 @@ void Optimizer::write_outputs(const std::string& dir) const {
   if (!dataset_->calibration_record.empty()) rec["capture"] = ojson::parse(dataset_->calibration_record);
   // The known map's alignment (env_align.h): yaw, scale, every candidate's score.
   if (env_align_.mode != EnvAlignMode::Off) rec["env_align"] = ojson::parse(env_align_.json());
-  if (settings_.albedo_from_radiance)
-    rec["albedo_start"] = {{"from", "radiance demodulated"},
-                           {"level", {albedo_start_level_[0], albedo_start_level_[1], albedo_start_level_[2]}}};
   io::write_text_atomic((out / "settings.json").string(), rec.dump(1) + "\n");
 }
 

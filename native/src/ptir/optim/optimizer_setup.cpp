@@ -40,9 +40,6 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   if (o.background_loss != "auto" && o.background_loss != "on" && o.background_loss != "off")
     throw Error(names("background_loss") + " must be auto, on or off, got '" + o.background_loss + "'");
   s.background_loss = o.background_loss == "on";
-  if (o.albedo_start != "auto" && o.albedo_start != "constant" && o.albedo_start != "radiance")
-    throw Error(names("albedo_start") + " must be auto, constant or radiance, got '" + o.albedo_start + "'");
-  s.albedo_from_radiance = o.albedo_start == "radiance";
   if (!(o.object_patch_share >= 0.0f && o.object_patch_share <= 1.0f))
     throw Error(names("object_patch_share") + " must be in [0, 1]");
   s.object_patch_share = o.object_patch_share;

@@ -98,9 +98,6 @@ struct OptimizeOptions {
   // the patches go (OptimizerSettings::background_loss): on, off, or auto (off here; the
   // pipeline resolves it from the capture's subject).
   std::string background_loss = "auto";
-  // The albedo's start: constant (init_albedo), radiance (the splats' fitted radiance demodulated
-  // by the start light, albedo_demodulation.h), or auto (constant here; the pipeline resolves it).
-  std::string albedo_start = "auto";
   float object_patch_share = OptimizerSettings{}.object_patch_share;
   bool optimize_metallic = false;
   bool optimize_meshes = false;

@@ -64,11 +64,6 @@ std::unique_ptr<Optimizer> make_optimizer(const PipelineRun& o, std::shared_ptr<
   apply_brdf_choice(o.brdf, s.integrator.brdf);
   if (!o.quiet) std::fprintf(stderr, "optimize: surface model %s\n", to_string(s.integrator.brdf));
   auto optimizer = std::make_unique<Optimizer>(std::move(scene), *data, s);
-  if (!o.quiet && o.opt.albedo_start == "radiance") {
-    const Vec3 l = optimizer->albedo_start_level();
-    std::fprintf(stderr, "optimize: the albedo starts from the splats' radiance over the start light's irradiance "
-                         "(level x%.2f %.2f %.2f)\n", l[0], l[1], l[2]);
-  }
   if (!o.quiet && optimizer->env_alignment().mode != EnvAlignMode::Off)
     std::fprintf(stderr, "optimize: %s\n", optimizer->env_alignment().summary().c_str());
   if (o.resume) {

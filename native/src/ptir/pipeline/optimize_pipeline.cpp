@@ -285,10 +285,6 @@ void resumed_choices(PipelineRun& o) {
     for (const auto& kv : resumed)
       if (kv.first == "indirect") o.opt.indirect = kv.second;
   }
-  // The albedo started from the splats' radiance over the start light's irradiance
-  // (albedo_demodulation.h) where both are the photos' own: the geometry stage fitted the
-  // radiance to them and the capture's seen background starts the light.
-  if (o.opt.albedo_start == "auto") o.opt.albedo_start = o.fitted && o.env_detail ? "radiance" : "constant";
   // The loss space a resumed run began with, unless --loss-space is given (checkpoints
   // from before srgb-blur-first became the default compared in plain srgb).
   if (resuming && o.given.count("--loss-space") == 0)
