@@ -71,7 +71,8 @@ CLI::App* add_run_flags(CLI::App& app, OptimizePipelineOptions* o) {
   cmd->add_option("--scene", o->scene, "scene file with meshes and lights to include (docs/scene_format.md)");
   cmd->add_option("--fit-iters", o->fit_iters,
                   "geometry stage first: iterations of `ptir fit` on the splats, into OUT/fit/ (0: keep the splats' "
-                  "geometry; skipped with --scene meshes and under MPI)")
+                  "geometry; skipped with --scene meshes and under MPI; a trained splat on real photos: half refit its "
+                  "colours on its own geometry, half refine from there, the better on the held-out photos kept)")
       ->capture_default_str();
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_option("--subject", o->subject,
