@@ -96,7 +96,7 @@ def cancel_during_fit(spec, splats, work, stats):
 
 def epoch_losses(log_path):
     rows = [l.split(",") for l in open(log_path).read().splitlines()[1:]]
-    loss = np.array([float(r[1]) for r in rows])
+    loss = np.array([float(r[2]) for r in rows])  # the image term (the recolouring has no distortion term)
     return float(loss[:VIEWS].mean()), float(loss[-VIEWS:].mean()), len(rows)
 
 
@@ -119,6 +119,12 @@ def fit_and_optimise(spec, splats, work, name, stats):
     h.check(err < 1e-4, "object splats = the fitted PLY in the object's own frame (max %.2g)" % err)
     h.check(np.abs(d.albedo - 0.77).max() > 0.01, "albedo written back (%s)" % name)
     first, last, rows = epoch_losses(os.path.join(out, "fit", "log.csv"))
+    recolour = os.path.join(out, "fit", "recolour", "log.csv")
+    if os.path.isfile(recolour):
+        # A trained splat on real photos (pipeline/trained_fit.h): half its colours refitted on its own
+        # geometry (fit/recolour/), half refined from there (fit/).
+        first, _, recoloured_rows = epoch_losses(recolour)
+        rows += recoloured_rows
     h.check(rows == FIT_ITERS, "the fit ran its %d iterations (%d)" % (FIT_ITERS, rows))
     h.check(last < LOSS_RATIO_MAX * first, "the fit lowered the loss (%.4f -> %.4f)" % (first, last))
     h.check("fitted from %d" % n0 in s.status, "status names the fit: %s" % s.status)
