@@ -135,18 +135,8 @@ def test_the_environment_seen_directly_starts_the_light_and_details_it(short_run
     fine = ptir.read_image(str(out / "capture" / "background_seen.exr"))
     assert env.shape[:2] == fine.shape[:2] and env.shape[1] >= 1024
     f = fine[..., 3] > 0
-    # A seen texel is the photos' radiance times the learnt change of its coarse texel (lights/env_detail.h):
-    # within each coarse texel the ratio output / seen is one number per channel.
-    learnt_h, learnt_w = start.shape[:2]
-    H, W = fine.shape[:2]
-    ys, xs = np.nonzero(f)
-    coarse = (ys * learnt_h // H) * learnt_w + (xs * learnt_w // W)
-    ratio = env[ys, xs, :3] / np.maximum(fine[ys, xs, :3], 1e-6)
-    ok = fine[ys, xs, :3].min(1) > 1e-3
-    spread = []
-    for t in np.unique(coarse[ok])[::7]:
-        r = ratio[ok][coarse[ok] == t]
-        spread.append(float(np.max(np.abs(r - r.mean(0)) / r.mean(0))))
-    assert max(spread) < 1e-3, max(spread)
-    # Two iterations move the light a little: the ratios stay near 1.
-    assert 0.5 < np.median(ratio[ok]) < 2.0, np.median(ratio[ok])
+    # A seen texel is the photos' own radiance (lights/env_detail.h: the best prediction of what another
+    # photo sees there); an unseen one the learnt light, which the short run has moved off the start.
+    assert np.allclose(env[f][:, :3], fine[f][:, :3], rtol=1e-6, atol=1e-7)
+    # The rest is the learnt light (bilinear: tests/native/test_env_detail.cpp).
+    assert (~f).any() and np.isfinite(env[~f]).all() and (env[~f] >= 0).all()

@@ -24,24 +24,17 @@ float bilinear(const Image& m, float fx, float fy, int c) {
 
 }  // namespace
 
-Image env_with_detail(const Image& learnt, const Image& start, const Image& seen) {
-  if (learnt.width != start.width || learnt.height != start.height || learnt.channels < 3 || start.channels < 3)
-    throw Error("env_with_detail: the learnt and the starting maps differ in size");
+Image env_with_detail(const Image& learnt, const Image& seen) {
+  if (learnt.channels < 3 || learnt.width < 1 || learnt.height < 1) throw Error("env_with_detail: the learnt map needs RGB");
   if (seen.channels < 4) throw Error("env_with_detail: the seen map needs its 4th channel (seen or not)");
   Image out(seen.width, seen.height, {"R", "G", "B"});
   const float sx = float(learnt.width) / float(seen.width), sy = float(learnt.height) / float(seen.height);
   for (int y = 0; y < seen.height; ++y)
     for (int x = 0; x < seen.width; ++x) {
+      const bool photographed = seen.at(x, y, 3) > 0.0f;
       const float fx = (float(x) + 0.5f) * sx, fy = (float(y) + 0.5f) * sy;
-      const int X = std::min(int(fx), learnt.width - 1), Y = std::min(int(fy), learnt.height - 1);
-      for (int c = 0; c < 3; ++c) {
-        float v = bilinear(learnt, fx, fy, c);
-        if (seen.at(x, y, 3) > 0.0f) {
-          const float ratio = learnt.at(X, Y, c) / std::max(start.at(X, Y, c), 1e-6f);
-          v = seen.at(x, y, c) * std::clamp(ratio, 0.25f, 4.0f);
-        }
-        out.at(x, y, c) = std::max(v, 0.0f);
-      }
+      for (int c = 0; c < 3; ++c)
+        out.at(x, y, c) = std::max(photographed ? seen.at(x, y, c) : bilinear(learnt, fx, fy, c), 0.0f);
     }
   return out;
 }

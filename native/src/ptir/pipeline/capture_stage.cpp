@@ -70,7 +70,7 @@ void write_env_with_detail(const std::string& out) {
   std::error_code ec;
   if (!fs::exists(start, ec) || !fs::exists(seen, ec) || !fs::exists(env, ec)) return;
   const Image learnt = read_image(env.string());
-  write_image(env.string(), env_with_detail(learnt, read_image(start.string()), read_image(seen.string())));
+  write_image(env.string(), env_with_detail(learnt, read_image(seen.string())));
 }
 
 }  // namespace ptir::pipeline
