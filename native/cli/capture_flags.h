@@ -14,6 +14,11 @@ using CaptureFlags = pipeline::CaptureOptions;
 inline void add_capture_flags(CLI::App* cmd, CaptureFlags* f) {
   cmd->add_option("--layout", f->layout, "dataset layout: auto, nerf, colmap, 3dgs, nerfstudio")->capture_default_str();
   cmd->add_option("--images", f->images, "real captures: image folder (e.g. images_4; intrinsics are scaled to it)");
+  cmd->add_option("--max-image-side", f->max_image_side,
+                  "real captures: photos whose long side is over this are read reduced by an integer factor "
+                  "(intrinsics scaled; 0: as stored)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--holdout", f->holdout, "real captures: every Nth image (name order) is a test view (0: none)")
       ->capture_default_str();
   cmd->add_option("--test-list", f->test_list, "real captures: file of test image names, one per line (instead of --holdout)");

@@ -25,6 +25,9 @@ void bind_dataset(py::module_& m) {
       .def_readonly("split", &Dataset::split)
       .def_readonly("transforms_path", &Dataset::transforms_path)
       .def_readonly("width", &Dataset::width)
+      .def_readonly("reduce", &Dataset::reduce)
+      .def_readonly("source_width", &Dataset::source_width)
+      .def_readonly("source_height", &Dataset::source_height)
       .def_readonly("height", &Dataset::height)
       .def_readonly("layout", &Dataset::layout)
       .def_readonly("gaussians_path", &Dataset::gaussians_path)
@@ -77,7 +80,7 @@ void bind_dataset(py::module_& m) {
         [](const std::string& path, const std::string& split, std::optional<std::string> prior, const std::string& layout,
            const std::string& images, int holdout, const std::string& test_list, const std::string& undistort_cache,
            const std::string& dataparser_transforms, const std::string& world, bool black_background, bool exif_exposure,
-           const std::string& calibration) {
+           const std::string& calibration, int max_image_side) {
           DatasetOptions o;
           o.split = split;
           if (prior) o.prior_dir = *prior;
@@ -91,13 +94,14 @@ void bind_dataset(py::module_& m) {
           o.black_background = black_background;
           o.exif_exposure = exif_exposure;
           o.calibration = calibration;
+          o.max_side = max_image_side;
           py::gil_scoped_release release;
           return std::shared_ptr<Dataset>(load_dataset(path, o));
         },
         py::arg("path"), py::arg("split") = "train", py::arg("prior") = py::none(), py::arg("layout") = "auto",
         py::arg("images") = "", py::arg("holdout") = 8, py::arg("test_list") = "", py::arg("undistort_cache") = "",
         py::arg("dataparser_transforms") = "", py::arg("world") = "auto", py::arg("black_background") = false,
-        py::arg("exif_exposure") = true, py::arg("calibration") = "",
+        py::arg("exif_exposure") = true, py::arg("calibration") = "", py::arg("max_image_side") = 1600,
         "Read a dataset folder: NeRF-synthetic/TensoIR (transforms_<split>.json; optional GT and prior maps), or a real "
         "capture (COLMAP, 3DGS output, nerfstudio; split train/test/all by holdout); docs/dataset_format.md.");
   m.def("detect_layout", &detect_layout, py::arg("path"), "The dataset layout of a folder ('' if none is recognised).");

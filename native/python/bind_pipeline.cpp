@@ -85,6 +85,7 @@ const std::map<std::string, Setter>& options_by_keyword() {
       PTIR_OPTION("quiet", quiet), PTIR_OPTION("budget", budget), PTIR_OPTION("estimate", estimate),
       PTIR_OPTION("force", force), PTIR_OPTION("layout", capture.layout), PTIR_OPTION("images", capture.images),
       PTIR_OPTION("holdout", capture.holdout), PTIR_OPTION("test_list", capture.test_list),
+      PTIR_OPTION("max_image_side", capture.max_image_side),
       PTIR_OPTION("undistort_cache", capture.undistort_cache),
       PTIR_OPTION("dataparser_transforms", capture.dataparser_transforms), PTIR_OPTION("world", capture.world),
       PTIR_OPTION("black_background", capture.black_background), PTIR_OPTION("ignore_exif", capture.ignore_exif),

@@ -329,6 +329,45 @@ def test_masks_black_background_and_unmasked(tmp_path):
     assert has_alpha and alpha[:, :7].max() == 0 and alpha[:, 7:].min() == 1
 
 
+def test_large_photos_are_read_at_the_working_size(tmp_path):
+    """--max-image-side: photos whose long side is over it are read box-averaged by the smallest integer
+    factor that brings it under (48 x 36 under 20: 3, 16 x 12), the intrinsics divided by it; a mask at
+    the photos' size is reduced with them, one at the working size is used as it is."""
+    root = write_colmap(tmp_path / "cap", PINHOLE)
+    full = load(root, "all", max_image_side=0)
+    assert (full.width, full.height, full.reduce) == (W, H, 1)
+    assert load(root, "all").reduce == 1  # the default (1600) leaves small photos alone
+    ds = load(root, "all", max_image_side=20)
+    assert (ds.width, ds.height, ds.reduce, ds.source_width, ds.source_height) == (16, 12, 3, W, H)
+    assert load(root, "all", max_image_side=40).width == 24  # 48 / 40: factor 2
+    # The position images hold each pixel's centre (u, v): a working pixel's is 3 (x + 0.5).
+    rgb, alpha, _ = ds.target(0)
+    u, v = np.meshgrid(np.arange(16) + 0.5, np.arange(12) + 0.5)
+    np.testing.assert_allclose(rgb[..., 0], 3 * u, rtol=1e-6)
+    np.testing.assert_allclose(rgb[..., 1], 3 * v, rtol=1e-6)
+    cf, cr = cameras(full), cameras(ds)
+    for n in cf:
+        for k in ("fx", "fy", "cx", "cy"):
+            assert abs(getattr(cr[n], k) - getattr(cf[n], k) / 3) < 1e-4, (n, k)
+    # Masks: at the photos' size (reduced with them) and at the working size (as they are).
+    (root / "masks").mkdir()
+    m = np.zeros((H, W), np.float32)
+    m[6:18, 12:30] = 1.0
+    small = np.zeros((12, 16), np.float32)
+    small[2:5, 3:9] = 1.0
+    for i, n in enumerate(NAMES):
+        ptir.write_image(str(root / "masks" / (Path(n).stem + ".png")), m if i % 2 == 0 else small, colour=False)
+    ds = load(root, "all", max_image_side=20)
+    _, a0, has_alpha = ds.target(0)
+    assert has_alpha
+    np.testing.assert_allclose(a0, m.reshape(12, 3, 16, 3).mean(axis=(1, 3)), atol=1e-6)
+    np.testing.assert_array_equal(ds.target(1)[1], small)
+    # A mask of neither size is an error naming it.
+    ptir.write_image(str(root / "masks" / "view_01.png"), np.ones((10, 10), np.float32), colour=False)
+    with pytest.raises(Exception, match="view_01.png.*mask is 10x10"):
+        load(root, "all", max_image_side=20).target(1)
+
+
 def test_optimize_reads_a_3dgs_output_folder(tmp_path):
     src = write_colmap(tmp_path / "cap", PINHOLE)
     out = tmp_path / "gs"

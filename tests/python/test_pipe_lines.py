@@ -75,6 +75,8 @@ def test_optimize_progress_of_a_real_capture_names_its_subject():
     """The capture stage's event (`ptir fit` and `ptir optimize --progress json` on a real capture) names
     the subject for the Optimise panel; the iterations' progress is read after it."""
     p = cli_mod.Progress()
+    assert cli_mod.parse_optimize_progress('{"event":"target","stage":"capture","view":21,"total":84,"elapsed_s":9.5}', p)
+    assert p.text == "capture: photo 21/84 measured against the splat" and not p.targets and p.fraction == 0.0
     assert cli_mod.parse_optimize_progress('{"event":"subject","subject":"object","covered":0.21}', p)
     assert p.subject == "object against a background"
     cli_mod.parse_optimize_progress('{"event":"iteration","stage":"optimize","iteration":1,"total":2,"loss":0.10163,'

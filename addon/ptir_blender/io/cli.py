@@ -129,6 +129,9 @@ def parse_optimize_progress(line, progress):
     if kind == "subject":
         progress.subject = SUBJECTS.get(e.get("subject"), e.get("subject", ""))
         progress.text = "capture: " + progress.subject
+    elif kind == "target" and e.get("stage") == "capture":
+        done, total = int(e["view"]), int(e["total"])
+        progress.text = "capture: photo %d/%d measured against the splat" % (done, total)
     elif kind == "target":
         done, total = int(e["view"]), int(e["total"])
         progress.targets = True

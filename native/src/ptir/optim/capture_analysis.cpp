@@ -107,11 +107,20 @@ void push_pull(std::vector<double>& sum, std::vector<double>& weight, int W, int
 
 double psnr_of(double se, size_t n) { return n ? -10.0 * std::log10(std::max(se / double(3 * n), 1e-12)) : 0.0; }
 
+// What pass 1 keeps of a photo's render for pass 2 (each photo is rendered once):
+// its coverage, and a sample of the object's pixels for the report's PSNR (the
+// splat's display colour and the photo as stored, every `stride`-th pixel).
+struct RenderedView {
+  Image opacity;
+  std::vector<std::array<float, 6>> samples;
+};
+constexpr size_t kReportSamples = size_t(1) << 16;  // pixels a photo's report samples at most
+
 // Pass 1 of analyse_capture: each photo's coverage and gains against the splat, the
 // subject, whether EXIF exposure applies, and the photos' consensus colour gain.
-// (The renders are made again in pass 2: a capture's renders together would take gigabytes.)
-void measure_photometry(const SceneAccel& accel, const Dataset& data, const CaptureAnalysisSettings& s,
-                        CaptureAnalysis& a) {
+std::vector<RenderedView> measure_photometry(const SceneAccel& accel, const Dataset& data, const CaptureAnalysisSettings& s,
+                                             const CaptureProgress& progress, CaptureAnalysis& a) {
+  std::vector<RenderedView> rendered(data.size());
   for (size_t v = 0; v < data.size(); ++v) {
     const SplatImage fwd = render_splat(accel, data.views[v].camera, Vec3(0.0f));
     const auto photo = data.target(v);
@@ -120,6 +129,20 @@ void measure_photometry(const SceneAccel& accel, const Dataset& data, const Capt
     p.exposure = data.views[v].exposure;
     a.exif_present = a.exif_present || p.exposure != 1.0;
     a.views.push_back(p);
+    RenderedView& r = rendered[v];
+    r.opacity = fwd.opacity;
+    const size_t n = r.opacity.pixels.size(), stride = std::max<size_t>(1, n / kReportSamples);
+    for (size_t i = 0; i < n; i += stride) {
+      const float o = r.opacity.pixels[i];
+      if (!(o > 0.5f)) continue;
+      std::array<float, 6> e{};
+      for (int c = 0; c < 3; ++c) {
+        e[size_t(c)] = std::clamp(fwd.colour.pixels[3 * i + size_t(c)] / o, 0.0f, 1.0f);
+        e[3 + size_t(c)] = photo->rgb.pixels[3 * i + size_t(c)];
+      }
+      r.samples.push_back(e);
+    }
+    if (progress) progress(v + 1, data.size());
   }
   std::vector<double> covered;
   for (const ViewPhotometry& p : a.views) covered.push_back(p.covered);
@@ -143,6 +166,7 @@ void measure_photometry(const SceneAccel& accel, const Dataset& data, const Capt
       if (p.gain[0] > 0.0) g.push_back(p.gain[size_t(c)] / (a.exif_applied ? p.exposure : 1.0));
     a.colour_gain[size_t(c)] = g.empty() ? 1.0 : median_of(g);
   }
+  return rendered;
 }
 
 // The end of analyse_capture for an object: the seen share of the sphere, the fine map of what
@@ -179,12 +203,13 @@ void background_maps(const CaptureAnalysisSettings& s, std::vector<double>& sum,
 
 }  // namespace
 
-CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data, const CaptureAnalysisSettings& s) {
+CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data, const CaptureAnalysisSettings& s,
+                                const CaptureProgress& progress) {
   if (data.size() == 0) throw Error(data.root, "capture analysis: no photos");
   CaptureAnalysis a;
   SceneAccel accel(field, {}, AccelSettings{});
-  // Pass 1: coverage and gains per photo, the subject, EXIF, the consensus gain.
-  measure_photometry(accel, data, s, a);
+  // Pass 1: the renders; coverage and gains per photo, the subject, EXIF, the consensus gain.
+  std::vector<RenderedView> rendered = measure_photometry(accel, data, s, progress, a);
   // Pass 2: masks, the splat against the calibrated photos, the background by direction.
   const Environment grid = Environment::constant(Vec3(1.0f), s.env_width, s.env_height);
   // The fine map: about two photo pixels a texel.
@@ -202,7 +227,6 @@ CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data,
   size_t n_object = 0;
   const bool object = a.subject == "object";
   for (size_t v = 0; v < data.size(); ++v) {
-    const SplatImage fwd = render_splat(accel, data.views[v].camera, Vec3(0.0f));
     const ViewPhotometry& p = a.views[v];
     std::array<double, 3> k{};  // the photo as the inversion sees it = stored / k
     for (int c = 0; c < 3; ++c) {
@@ -211,39 +235,40 @@ CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data,
                                                          : 1.0;
       k[size_t(c)] = (a.exif_applied ? p.exposure : 1.0) * own;
     }
+    // The report: the splat (as is, and times the consensus gain) against the calibrated photo.
+    for (const std::array<float, 6>& e : rendered[v].samples) {
+      n_object++;
+      for (int c = 0; c < 3; ++c) {
+        const double lin = double(e[3 + size_t(c)]) * data.views[v].exposure / k[size_t(c)];
+        const float sd = e[size_t(c)];
+        const double t = linear_to_srgb(float(std::clamp(lin, 0.0, 1.0)));
+        const double g = linear_to_srgb(float(std::clamp(srgb_to_linear(sd) * a.colour_gain[size_t(c)], 0.0, 1.0)));
+        se_splat += (sd - t) * (sd - t);
+        se_graded += (g - t) * (g - t);
+      }
+    }
+    const Image O = std::move(rendered[v].opacity);
+    rendered[v] = RenderedView();
+    if (!object) continue;
     const auto photo = data.target(v);
-    const Image& O = fwd.opacity;
-    const std::vector<uint8_t> bg = object ? background_pixels(O) : std::vector<uint8_t>();
+    const std::vector<uint8_t> bg = background_pixels(O);
     const Camera& cam = data.views[v].camera;
     for (int y = 0; y < O.height; ++y)
       for (int x = 0; x < O.width; ++x) {
         const size_t i = size_t(y) * size_t(O.width) + size_t(x);
-        std::array<double, 3> lin{};
-        for (int c = 0; c < 3; ++c)
-          lin[size_t(c)] = double(photo->rgb.pixels[3 * i + size_t(c)]) * data.views[v].exposure / k[size_t(c)];
-        if (O.pixels[i] > 0.5f) {
-          n_object++;
-          for (int c = 0; c < 3; ++c) {
-            const float sd = std::clamp(fwd.colour.pixels[3 * i + size_t(c)] / O.pixels[i], 0.0f, 1.0f);
-            const double t = linear_to_srgb(float(std::clamp(lin[size_t(c)], 0.0, 1.0)));
-            const double g = linear_to_srgb(float(std::clamp(srgb_to_linear(sd) * a.colour_gain[size_t(c)], 0.0, 1.0)));
-            se_splat += (sd - t) * (sd - t);
-            se_graded += (g - t) * (g - t);
-          }
-        }
-        if (object && bg[i]) {
-          const Vec3 d = cam.generate_ray(float(x) + 0.5f, float(y) + 0.5f).d;
-          const size_t tx = size_t(grid.texel_index(d)), fx = size_t(fine.texel_index(d));
-          weight[tx] += 1.0;
-          fweight[fx] += 1.0;
-          for (int c = 0; c < 3; ++c) sum[3 * tx + size_t(c)] += lin[size_t(c)], fsum[3 * fx + size_t(c)] += lin[size_t(c)];
+        if (!bg[i]) continue;
+        const Vec3 d = cam.generate_ray(float(x) + 0.5f, float(y) + 0.5f).d;
+        const size_t tx = size_t(grid.texel_index(d)), fx = size_t(fine.texel_index(d));
+        weight[tx] += 1.0;
+        fweight[fx] += 1.0;
+        for (int c = 0; c < 3; ++c) {
+          const double lin = double(photo->rgb.pixels[3 * i + size_t(c)]) * data.views[v].exposure / k[size_t(c)];
+          sum[3 * tx + size_t(c)] += lin, fsum[3 * fx + size_t(c)] += lin;
         }
       }
-    if (object) {
-      Image m(O.width, O.height, {"Y"});
-      for (size_t i = 0; i < m.pixels.size(); ++i) m.pixels[i] = std::clamp(O.pixels[i], 0.0f, 1.0f);
-      a.masks.push_back(std::move(m));
-    }
+    Image m(O.width, O.height, {"Y"});
+    for (size_t i = 0; i < m.pixels.size(); ++i) m.pixels[i] = std::clamp(O.pixels[i], 0.0f, 1.0f);
+    a.masks.push_back(std::move(m));
   }
   a.psnr_splat = psnr_of(se_splat, n_object);
   a.psnr_graded = psnr_of(se_graded, n_object);

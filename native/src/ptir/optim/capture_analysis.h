@@ -25,6 +25,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -66,8 +67,14 @@ struct CaptureAnalysis {
   std::vector<Image> masks;  // per view: the splat's coverage (1 channel)
 };
 
-// `data`: every photo of the capture (split "all"), read without a calibration.
-CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data, const CaptureAnalysisSettings& s);
+// Called after each photo is rendered and measured (done, total).
+using CaptureProgress = std::function<void(size_t done, size_t total)>;
+
+// `data`: every photo of the capture (split "all"), read without a calibration. Each
+// photo's render is made once (pass 1 keeps its coverage and a sample of its object
+// pixels for pass 2).
+CaptureAnalysis analyse_capture(const GaussianField& field, const Dataset& data, const CaptureAnalysisSettings& s,
+                                const CaptureProgress& progress = {});
 
 // Writes OUT_DIR/masks/<view>.png (for an object), OUT_DIR/background_env.exr,
 // OUT_DIR/background_seen.exr and

@@ -25,6 +25,7 @@
 #include "ptir/io/image.h"
 #include "ptir/scene/camera.h"
 #include "ptir/scene/dataset.h"
+#include "ptir/scene/view_reduce.h"
 
 namespace ptir {
 
@@ -32,16 +33,6 @@ namespace ptir {
 // most max_pixels pixels (1 when it already has; max_pixels <= 0: always 1).
 int pyramid_factor(int width, int height, int max_pixels);
 
-// The camera of the view reduced by f (see the top). f = 1: the same camera.
-// The camera must not be cropped (throws ptir::Error naming it otherwise).
-Camera reduce_camera(const Camera& cam, int f);
-
-// Box average of f x f pixels, every channel as it is (maps: albedo, roughness).
-Image reduce_image(const Image& img, int f);
-
-// A training image reduced by f: colour averaged with the alpha as weight
-// (straight colour of the average; the plain average where the coarse pixel's
-// alpha is 0), alpha averaged.
-TrainingImage reduce_training_image(const TrainingImage& t, int f);
+// reduce_camera, reduce_image and reduce_training_image: scene/view_reduce.h.
 
 }  // namespace ptir

@@ -12,6 +12,7 @@ namespace ptir::pipeline {
 struct CaptureOptions {
   std::string layout = "auto", images, test_list, undistort_cache, dataparser_transforms, world = "auto";
   int holdout = 8;
+  int max_image_side = 1600;  // --max-image-side: DatasetOptions::max_side
   bool black_background = false;
   bool ignore_exif = false;
   std::string calibration;  // --calibration: a capture calibration (scene/capture_calibration.h)
@@ -21,6 +22,7 @@ inline void apply_capture_options(const CaptureOptions& f, DatasetOptions& d) {
   d.layout = f.layout;
   d.images = f.images;
   d.holdout = f.holdout;
+  d.max_side = f.max_image_side;
   d.test_list = f.test_list;
   d.undistort_dir = f.undistort_cache;
   d.dataparser_transforms = f.dataparser_transforms;

@@ -1,5 +1,7 @@
 #include "ptir/pipeline/capture_stage.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -34,6 +36,9 @@ CaptureStageResult run_capture_stage(const CaptureStage& c) {
   }
   dopt.split = "all";
   const std::unique_ptr<Dataset> all = load_dataset(c.dataset, dopt);
+  if (!c.quiet && all->reduce > 1)
+    std::fprintf(stderr, "capture: photos %dx%d, read at %dx%d (1/%d: --max-image-side %d)\n", all->source_width,
+                 all->source_height, all->width, all->height, all->reduce, dopt.max_side);
   // A capture with its own masks was prepared by its user (or converted from a masked set): it is
   // read as it is, as the same set in the NeRF layout would be (docs/captures.md, issue 38).
   for (const DatasetView& v : all->views)
@@ -41,7 +46,16 @@ CaptureStageResult run_capture_stage(const CaptureStage& c) {
       if (!c.quiet) std::fprintf(stderr, "capture: its own masks are used, its photos as they are\n");
       return r;
     }
-  CaptureAnalysis a = analyse_capture(load_gaussians(c.gaussians), *all, c.s);
+  // Progress: about every 5 % of the photos (each is rendered from the splat once).
+  const auto start = std::chrono::steady_clock::now();
+  const ProgressPrinter progress = c.progress.quiet(c.quiet);
+  auto on_photo = [&](size_t done, size_t total) {
+    const size_t step = std::max<size_t>(1, total / 20);
+    if (done % step != 0 && done != total) return;
+    progress.capture_photo(int(done), int(total),
+                           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  };
+  CaptureAnalysis a = analyse_capture(load_gaussians(c.gaussians), *all, c.s, on_photo);
   if (!c.quiet)
     for (const std::string& line : capture_analysis_lines(a)) std::fprintf(stderr, "%s\n", line.c_str());
   c.progress.quiet(c.quiet).subject(a.subject, a.median_covered);

@@ -59,6 +59,12 @@ void ProgressPrinter::radiance_target(int done, int total, double elapsed_s) con
        printf_text("radiance: view %d/%d rendered  %s elapsed\n", done, total, duration_text(elapsed_s).c_str()));
 }
 
+void ProgressPrinter::capture_photo(int done, int total, double elapsed_s) const {
+  emit({{"event", "target"}, {"stage", "capture"}, {"view", done}, {"total", total}, {"elapsed_s", number(elapsed_s)}},
+       printf_text("capture: photo %d/%d measured against the splat  %s elapsed\n", done, total,
+                   duration_text(elapsed_s).c_str()));
+}
+
 void ProgressPrinter::estimate(double s_per_iter, int iterations, const std::string& text_line) const {
   const double eta = s_per_iter * iterations;
   emit({{"event", "estimate"}, {"s_per_iter", number(s_per_iter)}, {"iterations", iterations}, {"eta_s", number(eta)},

@@ -8,6 +8,7 @@
 // compact, without the spaces shown here):
 //   {"event": "subject", "subject": "object"|"scene", "covered": 0.42}       a real capture's analysis
 //   {"event": "target", "stage": "radiance", "view": 3, "total": 24, "elapsed_s": 1.2}
+//   {"event": "target", "stage": "capture", "view": 3, "total": 84, "elapsed_s": 1.2}   a capture's photos measured
 //   {"event": "estimate", "s_per_iter": 0.8, "iterations": 400, "eta_s": 320.0, "eta": "5m20s"}
 //   {"event": "iteration", "stage": "optimize"|"fit", "iteration": 5, "total": 400, "loss": 0.01,
 //    "s_per_iter": 0.8, "eta_s": 316.0, "eta": "5m16s", ...the stage's loss terms}
@@ -48,6 +49,7 @@ class ProgressPrinter {
 
   void subject(const std::string& subject, double covered) const;
   void radiance_target(int done, int total, double elapsed_s) const;
+  void capture_photo(int done, int total, double elapsed_s) const;
   void estimate(double s_per_iter, int iterations, const std::string& text_line) const;
   void optimize_iteration(const IterationLog& l, int total, double eta_s) const;
   void fit_iteration(const FitLog& l, int total, double eta_s) const;

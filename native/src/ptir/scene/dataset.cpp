@@ -1,4 +1,5 @@
 #include "ptir/scene/dataset.h"
+#include "ptir/scene/view_reduce.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -102,7 +103,8 @@ void colour_channels(const RawImage& r, int idx[3]) {
 
 std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
 
-TrainingImage read_training_image(const std::string& path, const std::string& mask_path, bool black_background) {
+TrainingImage read_training_image(const std::string& path, const std::string& mask_path, bool black_background,
+                                  int reduce) {
   RawImage r = read_raw(path);
   TrainingImage t;
   t.rgb = Image(r.width, r.height, {"R", "G", "B"});
@@ -126,13 +128,17 @@ TrainingImage read_training_image(const std::string& path, const std::string& ma
       t.rgb.pixels[p * 3 + c] = v;
     }
   }
-  if (!mask_path.empty()) {
-    // A separate mask replaces the alpha: its first channel, as stored (integer
-    // formats are read as v / max by OIIO), 1 = supervised.
-    RawImage m = read_raw(mask_path);
-    if (m.width != r.width || m.height != r.height)
-      throw Error(mask_path, "mask is " + size_text(m.width, m.height) + ", its image " + path + " is " +
-                                 size_text(r.width, r.height));
+  // A separate mask replaces the alpha: its first channel, as stored (integer
+  // formats are read as v / max by OIIO), 1 = supervised. At the photo's size it is
+  // applied before the reduction, at the reduced size after it.
+  RawImage m;
+  if (!mask_path.empty()) m = read_raw(mask_path);
+  const bool mask_full = !mask_path.empty() && m.width == r.width && m.height == r.height;
+  const int rw = r.width / std::max(1, reduce), rh = r.height / std::max(1, reduce);
+  if (!mask_path.empty() && !mask_full && !(reduce > 1 && m.width == rw && m.height == rh))
+    throw Error(mask_path, "mask is " + size_text(m.width, m.height) + ", its image " + path + " is " +
+                               size_text(r.width, r.height) + (reduce > 1 ? " (read at " + size_text(rw, rh) + ")" : ""));
+  if (mask_full) {
     for (size_t p = 0; p < n; ++p) t.alpha.pixels[p] = std::clamp(m.px[p * m.channels], 0.0f, 1.0f);
     t.has_alpha = true;
   }
@@ -142,6 +148,11 @@ TrainingImage read_training_image(const std::string& path, const std::string& ma
       const float* c = &t.rgb.pixels[p * 3];
       if (c[0] == 0.0f && c[1] == 0.0f && c[2] == 0.0f) t.alpha.pixels[p] = 0.0f;
     }
+    t.has_alpha = true;
+  }
+  if (reduce > 1) t = reduce_training_image(t, reduce);
+  if (!mask_path.empty() && !mask_full) {
+    for (size_t p = 0; p < t.alpha.pixels.size(); ++p) t.alpha.pixels[p] = std::clamp(m.px[p * m.channels], 0.0f, 1.0f);
     t.has_alpha = true;
   }
   return t;
@@ -180,7 +191,8 @@ std::shared_ptr<const TrainingImage> Dataset::target(size_t i) const {
     if (cache_.size() != views.size()) cache_.resize(views.size());
     if (cache_[i]) return cache_[i];
   }
-  auto read = std::make_shared<TrainingImage>(read_training_image(views[i].files.image, views[i].files.mask, black_background));
+  auto read = std::make_shared<TrainingImage>(
+      read_training_image(views[i].files.image, views[i].files.mask, black_background, reduce));
   const std::array<float, 3>& gain = views[i].gain;
   if (views[i].exposure != 1.0 || gain != std::array<float, 3>{1.0f, 1.0f, 1.0f}) {
     // EXIF exposure (DatasetOptions::exif_exposure) and the calibration's gain.
@@ -207,9 +219,12 @@ void Dataset::check_images() const {
 
 namespace {
 
-Image load_optional(const std::string& path, int channels, bool colour, bool normal, int w, int h) {
+// A map at the photos' stored size is reduced with them (Dataset::reduce).
+Image load_optional(const std::string& path, int channels, bool colour, bool normal, int w, int h, int reduce,
+                    int source_w, int source_h) {
   if (path.empty()) return Image();
   Image m = read_map(path, channels, colour, normal);
+  if (reduce > 1 && m.width == source_w && m.height == source_h) m = reduce_image(m, reduce);
   if (m.width != w || m.height != h)
     throw Error(path, "map is " + size_text(m.width, m.height) + ", the view's image is " + size_text(w, h));
   return m;
@@ -217,16 +232,20 @@ Image load_optional(const std::string& path, int channels, bool colour, bool nor
 
 }  // namespace
 
-Image Dataset::gt_albedo(size_t i) const { return load_optional(views.at(i).files.gt_albedo, 3, true, false, width, height); }
-Image Dataset::gt_roughness(size_t i) const {
-  return load_optional(views.at(i).files.gt_roughness, 1, false, false, width, height);
+Image Dataset::gt_albedo(size_t i) const {
+  return load_optional(views.at(i).files.gt_albedo, 3, true, false, width, height, reduce, source_width, source_height);
 }
-Image Dataset::gt_normal(size_t i) const { return load_optional(views.at(i).files.gt_normal, 3, false, true, width, height); }
+Image Dataset::gt_roughness(size_t i) const {
+  return load_optional(views.at(i).files.gt_roughness, 1, false, false, width, height, reduce, source_width, source_height);
+}
+Image Dataset::gt_normal(size_t i) const {
+  return load_optional(views.at(i).files.gt_normal, 3, false, true, width, height, reduce, source_width, source_height);
+}
 Image Dataset::prior_albedo(size_t i) const {
-  return load_optional(views.at(i).files.prior_albedo, 3, true, false, width, height);
+  return load_optional(views.at(i).files.prior_albedo, 3, true, false, width, height, reduce, source_width, source_height);
 }
 Image Dataset::prior_roughness(size_t i) const {
-  return load_optional(views.at(i).files.prior_roughness, 1, false, false, width, height);
+  return load_optional(views.at(i).files.prior_roughness, 1, false, false, width, height, reduce, source_width, source_height);
 }
 bool Dataset::has_priors() const {
   for (const DatasetView& v : views)

@@ -62,6 +62,12 @@ struct DatasetOptions {
   std::string images;           // image folder ("" = the layout's: "images", or cfg_args' for 3DGS);
                                 // intrinsics are scaled to its images' size (e.g. "images_4")
   int holdout = 8;              // test = every holdout-th image in name order (0: no test views)
+  // Real captures: photos whose long side is over this are read reduced by the
+  // smallest integer factor that brings it to at most this (box average,
+  // scene/view_reduce.h; intrinsics divided by it); 0: as stored. 1600 is the
+  // size the 3DGS trainer reduces large photos to, so the working size is
+  // the one the user's splat was most likely trained at.
+  int max_side = 1600;
   std::string test_list;        // a file of test image names, one per line (overrides holdout)
   std::string undistort_dir;    // cache of undistorted images ("" = DIR/ptir_undistorted/<images>)
   std::string dataparser_transforms;  // nerfstudio: splatfacto's dataparser_transforms.json
@@ -115,6 +121,11 @@ class Dataset {
   std::string gaussians_path;   // the PLY the layout names (3DGS: point_cloud/iteration_N), "" if none
   bool black_background = false;
   int width = 0, height = 0;    // every view has this size
+  // Real captures: every photo (and a mask at the photo's size) is read reduced
+  // by this (DatasetOptions::max_side); source_width x source_height is the size
+  // as stored (after undistortion). 1: as stored.
+  int reduce = 1;
+  int source_width = 0, source_height = 0;
   std::vector<DatasetView> views;
   // The pixel filter its images were rendered with, from DIR/dataset.json
   // ("cycles": {"pixel_filter": {"type": "box", "width": 1.0}}, or the older text
@@ -177,7 +188,10 @@ BsdfModel resolve_bsdf_model(bool scene_named, BsdfModel scene_model, std::optio
 // One RGB(A) image as a TrainingImage (see above for the encodings). With a mask
 // file, its first channel (8/16-bit: v / max; float: as is), clamped to [0, 1],
 // is the alpha; black_background sets alpha 0 where every colour channel is 0.
-TrainingImage read_training_image(const std::string& path, const std::string& mask_path = "", bool black_background = false);
+// reduce > 1: the image (and a mask at its size) box-averaged by that factor
+// (scene/view_reduce.h); a mask already at the reduced size is used as it is.
+TrainingImage read_training_image(const std::string& path, const std::string& mask_path = "", bool black_background = false,
+                                  int reduce = 1);
 
 // The layout load_dataset would read in `dir` with layout "auto": "nerf",
 // "colmap", "3dgs", "nerfstudio", or "" when none is recognised. Order: a

@@ -239,7 +239,11 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
       if (!seen.insert(v.name).second) throw Error(c.camera_file, "image '" + v.name + "' appears twice");
   }
   const std::vector<PinholeWindow> windows = plan_windows(c, !o.images.empty());
-  const int W = windows[0].width, H = windows[0].height;
+  // The working size: the photos reduced by the smallest integer factor that brings
+  // their long side to o.max_side (scene/view_reduce.h; dataset.h says why 1600).
+  const int SW = windows[0].width, SH = windows[0].height;
+  const int f = o.max_side > 0 ? std::max(1, (std::max(SW, SH) + o.max_side - 1) / o.max_side) : 1;
+  const int W = SW / f, H = SH / f;
   const std::vector<size_t> picked = split_views(c, o);
   const std::vector<std::string> names = view_names(c);
   const fs::path cache = !o.undistort_dir.empty() ? fs::path(o.undistort_dir)
@@ -254,6 +258,9 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
   data->black_background = o.black_background;
   data->width = W;
   data->height = H;
+  data->reduce = f;
+  data->source_width = SW;
+  data->source_height = SH;
   data->views.resize(picked.size());
   const std::vector<std::array<std::string, 2>> files = undistort_views(c, picked, windows, cache);
   // EXIF exposure of every photo of the capture (train and test share the reference), from the source files.
@@ -273,7 +280,9 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
     float m[16] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
     for (int e = 0; e < 12; ++e) m[e] = float(v.cam_to_world[size_t(e)]);
     try {
-      dv.camera = make_pinhole_camera(m, float(w.fx), float(w.fy), float(w.cx), float(w.cy), W, H, names[picked[k]]);
+      const float r = 1.0f / float(f);  // the working size's pixels (x_reduced = x / f)
+      dv.camera = make_pinhole_camera(m, float(w.fx) * r, float(w.fy) * r, float(w.cx) * r, float(w.cy) * r, W, H,
+                                      names[picked[k]]);
     } catch (const Error& e) {
       throw Error(c.camera_file, std::string("image '") + v.name + "': " + e.what());
     }
