@@ -368,6 +368,37 @@ def test_large_photos_are_read_at_the_working_size(tmp_path):
         load(root, "all", max_image_side=20).target(1)
 
 
+def test_photos_of_two_sizes_are_read_as_their_common_middle(tmp_path):
+    """A phone's landscape (48 x 36) and portrait (36 x 48) photos in one capture: each is read as the
+    36 x 36 about its centre, its principal point moved by the crop, and --max-image-side reduces after."""
+    root = tmp_path / "cap"
+    land = ("PINHOLE", W, H, [40.5, 41.25, 23.7, 18.4])
+    port = ("PINHOLE", H, W, [41.0, 40.0, 17.9, 24.2])
+    imgs = [(i + 1, cl.quat_from_rotation(R), t, 1 + i % 2, n, np.zeros((0, 2)), np.zeros(0, np.int64))
+            for i, (n, (R, t)) in enumerate(zip(NAMES, poses()))]
+    cl.write_colmap_bin(root / "sparse" / "0", {1: land, 2: port}, imgs)
+    write_position_images(root / "images", NAMES[0::2], W, H)
+    write_position_images(root / "images", NAMES[1::2], H, W)
+    ds = load(root, "all")
+    assert (ds.width, ds.height) == (36, 36)
+    u, v = np.meshgrid(np.arange(36) + 0.5, np.arange(36) + 0.5)
+    cams = cameras(ds)
+    for i, n in enumerate(NAMES):
+        rgb = ds.target(i)[0]
+        dx, dy = (6, 0) if i % 2 == 0 else (0, 6)  # (48 - 36) / 2 on the long side
+        np.testing.assert_allclose(rgb[..., 0], u + dx, rtol=1e-6)
+        np.testing.assert_allclose(rgb[..., 1], v + dy, rtol=1e-6)
+        p = (land if i % 2 == 0 else port)[3]
+        c = cams[Path(n).stem]
+        assert abs(c.cx - (p[2] - dx)) < 1e-4 and abs(c.cy - (p[3] - dy)) < 1e-4 and abs(c.fx - p[0]) < 1e-4
+    # Reduced after the crop: 36 x 36 under 20 -> factor 2, 18 x 18.
+    small = load(root, "all", max_image_side=20)
+    assert (small.width, small.height, small.reduce) == (18, 18, 2)
+    uu, vv = np.meshgrid(2 * (np.arange(18) + 0.5), 2 * (np.arange(18) + 0.5))
+    np.testing.assert_allclose(small.target(1)[0][..., 1], vv + 6, rtol=1e-6)
+    np.testing.assert_allclose(small.target(1)[0][..., 0], uu, rtol=1e-6)
+
+
 def test_optimize_reads_a_3dgs_output_folder(tmp_path):
     src = write_colmap(tmp_path / "cap", PINHOLE)
     out = tmp_path / "gs"

@@ -36,9 +36,7 @@ CaptureStageResult run_capture_stage(const CaptureStage& c) {
   }
   dopt.split = "all";
   const std::unique_ptr<Dataset> all = load_dataset(c.dataset, dopt);
-  if (!c.quiet && all->reduce > 1)
-    std::fprintf(stderr, "capture: photos %dx%d, read at %dx%d (1/%d: --max-image-side %d)\n", all->source_width,
-                 all->source_height, all->width, all->height, all->reduce, dopt.max_side);
+  if (!c.quiet && !all->size_note.empty()) std::fprintf(stderr, "capture: %s\n", all->size_note.c_str());
   // A capture with its own masks was prepared by its user (or converted from a masked set): it is
   // read as it is, as the same set in the NeRF layout would be (docs/captures.md, issue 38).
   for (const DatasetView& v : all->views)

@@ -103,8 +103,21 @@ void colour_channels(const RawImage& r, int idx[3]) {
 
 std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
 
+namespace {
+
+Image crop_to(const Image& img, int x0, int y0, int w, int h) {
+  Image out(w, h, img.channel_names);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < img.channels; ++c) out.at(x, y, c) = img.at(x0 + x, y0 + y, c);
+  return out;
+}
+
+}  // namespace
+
 TrainingImage read_training_image(const std::string& path, const std::string& mask_path, bool black_background,
-                                  int reduce) {
+                                  const ReadWindow& window) {
+  const int reduce = std::max(1, window.reduce);
   RawImage r = read_raw(path);
   TrainingImage t;
   t.rgb = Image(r.width, r.height, {"R", "G", "B"});
@@ -134,10 +147,15 @@ TrainingImage read_training_image(const std::string& path, const std::string& ma
   RawImage m;
   if (!mask_path.empty()) m = read_raw(mask_path);
   const bool mask_full = !mask_path.empty() && m.width == r.width && m.height == r.height;
-  const int rw = r.width / std::max(1, reduce), rh = r.height / std::max(1, reduce);
-  if (!mask_path.empty() && !mask_full && !(reduce > 1 && m.width == rw && m.height == rh))
+  const bool crop = window.width > 0 && (window.width != r.width || window.height != r.height);
+  if (crop && (window.x0 < 0 || window.y0 < 0 || window.x0 + window.width > r.width || window.y0 + window.height > r.height))
+    throw Error(path, "image is " + size_text(r.width, r.height) + ", smaller than the window " +
+                          size_text(window.width, window.height) + " the capture reads");
+  const int rw = (crop ? window.width : r.width) / reduce, rh = (crop ? window.height : r.height) / reduce;
+  const bool resized = crop || reduce > 1;
+  if (!mask_path.empty() && !mask_full && !(resized && m.width == rw && m.height == rh))
     throw Error(mask_path, "mask is " + size_text(m.width, m.height) + ", its image " + path + " is " +
-                               size_text(r.width, r.height) + (reduce > 1 ? " (read at " + size_text(rw, rh) + ")" : ""));
+                               size_text(r.width, r.height) + (resized ? " (read at " + size_text(rw, rh) + ")" : ""));
   if (mask_full) {
     for (size_t p = 0; p < n; ++p) t.alpha.pixels[p] = std::clamp(m.px[p * m.channels], 0.0f, 1.0f);
     t.has_alpha = true;
@@ -149,6 +167,10 @@ TrainingImage read_training_image(const std::string& path, const std::string& ma
       if (c[0] == 0.0f && c[1] == 0.0f && c[2] == 0.0f) t.alpha.pixels[p] = 0.0f;
     }
     t.has_alpha = true;
+  }
+  if (crop) {
+    t.rgb = crop_to(t.rgb, window.x0, window.y0, window.width, window.height);
+    t.alpha = crop_to(t.alpha, window.x0, window.y0, window.width, window.height);
   }
   if (reduce > 1) t = reduce_training_image(t, reduce);
   if (!mask_path.empty() && !mask_full) {
@@ -192,7 +214,9 @@ std::shared_ptr<const TrainingImage> Dataset::target(size_t i) const {
     if (cache_[i]) return cache_[i];
   }
   auto read = std::make_shared<TrainingImage>(
-      read_training_image(views[i].files.image, views[i].files.mask, black_background, reduce));
+      read_training_image(views[i].files.image, views[i].files.mask, black_background,
+                          ReadWindow{views[i].crop_x0, views[i].crop_y0, views[i].cropped ? source_width : 0,
+                                     views[i].cropped ? source_height : 0, reduce}));
   const std::array<float, 3>& gain = views[i].gain;
   if (views[i].exposure != 1.0 || gain != std::array<float, 3>{1.0f, 1.0f, 1.0f}) {
     // EXIF exposure (DatasetOptions::exif_exposure) and the calibration's gain.

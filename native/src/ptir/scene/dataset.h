@@ -110,6 +110,10 @@ struct DatasetView {
   // The camera's white balance and exposure against the capture's consensus, per channel
   // (scene/capture_calibration.h; 1: none); target() divides by it too.
   std::array<float, 3> gain{1.0f, 1.0f, 1.0f};
+  // Real captures of several image sizes: the window of its stored photo this view
+  // reads (the common size about its centre; width 0: the whole photo).
+  int crop_x0 = 0, crop_y0 = 0;
+  bool cropped = false;
 };
 
 class Dataset {
@@ -126,6 +130,7 @@ class Dataset {
   // as stored (after undistortion). 1: as stored.
   int reduce = 1;
   int source_width = 0, source_height = 0;
+  std::string size_note;  // what the loader did to the photos' sizes ("" when nothing): the log's line
   std::vector<DatasetView> views;
   // The pixel filter its images were rendered with, from DIR/dataset.json
   // ("cycles": {"pixel_filter": {"type": "box", "width": 1.0}}, or the older text
@@ -188,10 +193,18 @@ BsdfModel resolve_bsdf_model(bool scene_named, BsdfModel scene_model, std::optio
 // One RGB(A) image as a TrainingImage (see above for the encodings). With a mask
 // file, its first channel (8/16-bit: v / max; float: as is), clamped to [0, 1],
 // is the alpha; black_background sets alpha 0 where every colour channel is 0.
-// reduce > 1: the image (and a mask at its size) box-averaged by that factor
-// (scene/view_reduce.h); a mask already at the reduced size is used as it is.
+// The part of a stored photo a view reads: the window [x0, x0 + width) x [y0, y0 +
+// height) (width 0: the whole photo), then box-averaged by `reduce`
+// (scene/view_reduce.h).
+struct ReadWindow {
+  int x0 = 0, y0 = 0, width = 0, height = 0;
+  int reduce = 1;
+};
+
+// With a window, the image (and a mask at the image's size) is cropped to it and
+// reduced; a mask already at the working size (the window's / reduce) is used as it is.
 TrainingImage read_training_image(const std::string& path, const std::string& mask_path = "", bool black_background = false,
-                                  int reduce = 1);
+                                  const ReadWindow& window = {});
 
 // The layout load_dataset would read in `dir` with layout "auto": "nerf",
 // "colmap", "3dgs", "nerfstudio", or "" when none is recognised. Order: a

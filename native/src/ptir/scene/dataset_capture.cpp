@@ -137,7 +137,10 @@ std::vector<std::string> view_names(const Capture& c) {
 // Every view's lens at its image's actual size, and its pinhole window; for every
 // view, so the common size does not depend on the split. One image size for the
 // whole capture (the optimiser's assumption): the smallest window, each view's
-// window shrunk to it about its own centre.
+// window shrunk to it about its own centre (a distorted view's undistorted image
+// is made at that window; any other view reads that part of its photo:
+// DatasetView::crop_x0, a phone's portrait and landscape photos both read
+// as the square in their middle).
 // A photo smaller than its camera in the layout's own image folder is a wrong or
 // half-copied folder (a downscaled folder is chosen with --images images_N, and
 // its intrinsics are then scaled); 3DGS cameras.json records the sizes trained at.
@@ -169,11 +172,7 @@ std::vector<PinholeWindow> plan_windows(Capture& c, bool folder_chosen) {
   for (const PinholeWindow& w : windows) W = std::min(W, w.width), H = std::min(H, w.height);
   for (size_t i = 0; i < n; ++i) {
     PinholeWindow& w = windows[i];
-    const bool distorted = c.views[i].lens.distorted();
     if (w.width == W && w.height == H) continue;
-    if (!distorted)
-      throw Error(c.views[i].image, "image is " + size_text(w.width, w.height) + ", other views of " + c.camera_file +
-                                        " are " + size_text(W, H) + " (ptir needs one image size per capture)");
     const int dx = (w.width - W) / 2, dy = (w.height - H) / 2;
     w.x0 += dx;
     w.y0 += dy;
@@ -242,6 +241,8 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
   // The working size: the photos reduced by the smallest integer factor that brings
   // their long side to o.max_side (scene/view_reduce.h; dataset.h says why 1600).
   const int SW = windows[0].width, SH = windows[0].height;
+  std::set<std::string> sizes;  // the photos' own sizes (before any window)
+  for (const CaptureView& v : c.views) sizes.insert(size_text(v.lens.width, v.lens.height));
   const int f = o.max_side > 0 ? std::max(1, (std::max(SW, SH) + o.max_side - 1) / o.max_side) : 1;
   const int W = SW / f, H = SH / f;
   const std::vector<size_t> picked = split_views(c, o);
@@ -261,6 +262,16 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
   data->reduce = f;
   data->source_width = SW;
   data->source_height = SH;
+  if (sizes.size() > 1) {
+    std::string list;
+    for (const std::string& t : sizes) list += (list.empty() ? "" : ", ") + t;
+    data->size_note = "photos of " + std::to_string(sizes.size()) + " sizes (" + list + "): each read as the " +
+                      size_text(SW, SH) + " about its centre";
+  }
+  if (f > 1)
+    data->size_note += (data->size_note.empty() ? "photos " + size_text(SW, SH) : std::string()) + ", read at " +
+                       size_text(W, H) + " (1/" + std::to_string(f) + ": --max-image-side " + std::to_string(o.max_side) +
+                       ")";
   data->views.resize(picked.size());
   const std::vector<std::array<std::string, 2>> files = undistort_views(c, picked, windows, cache);
   // EXIF exposure of every photo of the capture (train and test share the reference), from the source files.
@@ -277,6 +288,11 @@ std::unique_ptr<Dataset> dataset_from_capture(Capture c, const DatasetOptions& o
     dv.files.image = files[k][0];
     dv.files.mask = files[k][1];
     if (!exposure.empty()) dv.exposure = exposure[picked[k]];
+    if (!v.lens.distorted() && (w.x0 != 0 || w.y0 != 0 || w.width != v.lens.width || w.height != v.lens.height)) {
+      dv.cropped = true;  // the part of the photo this view reads (plan_windows)
+      dv.crop_x0 = w.x0;
+      dv.crop_y0 = w.y0;
+    }
     float m[16] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
     for (int e = 0; e < 12; ++e) m[e] = float(v.cam_to_world[size_t(e)]);
     try {
