@@ -413,6 +413,14 @@ def test_optimize_reads_a_3dgs_output_folder(tmp_path):
     # The environment is the lat-long map for captures too (issue 38: 24 SGs cost 3.3 dB albedo).
     assert "8 train views 48x36" in r.stderr and "env latlong" in r.stderr
     assert (tmp_path / "res" / "gaussians.ply").exists()
+    # At a working size the run says so, and its settings record it (a resume at another size is refused).
+    r = subprocess.run([str(CLI), "optimize", "--dataset", str(out), "--out", str(tmp_path / "small"), "--iters", "1",
+                        "--spp", "1", "--bounces", "0", "--threads", "2", "--fit-iters", "0", "--max-image-side", "20"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "8 train views 16x12" in r.stderr
+    settings = json.loads((tmp_path / "small" / "settings.json").read_text())
+    assert settings["image_size"] == "16x12" and settings["photos"] == "photos 48x36, read at 16x12 (1/3: --max-image-side 20)"
 
 
 @pytest.mark.parametrize("case", ["missing_image", "wrong_aspect", "bad_split", "test_list", "ns_model", "cfg_source"])

@@ -116,6 +116,9 @@ Fingerprint Optimizer::fingerprint() const {
   if (is.indirect_from_field) fp.push_back({"indirect", "field"});
   if (settings_.neutral_light) fp.push_back({"light", "neutral"});
   if (settings_.tv_chroma > 0.0f) fp.push_back({"tv_guide", "chroma " + num(settings_.tv_chroma)});
+  // Real captures read at a working size or their common size (dataset.h): the photos' own size and
+  // what was done (absent where the photos are read as stored, so older checkpoints still resume).
+  if (!dataset_->size_note.empty()) fp.push_back({"photos", dataset_->size_note});
   if (settings_.background_loss) fp.push_back({"background_loss", "object share " + num(settings_.object_patch_share)});
   if (settings_.coarse_pixels > 0)
     fp.push_back({"pyramid", std::to_string(settings_.coarse_pixels) + " until " + num(1.0f - settings_.fine_fraction) +
