@@ -1,7 +1,8 @@
 // `ptir optimize --budget 10m` (src/ptir/optim/budget_plan.h): the whole
 // command -- loading, the geometry stage, the iterations and the outputs --
-// ends within the budget. The geometry stage takes at most kFitShare of it
-// (its iteration count re-planned from its measured rate); the inversion
+// ends within the budget. The geometry stage takes at most kFitShare of what is left once
+// the capture is analysed (its iteration count re-planned from its measured rate), and
+// is skipped when that is less than the analysis, one pass over the photos, took; the inversion
 // plans its spp and iterations from the probe's estimate, then re-plans the
 // iteration count after every iteration from its own rate.
 //

@@ -40,6 +40,7 @@
 #include <tbb/global_control.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
@@ -127,7 +128,9 @@ bool resolve_dataset_defaults(OptimizePipelineOptions& o) {
 // --resume: an inversion already under way (OUT/checkpoint.bin) keeps the fitted
 // splats it started from; a fit that was stopped continues from its checkpoint.
 // Returns 0, or 130 when Ctrl-C stopped the fit.
-int geometry_stage(PipelineRun& o, const Communicator& comm, double fit_seconds) {
+// fit_seconds: the stage's time under a budget (0: none); pass_seconds: what the capture's analysis,
+// one pass over the photos, took here (0: none ran).
+int geometry_stage(PipelineRun& o, const Communicator& comm, double fit_seconds, double pass_seconds) {
   namespace fs = std::filesystem;
   if (o.fit_iters < 0) throw Error("--fit-iters must be >= 0");
   const fs::path fit_dir = fs::path(o.out) / "fit";
@@ -154,6 +157,14 @@ int geometry_stage(PipelineRun& o, const Communicator& comm, double fit_seconds)
     return 0;
   };
   if (comm.size() > 1) return skip("data-parallel runs take fitted splats (run `ptir fit` first)");
+  // The stage reads and renders the photos several times (its two fits' set-up, the held-out check):
+  // a share of the budget under one pass over them would overrun it and leave the inversion nothing.
+  char short_budget[200];
+  std::snprintf(short_budget, sizeof short_budget,
+                "the budget leaves it %.0f s, less than one pass over the photos took (%.0f s): the input splats are "
+                "kept (a larger --budget runs it)",
+                fit_seconds, pass_seconds);
+  if (fit_seconds > 0.0 && !fit_resumes && fit_seconds < pass_seconds) return skip(short_budget);
   if (!o.scene.empty() && !load_scene_json(o.scene).meshes.empty())
     return skip("the scene has meshes, which the fit does not trace");
   FitStage f;
@@ -314,11 +325,16 @@ int run_stages(PipelineRun& o, const Communicator& comm) {
   }
   if (o.dataset.empty()) apply_radiance_defaults(o.opt, o.given);  // first: a resumed budget's spp goes over them
   const BudgetState budget = resolve_budget(o, comm);
-  const double fit_seconds = budget.budget_s > 0.0 ? kFitShare * (budget.budget_s - budget.spent_s) : 0.0;
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point t_capture = Clock::now();
   if (!o.dataset.empty() && !o.estimate && comm.size() == 1) capture_stage(o);
+  // The geometry stage's share of what the budget has left once the capture is analysed.
+  const double pass_seconds = std::chrono::duration<double>(Clock::now() - t_capture).count();
+  const double left = budget.budget_s - budget.spent_s - std::chrono::duration<double>(Clock::now() - o.t_start).count();
+  const double fit_seconds = budget.budget_s > 0.0 ? kFitShare * std::max(1.0, left) : 0.0;
   if (o.dataset.empty()) {
     if (const int rc = radiance_stage(o, comm)) return rc;
-  } else if (const int rc = geometry_stage(o, comm, fit_seconds)) {
+  } else if (const int rc = geometry_stage(o, comm, fit_seconds, pass_seconds)) {
     return rc;
   }
   resumed_choices(o);
