@@ -101,7 +101,7 @@ void bind_dataset(py::module_& m) {
         py::arg("path"), py::arg("split") = "train", py::arg("prior") = py::none(), py::arg("layout") = "auto",
         py::arg("images") = "", py::arg("holdout") = 8, py::arg("test_list") = "", py::arg("undistort_cache") = "",
         py::arg("dataparser_transforms") = "", py::arg("world") = "auto", py::arg("black_background") = false,
-        py::arg("exif_exposure") = true, py::arg("calibration") = "", py::arg("max_image_side") = 1600,
+        py::arg("exif_exposure") = true, py::arg("calibration") = "", py::arg("max_image_side") = 800,
         "Read a dataset folder: NeRF-synthetic/TensoIR (transforms_<split>.json; optional GT and prior maps), or a real "
         "capture (COLMAP, 3DGS output, nerfstudio; split train/test/all by holdout); docs/dataset_format.md.");
   m.def("detect_layout", &detect_layout, py::arg("path"), "The dataset layout of a folder ('' if none is recognised).");

@@ -12,7 +12,7 @@ namespace ptir::pipeline {
 struct CaptureOptions {
   std::string layout = "auto", images, test_list, undistort_cache, dataparser_transforms, world = "auto";
   int holdout = 8;
-  int max_image_side = 1600;  // --max-image-side: DatasetOptions::max_side
+  int max_image_side = 800;   // --max-image-side: DatasetOptions::max_side
   bool black_background = false;
   bool ignore_exif = false;
   std::string calibration;  // --calibration: a capture calibration (scene/capture_calibration.h)

@@ -64,10 +64,12 @@ struct DatasetOptions {
   int holdout = 8;              // test = every holdout-th image in name order (0: no test views)
   // Real captures: photos whose long side is over this are read reduced by the
   // smallest integer factor that brings it to at most this (box average,
-  // scene/view_reduce.h; intrinsics divided by it); 0: as stored. 1600 is the
-  // size the 3DGS trainer reduces large photos to, so the working size is
-  // the one the user's splat was most likely trained at.
-  int max_side = 1600;
+  // scene/view_reduce.h; intrinsics divided by it); 0: as stored. 800: the
+  // plush dog's photos upscaled to 3000 x 2000 and read at 750 x 500 score
+  // 1.2-1.4 dB higher on the held-out object than at 1500 x 1000 under the
+  // same 5-minute budget on 2 cores (docs/captures.md): at a budget, the
+  // iterations per pixel are what the albedo converges on.
+  int max_side = 800;
   std::string test_list;        // a file of test image names, one per line (overrides holdout)
   std::string undistort_dir;    // cache of undistorted images ("" = DIR/ptir_undistorted/<images>)
   std::string dataparser_transforms;  // nerfstudio: splatfacto's dataparser_transforms.json
