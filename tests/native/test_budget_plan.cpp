@@ -1,11 +1,12 @@
 // Time budgets and patch batches (optim/budget_plan.h, optim/patch_batch.h):
 // durations parse with their units and refuse the rest; a plan fits its budget
 // by its own cost model (iteration_seconds x iterations <= budget) and moves
-// the spp the way the header says; the pacer's re-plan lands the run on its end
+// the spp the way the header says (on the automatic patches: patches first); the pacer's re-plan lands the run on its end
 // time; a budgeted fit buys full-resolution iterations with its time; the automatic batch takes patches only where a view is larger than it.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 #include "ptir/core/error.h"
 #include "ptir/optim/budget_plan.h"
@@ -118,6 +119,63 @@ TEST(BudgetPlan, PyramidKeepsTheIterationsAndPutsTheSamplesLate) {
   EXPECT_GE(p.iterations, kReferenceIterations);
   EXPECT_LE(p.iterations * p.s_per_iter, 5000.0 + 1e-9);
   EXPECT_GT(p.spp, 32);
+}
+
+// On the automatic patches, a rung's full-resolution samples above kPatchSpp buy patches
+// (up to kMaxPatchViews) before samples per pixel; every cost of a patch scales with their
+// count, so the plan still fits its budget; an explicit batch keeps its spp ladder.
+TEST(BudgetPlan, PatchesBeforeSamplesOnTheAutomaticBatch) {
+  OptimizerSettings s;
+  IterationEstimate e;
+  e.coarse_share = 0.75;
+  e.coarse_spp = e.fine_spp = 32;
+  e.coarse_seconds = 0.8, e.coarse_fixed_seconds = 0.0;
+  e.fine_seconds = 1.0, e.fine_fixed_seconds = 0.04;  // 8 patches: 0.005 s fixed per patch
+  e.fine_views = 8;
+  e.fine_patches_auto = true;
+  e.fine_view_pixels = 32.0 * 32.0;
+  e.train_pixels = 73.0 * 750.0 * 500.0;  // the plush dog's photos: 134 patches visit them
+  EXPECT_EQ(data_patch_views(e), 134);    // 27.4 M / (800 x 0.25 x 1024)
+  using P = std::pair<int, int>;
+  EXPECT_EQ(spread_fine_samples(e, 8), P(8, 0));     // the ladder's foot: the batch as it is
+  EXPECT_EQ(spread_fine_samples(e, 16), P(8, 16));   // 128 samples: 16 patches x 8
+  EXPECT_EQ(spread_fine_samples(e, 32), P(8, 32));   // 256: 32 x 8
+  EXPECT_EQ(spread_fine_samples(e, 64), P(16, 32));  // past kMaxPatchViews: the spp grows
+  EXPECT_EQ(spread_fine_samples(e, 128), P(32, 32));
+  // A patch's costs scale with the count: 32 patches x 8 spp = 4 x (0.04 + 0.96 / 4).
+  EXPECT_NEAR(phase_seconds(e, false, 8, 32), 4.0 * (0.04 + 0.24), 1e-12);
+  EXPECT_NEAR(phase_seconds(e, false, 32, 8), 1.0, 1e-12);
+  // The pyramid case above at 700 s: the (32, 32) rung, its fine samples as 32 patches x 8,
+  // each iteration a little dearer (the patches' fixed cost), 800 of them still fit.
+  BudgetPlan p = plan_budget(720.0, e, s);
+  EXPECT_EQ(p.coarse_spp, 32);
+  EXPECT_EQ(p.spp, 8);
+  EXPECT_EQ(p.views, 32);
+  EXPECT_GE(p.iterations, kRungIterations);
+  EXPECT_LE(p.iterations * p.s_per_iter, 720.0 + 1e-9);
+  EXPECT_NEAR(p.s_per_iter, 0.75 * 0.8 + 0.25 * 1.12, 1e-12);
+  // Where the dearer patches do not fit a rung's iterations, the rung below is taken: at 600 s
+  // the (32, 32) rung gives 681 (the spp ladder's 0.85 s: 705), the (16, 32) one 1034.
+  p = plan_budget(600.0, e, s);
+  EXPECT_EQ(p.coarse_spp, 16);
+  EXPECT_EQ(p.spp, 8);
+  EXPECT_EQ(p.views, 32);
+  // Where the batch already visits the data's pixels (24 views of 256²: 1.6 M, 8 patches
+  // visit 1.6 M in 200 full-resolution iterations), the spp ladder as before.
+  e.train_pixels = 24.0 * 256.0 * 256.0;
+  EXPECT_EQ(data_patch_views(e), 8);
+  EXPECT_EQ(spread_fine_samples(e, 32), P(32, 0));
+  e.train_pixels = 100.0 * 400.0 * 400.0;  // 100 views of 400²: 79 patches' worth, capped
+  EXPECT_EQ(spread_fine_samples(e, 32), P(8, 32));
+  e.train_pixels = 24.0 * 400.0 * 400.0;  // 24 views of 400²: 19 patches
+  EXPECT_EQ(spread_fine_samples(e, 32), P(13, 19));
+  // An explicit batch (or whole views): the spp ladder as before.
+  e.train_pixels = 73.0 * 750.0 * 500.0;
+  e.fine_patches_auto = false;
+  EXPECT_EQ(spread_fine_samples(e, 32), P(32, 0));
+  p = plan_budget(700.0, e, s);
+  EXPECT_EQ(p.spp, 32);
+  EXPECT_EQ(p.views, 0);
 }
 
 TEST(BudgetPlan, PacerLandsOnTheEndTime) {

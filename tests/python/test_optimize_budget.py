@@ -4,7 +4,13 @@ sphere set of test_optimize_cli.py (6 views of 32x32, 1 thread). How close a bud
 lands to its time is a benchmark (bench/time_to_quality.py), not asserted here."""
 
 import json
+import math
 import re
+import shutil
+
+import numpy as np
+
+from blender_kit import look_at
 
 from test_optimize_cli import dataset, optimize  # noqa: F401  (the module's fixture and runner)
 
@@ -102,3 +108,46 @@ def test_budget_runs_both_stages_on_the_resolution_pyramid(cli, dataset, tmp_pat
     assert json.loads((tmp_path / "cspp" / "settings.json").read_text())["pyramid"] == "256 until 0.75, coarse spp 4"
     r = optimize(cli, dataset, tmp_path / "bad2", "--iters", "3", "--coarse-spp", "-1", check=False)
     assert r.returncode != 0 and "--coarse-spp" in r.stderr, r.stderr[-2000:]
+
+
+def _flat_views(ptir, out, n, side, splats):
+    """n views of side² around the origin: a grey disk on a transparent film (its mask box
+    is the disk's), enough for the plan's estimate, which renders only its probe windows."""
+    frames = []
+    for i in range(n):
+        phi = 2 * math.pi * i / n
+        eye = (3.5 * math.cos(phi), 3.5 * math.sin(phi), 1.0 + 0.4 * (i % 3))
+        frames.append({"file_path": "./train_%03d/rgba" % i, "transform_matrix": look_at(eye, (0, 0, 0)).tolist()})
+    (out / "transforms_train.json").write_text(json.dumps({"camera_angle_x": 0.7, "w": side, "h": side, "frames": frames}))
+    y, x = np.mgrid[0:side, 0:side]
+    disk = ((x - side / 2) ** 2 + (y - side / 2) ** 2 < (side / 3) ** 2).astype(np.float32)
+    img = np.dstack([0.4 * disk, 0.35 * disk, 0.3 * disk, disk]).astype(np.float32)
+    for i in range(n):
+        (out / ("train_%03d" % i)).mkdir()
+        ptir.write_image(str(out / ("train_%03d" % i) / "rgba.png"), img)
+    shutil.copy(splats, out / "g.ply")
+
+
+def test_budget_spends_samples_on_patches_where_the_photos_hold_more_pixels(ptir, cli, dataset, tmp_path):  # noqa: F811
+    """budget_plan.h's spread_fine_samples: a long budget on views larger than the batch buys
+    more patches of 32² per full-resolution iteration before more samples per pixel, as many
+    as visit the training pixels in 800 x 0.25 iterations (48 views of 200²: 1.92 M pixels,
+    ceil(1.92 M / (200 x 1024)) = 10), never past kMaxPatchViews (32); where the views hold
+    no more than 8 patches visit (6 views), or the patch count is given, the batch stays 8."""
+    def estimate(d, *extra):
+        r = optimize(cli, d, tmp_path / "e", "--budget", "8h", "--estimate", *extra)
+        return json.loads(next(l for l in r.stdout.splitlines() if l.startswith('{"estimate"')))["estimate"]
+
+    many = tmp_path / "many"
+    many.mkdir()
+    _flat_views(ptir, many, 48, 200, dataset / "g.ply")
+    est = estimate(many)
+    assert (est["views_per_iter"], est["crop"]) == (10, 32), est
+    assert est["spp"] >= 8 and est["coarse_spp"] > 0, est  # the pyramid's coarse phase keeps its own
+    assert est["total_s"] <= 8 * 3600 * 1.01, est
+    assert estimate(many, "--views-per-iter", "8")["views_per_iter"] == 8  # given: kept
+    few = tmp_path / "few"
+    few.mkdir()
+    _flat_views(ptir, few, 6, 200, dataset / "g.ply")
+    est = estimate(few)
+    assert (est["views_per_iter"], est["crop"]) == (6, 32), est  # the automatic batch: one patch a view

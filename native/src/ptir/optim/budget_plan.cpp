@@ -44,34 +44,58 @@ double at_spp(double seconds, double fixed, int at_spp, int spp) {
 }
 }  // namespace
 
-double phase_seconds(const IterationEstimate& e, bool coarse, int spp) {
-  return coarse ? at_spp(e.coarse_seconds, e.coarse_fixed_seconds, e.coarse_spp, spp)
-                : at_spp(e.fine_seconds, e.fine_fixed_seconds, e.fine_spp, spp);
+double phase_seconds(const IterationEstimate& e, bool coarse, int spp, int views) {
+  if (coarse) return at_spp(e.coarse_seconds, e.coarse_fixed_seconds, e.coarse_spp, spp);
+  const double per_view = views > 0 && e.fine_views > 0 ? double(views) / double(e.fine_views) : 1.0;
+  return per_view * at_spp(e.fine_seconds, e.fine_fixed_seconds, e.fine_spp, spp);
 }
 
-double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp, int coarse_spp) {
+int data_patch_views(const IterationEstimate& e) {
+  const double fine_iterations = double(kReferenceIterations) * (1.0 - std::clamp(e.coarse_share, 0.0, 1.0));
+  const double per_patch = fine_iterations * e.fine_view_pixels;
+  if (!(per_patch > 0.0) || !(e.train_pixels > 0.0)) return e.fine_views;
+  return int(std::min(1e6, std::ceil(e.train_pixels / per_patch)));
+}
+
+std::pair<int, int> spread_fine_samples(const IterationEstimate& e, int fine_spp) {
+  if (!e.fine_patches_auto || e.fine_views <= 0 || fine_spp <= kPatchSpp) return {fine_spp, 0};
+  // The rung's samples per iteration (fine_spp x the batch's patches), as patches of
+  // kPatchSpp up to kMaxPatchViews and no more than the data's pixels ask for, the rest
+  // as samples per pixel.
+  const int most = std::max(e.fine_views, std::min(kMaxPatchViews, data_patch_views(e)));
+  if (most == e.fine_views) return {fine_spp, 0};
+  const long samples = long(fine_spp) * e.fine_views;
+  const int views = int(std::clamp<long>(samples / kPatchSpp, e.fine_views, most));
+  return {int(std::max<long>(kPatchSpp, samples / views)), views};
+}
+
+double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp, int coarse_spp, int views) {
   if (e.fine_spp <= 0) return at_spp(e.seconds, e.fixed_seconds, s.integrator.spp, spp);  // one phase, at the settings' spp
-  const double fine = phase_seconds(e, false, spp);
+  const double fine = phase_seconds(e, false, spp, views);
   if (!(e.coarse_share > 0.0)) return fine;
   return e.coarse_share * phase_seconds(e, true, coarse_spp > 0 ? coarse_spp : spp) + (1.0 - e.coarse_share) * fine;
 }
 
 BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const OptimizerSettings& s) {
   BudgetPlan p;
-  auto iterations_at = [&](int spp, int coarse) {
-    return iterations_within(seconds, std::max(1e-9, iteration_seconds(e, s, spp, coarse)));
+  auto iterations_at = [&](int spp, int coarse, int views) {
+    return iterations_within(seconds, std::max(1e-9, iteration_seconds(e, s, spp, coarse, views)));
   };
   // The most samples that still give (nearly) kReferenceIterations, on the ladder of
   // kSppRungs (one phase, without the pyramid: the rungs' fine spp); below its first
-  // rung, fewer iterations at its 8 spp.
+  // rung, fewer iterations at its 8 spp. On the automatic patches, a rung's full-resolution
+  // samples go to more patches first (spread_fine_samples).
   const bool pyramid = e.coarse_share > 0.0;
-  for (const SppRung& r : kSppRungs)
-    if (p.spp == 0 || iterations_at(r.fine, pyramid ? r.coarse : 0) >= kRungIterations) {
-      p.spp = r.fine;
+  for (const SppRung& r : kSppRungs) {
+    const auto [spp, views] = spread_fine_samples(e, r.fine);
+    if (p.spp == 0 || iterations_at(spp, pyramid ? r.coarse : 0, views) >= kRungIterations) {
+      p.spp = spp;
+      p.views = views;
       p.coarse_spp = pyramid ? r.coarse : 0;
     }
-  p.iterations = std::max(1, iterations_at(p.spp, p.coarse_spp));
-  p.s_per_iter = iteration_seconds(e, s, p.spp, p.coarse_spp);
+  }
+  p.iterations = std::max(1, iterations_at(p.spp, p.coarse_spp, p.views));
+  p.s_per_iter = iteration_seconds(e, s, p.spp, p.coarse_spp, p.views);
   return p;
 }
 

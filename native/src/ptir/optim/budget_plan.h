@@ -18,6 +18,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 
 #include "ptir/optim/iteration_estimate.h"
 
@@ -50,21 +51,49 @@ constexpr SppRung kSppRungs[] = {{8, 8}, {16, 16}, {16, 32}, {32, 32}, {32, 64},
 // lose (1600 x 8/8: -0.34 dB against 800 x 8/8).
 constexpr int kRungIterations = kReferenceIterations * 7 / 8;
 
+// The full-resolution phase on the automatic batch of patches (patch_batch.h): where the
+// training views hold more pixels than the run's full-resolution phase would visit, a
+// rung's samples above kPatchSpp buy more patches per iteration -- up to kMaxPatchViews,
+// and up to as many as visit the data's pixels -- before they buy samples per pixel. A
+// real capture has far more pixels than a run visits (the plush dog: 73 photos of
+// 375,000 pixels, 27 million; a 10-minute run's fine phase 250 x 8 patches of 32²: 2
+// million). Measured there, 1000 iterations from the same splats and coarse phase, then
+// 32 patches x 8 spp against 8 x 32 spp: +0.29 dB on the held-out object, every photo up
+// (+0.10 to +0.43), 6 % more time. On a 256² synthetic set of 24 views (1.6 million
+// pixels, visited once by the fine phase at 8 patches) the same trade at --budget 4m was
+// even (albedo -0.22, relight +0.01 dB): the spp ladder is kept there
+// (docs/captures.md, "Pixels before samples").
+constexpr int kPatchSpp = 8;
+constexpr int kMaxPatchViews = 32;
+
 struct BudgetPlan {
   int iterations = 0;
   int spp = 0;
   int coarse_spp = 0;       // the resolution pyramid's coarse phase (0: no pyramid)
+  int views = 0;            // the full-resolution phase's patches per iteration (0: the batch as set)
   double s_per_iter = 0.0;  // estimated, at the planned spp
 };
+
+// The patches per full-resolution iteration at which kReferenceIterations' full-resolution
+// phase visits as many pixels as the training views hold (1 and more: the data's).
+int data_patch_views(const IterationEstimate& e);
+// A rung's full-resolution samples spent on the batch: (spp, patches per iteration), the
+// patches 0 where the estimate's batch is not the automatic one, or where its patches
+// already visit the data's pixels (data_patch_views): the spp ladder as it was.
+std::pair<int, int> spread_fine_samples(const IterationEstimate& e, int fine_spp);
 
 // The plan for `seconds` of iterations from the estimate of an iteration at `s`'s spp and batch.
 BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const OptimizerSettings& s);
 
 // Seconds per iteration at `spp`, from the estimate's per-sample and per-pixel costs
-// (with the pyramid: the mean over its phases, the coarse one at coarse_spp, 0: spp).
-double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp, int coarse_spp = 0);
-// Seconds of one iteration of the pyramid's coarse (or full-resolution) phase at `spp`.
-double phase_seconds(const IterationEstimate& e, bool coarse, int spp);
+// (with the pyramid: the mean over its phases, the coarse one at coarse_spp, 0: spp;
+// the full-resolution one with `views` patches, 0: the estimate's batch).
+double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s, int spp, int coarse_spp = 0,
+                         int views = 0);
+// Seconds of one iteration of the pyramid's coarse (or full-resolution) phase at `spp`
+// (full resolution: with `views` patches, 0: the estimate's batch; every cost of a patch
+// -- its samples, its regulariser pixels, its replay call -- scales with their count).
+double phase_seconds(const IterationEstimate& e, bool coarse, int spp, int views = 0);
 
 // A run in two phases of different cost (the resolution pyramid, view_pyramid.h):
 // iteration it of a total-iteration run is coarse while it < coarse_share x total.

@@ -115,6 +115,10 @@ IterationEstimate estimate_iteration(const Optimizer& opt) {
   e.fine_fixed_seconds = fixed(1);
   e.coarse_spp = opt.spp_at(e.coarse_share > 0.0 ? fc : 1);
   e.fine_spp = opt.spp_at(1);
+  e.fine_views = opt.batch_at(1).first;
+  e.fine_patches_auto = opt.auto_views() && opt.batch_at(1).second > 0;
+  e.fine_view_pixels = batch(1).first / std::max(1.0, batch(1).second);
+  e.train_pixels = double(data.width) * data.height * double(data.size());
   e.fixed_seconds = e.coarse_share * e.coarse_fixed_seconds + (1.0 - e.coarse_share) * e.fine_fixed_seconds;
   e.seconds = e.coarse_share * e.coarse_seconds + (1.0 - e.coarse_share) * e.fine_seconds;
   return e;

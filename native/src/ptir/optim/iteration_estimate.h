@@ -33,6 +33,12 @@ struct IterationEstimate {
   double coarse_seconds = 0.0, fine_seconds = 0.0;
   double coarse_fixed_seconds = 0.0, fine_fixed_seconds = 0.0;  // their parts that do not scale with the spp
   int coarse_spp = 0, fine_spp = 0;                            // the spp they were estimated at
+  // The full-resolution batch the estimate was made for: its patches (views) per iteration,
+  // and whether they are the automatic batch's patches (budget_plan.h may then grow their count).
+  int fine_views = 0;
+  bool fine_patches_auto = false;
+  double fine_view_pixels = 0.0;  // pixels of one full-resolution patch (view)
+  double train_pixels = 0.0;      // the training views' pixels at full resolution, all of them
 };
 
 IterationEstimate estimate_iteration(const Optimizer& opt);

@@ -77,6 +77,7 @@ Optimizer::Optimizer(Scene scene, std::shared_ptr<const Dataset> dataset, const 
   if (settings_.coarse_spp < 0) throw Error("coarse spp must be >= 0 (0: the spp)");
   if (!(settings_.fine_fraction >= 0.0f && settings_.fine_fraction <= 1.0f)) throw Error("the fine fraction must be in [0, 1]");
   auto_batch_ = settings_.views_per_iteration == 0 || settings_.crop_size < 0;
+  auto_views_ = settings_.views_per_iteration == 0;
   resolve_patch_batch(dataset_->width, dataset_->height, int(dataset_->size()), &settings_.views_per_iteration,
                       &settings_.crop_size);
   if (!(settings_.lr_final > 0.0f && settings_.lr_final <= 1.0f)) throw Error("the final learning-rate factor must be in (0, 1]");

@@ -216,6 +216,11 @@ class Optimizer {
   // The samples per pixel of the iterations to come (a time budget plans them; budget_plan.h).
   void set_spp(int spp) { settings_.integrator.spp = spp; }
   void set_coarse_spp(int spp) { settings_.coarse_spp = spp; }
+  // The full-resolution batch's patch count (the budget's plan, budget_plan.h); the pyramid's
+  // coarse levels keep their automatic batch.
+  void set_views_per_iteration(int views) { settings_.views_per_iteration = views; }
+  // Whether the patches per iteration were left automatic (--views-per-iter not given).
+  bool auto_views() const { return auto_views_; }
   // Data-parallel runs (optim/data_parallel.h): every rank's optimiser shares each
   // iteration's views through `comm` (which must outlive it); default: one process.
   void set_communicator(const Communicator& comm) { comm_ = &comm; }
@@ -328,7 +333,8 @@ class Optimizer {
   std::array<double, 3> balance_grad_{};  // dL/d balance of the image terms (light_balance.h)
   ExposureGradients exposure_grads_;  // --learn-exposure (exposure.h)
   mutable std::vector<std::array<int, 4>> mask_box_;  // per view: x0, y0, x1, y1 (x1 < x0: not computed)
-  bool auto_batch_ = false;  // the batch was automatic (resolved per pyramid level)
+  bool auto_batch_ = false;
+  bool auto_views_ = false;  // the patch count was automatic (the budget's plan may set it)  // the batch was automatic (resolved per pyramid level)
   mutable int reduced_factor_ = 1;
   mutable std::vector<std::shared_ptr<const TrainingImage>> reduced_;  // per view, at reduced_factor_
   // The primal renders' kept walks, per part and row band (memory reused from one

@@ -39,12 +39,13 @@ BudgetState read_budget_state(const std::string& out_dir) {
     b.spent_s = j.at("spent_s").get<double>();
     b.spp = j.at("spp").get<int>();
     b.coarse_spp = j.value("coarse_spp", 0);
+    b.views = j.value("views", 0);  // (absent in a budget planned before the patch count was)
   } catch (const std::exception& e) {
     throw Error(path, std::string("not a budget record (budget_s, spent_s, spp): ") + e.what());
   }
   if (!(b.budget_s >= kMinBudgetSeconds && b.budget_s <= kMaxBudgetSeconds) || !(b.spent_s >= 0.0 && b.spent_s <= 1e9) ||
-      b.spp < 0 || b.coarse_spp < 0)
-    throw Error(path, "budget_s, spent_s, spp or coarse_spp out of range");
+      b.spp < 0 || b.coarse_spp < 0 || b.views < 0 || b.views > 4096)
+    throw Error(path, "budget_s, spent_s, spp, coarse_spp or views out of range");
   return b;
 }
 
@@ -54,6 +55,7 @@ void write_budget_state(const std::string& out_dir, const BudgetState& b) {
   j["spent_s"] = b.spent_s;
   j["spp"] = b.spp;
   j["coarse_spp"] = b.coarse_spp;
+  if (b.views > 0) j["views"] = b.views;
   io::write_text_atomic(budget_path(out_dir), j.dump() + "\n");
 }
 
@@ -74,6 +76,7 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
     iterations = left > 0.0 ? p.iterations : 0;
     opt.set_spp(p.spp);
     opt.set_coarse_spp(p.coarse_spp);
+    if (p.views > 0) opt.set_views_per_iteration(p.views);
   }
   if (iterations == 0 && opt.iteration() == 0)  // an untrained result is no result
     throw Error("--budget " + budget_text(b.budget_s) + ": no iteration fits in it (" + budget_text(since_start) +
@@ -82,9 +85,10 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
   opt.set_iterations(opt.iteration() + iterations);
   b.spp = opt.settings().integrator.spp;
   b.coarse_spp = opt.settings().coarse_spp;
+  b.views = opt.auto_views() || b.views > 0 ? opt.settings().views_per_iteration : 0;
   // The phases' estimates at the planned spp; their ratio is what the pacer uses.
   b.est_coarse_s = est.fine_spp > 0 ? phase_seconds(est, true, opt.spp_at(2)) : est.coarse_seconds;
-  b.est_fine_s = est.fine_spp > 0 ? phase_seconds(est, false, b.spp) : est.fine_seconds;
+  b.est_fine_s = est.fine_spp > 0 ? phase_seconds(est, false, b.spp, b.views) : est.fine_seconds;
   if (!quiet) {
     const bool pyramid = opt.pyramid_coarse_share() > 0.0;
     std::fprintf(stderr, "optimize: budget %.0f s (%.0f s left): %d iterations at %d spp%s, %d patch(es) of %s per iteration\n",
@@ -102,11 +106,13 @@ int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t
   const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() + extra_setup_s;
   int iters = opt.settings().iterations - opt.iteration(), spp = opt.settings().integrator.spp,
       coarse_spp = opt.pyramid_coarse_share() > 0.0 ? opt.spp_at(2) : 0;
+  int views = opt.settings().views_per_iteration;
   if (budget_s > 0.0) {
     const BudgetPlan p = plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings());
     iters = p.iterations;
     spp = p.spp;
     coarse_spp = p.coarse_spp;
+    if (p.views > 0) views = p.views;
     est.seconds = p.s_per_iter;
   }
   std::printf("{\"estimate\": {\"setup_s\": %.4f, \"s_per_iter\": %.6f, \"iterations\": %d, \"total_s\": %.3f, "
@@ -114,7 +120,7 @@ int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t
               "\"probe_spp\": %d, \"spp\": %d, \"coarse_spp\": %d, \"views_per_iter\": %d, \"crop\": %d, \"budget_s\": %.1f}}\n",
               setup, est.seconds, iters, setup + iters * est.seconds, opt.scene().gaussians->size(),
               opt.dataset().size(), opt.dataset().width, opt.dataset().height, est.probe_pixels, est.probe_spp, spp, coarse_spp,
-              opt.settings().views_per_iteration, opt.settings().crop_size, budget_s);
+              views, opt.settings().crop_size, budget_s);
   std::fflush(stdout);
   return 0;
 }

@@ -40,6 +40,7 @@ struct BudgetState {
   double spent_s = 0.0;   // by earlier runs of this output folder (resumed)
   int spp = 0;            // planned (0: not planned yet)
   int coarse_spp = 0;     // planned for the resolution pyramid's coarse phase (0: spp)
+  int views = 0;          // planned patches per full-resolution iteration (0: the automatic batch's)
   // Not kept in budget.json: the probe's estimate of a coarse and a full-resolution
   // iteration (the resolution pyramid's phases), until the run measures its own.
   double est_coarse_s = 0.0, est_fine_s = 0.0;

@@ -249,16 +249,19 @@ BudgetState resolve_budget(PipelineRun& o, const Communicator& comm) {
     budget.budget_s = parse_duration(o.budget, "--budget");
   }
   bool budgeted = budget.budget_s > 0.0;  // (a budgeted run resumed with --iters keeps its batch)
+  int kept_views = 0;                     // the patches a resumed budget planned
   if (o.resume && !o.estimate) {
     const BudgetState kept = read_budget_state(o.out);
     budgeted = budgeted || kept.budget_s > 0.0;
     if (kept.spp > 0 && !o.given.count("--spp")) o.opt.spp = kept.spp;  // the planned samples go on
     if (kept.spp > 0 && !o.given.count("--coarse-spp")) o.opt.coarse_spp = kept.coarse_spp;
+    kept_views = kept.views > 0 && !o.given.count("--views-per-iter") ? kept.views : 0;
     if (kept.budget_s > 0.0 && !o.given.count("--iters")) {
       if (budget.budget_s == 0.0) budget.budget_s = kept.budget_s;
       budget.spent_s = kept.spent_s;
       budget.spp = kept.spp;
       budget.coarse_spp = kept.coarse_spp;
+      budget.views = kept.views;
     }
   } else if (!o.resume && !o.estimate && budget.budget_s == 0.0 && comm.rank() == 0) {
     std::error_code ec_budget;  // a fresh run without a budget: an older run's budget is stale
@@ -270,7 +273,7 @@ BudgetState resolve_budget(PipelineRun& o, const Communicator& comm) {
     // A budget takes the automatic batch (optim/patch_batch.h: patches across the views where a view
     // is larger than the batch), unless given: its iterations then cost the same at any photo size.
     // --iters runs keep whole views (the measured defaults; docs/performance.md#time-to-quality).
-    if (!o.given.count("--views-per-iter")) o.opt.views_per_iter = 0;
+    if (!o.given.count("--views-per-iter")) o.opt.views_per_iter = kept_views;  // 0: automatic
     if (!o.given.count("--crop") && !o.dataset.empty()) o.opt.crop = -1;  // (without a dataset: its 128 crops)
     // And the resolution pyramid (optim/view_pyramid.h), for both stages: the first
     // three quarters on views reduced to at most kBudgetCoarsePixels.
