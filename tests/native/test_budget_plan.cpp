@@ -121,11 +121,10 @@ TEST(BudgetPlan, PyramidKeepsTheIterationsAndPutsTheSamplesLate) {
   EXPECT_GT(p.spp, 32);
 }
 
-// On the automatic patches, a rung's full-resolution samples above kPatchSpp buy patches
-// (up to kMaxPatchViews) before samples per pixel; every cost of a patch scales with their
-// count, so the plan still fits its budget; an explicit batch keeps its spp ladder.
-TEST(BudgetPlan, PatchesBeforeSamplesOnTheAutomaticBatch) {
-  OptimizerSettings s;
+// The pyramid's phases at 32 spp on the automatic batch of 8 patches of 32², on the plush
+// dog's photos (73 of 750 x 500: 134 patches visit them in 800 x 0.25 iterations).
+namespace {
+IterationEstimate dog_estimate() {
   IterationEstimate e;
   e.coarse_share = 0.75;
   e.coarse_spp = e.fine_spp = 32;
@@ -134,7 +133,17 @@ TEST(BudgetPlan, PatchesBeforeSamplesOnTheAutomaticBatch) {
   e.fine_views = 8;
   e.fine_patches_auto = true;
   e.fine_view_pixels = 32.0 * 32.0;
-  e.train_pixels = 73.0 * 750.0 * 500.0;  // the plush dog's photos: 134 patches visit them
+  e.train_pixels = 73.0 * 750.0 * 500.0;
+  return e;
+}
+}  // namespace
+
+// On the automatic patches, a rung's full-resolution samples above kPatchSpp buy patches
+// (up to kMaxPatchViews) before samples per pixel; every cost of a patch scales with their
+// count, so the plan still fits its budget; an explicit batch keeps its spp ladder.
+TEST(BudgetPlan, PatchesBeforeSamplesOnTheAutomaticBatch) {
+  OptimizerSettings s;
+  IterationEstimate e = dog_estimate();
   EXPECT_EQ(data_patch_views(e), 134);    // 27.4 M / (800 x 0.25 x 1024)
   using P = std::pair<int, int>;
   EXPECT_EQ(spread_fine_samples(e, 8), P(8, 0));     // the ladder's foot: the batch as it is
@@ -176,6 +185,37 @@ TEST(BudgetPlan, PatchesBeforeSamplesOnTheAutomaticBatch) {
   p = plan_budget(700.0, e, s);
   EXPECT_EQ(p.spp, 32);
   EXPECT_EQ(p.views, 0);
+}
+
+// Where the photos hold more pixels than kMaxPatchViews patches visit in the default share,
+// a plan that may choose it runs the last half at full resolution (data_fine_share); the
+// iteration's cost is then the mean of the two phases at a half each.
+TEST(BudgetPlan, LongerFullResolutionShareWhereThePhotosHoldMorePixels) {
+  OptimizerSettings s;
+  IterationEstimate e = dog_estimate();
+  EXPECT_DOUBLE_EQ(data_fine_share(e, 0.25), kLargeDataFineShare);
+  EXPECT_DOUBLE_EQ(data_fine_share(e, 0.8), 0.8);  // never below the given share
+  // The plan at 720 s: the (32, 32) rung, its fine samples as 32 patches x 8 (1.12 s), the
+  // coarse ones 0.8 s, at a half each: 0.96 s, 750 iterations (the quarter's plan: 800).
+  BudgetPlan p = plan_budget(720.0, e, s, true);
+  EXPECT_DOUBLE_EQ(p.fine_share, 0.5);
+  EXPECT_EQ(p.coarse_spp, 32);
+  EXPECT_EQ(p.spp, 8);
+  EXPECT_EQ(p.views, 32);
+  EXPECT_NEAR(p.s_per_iter, 0.5 * 0.8 + 0.5 * 1.12, 1e-12);
+  EXPECT_EQ(p.iterations, 750);
+  EXPECT_DOUBLE_EQ(plan_budget(720.0, e, s).fine_share, 0.0);  // not asked to choose: the settings'
+  // Photos that 32 patches visit (100 views of 256²: 6.6 M, 32 patches' worth) keep the quarter,
+  // as do an explicit batch and a run without the pyramid.
+  e.train_pixels = 100.0 * 256.0 * 256.0;
+  EXPECT_EQ(data_patch_views(e), 32);
+  EXPECT_DOUBLE_EQ(plan_budget(720.0, e, s, true).fine_share, 0.0);
+  e.train_pixels = 73.0 * 750.0 * 500.0;
+  e.fine_patches_auto = false;
+  EXPECT_DOUBLE_EQ(data_fine_share(e, 0.25), 0.25);
+  e.fine_patches_auto = true;
+  e.coarse_share = 0.0;
+  EXPECT_DOUBLE_EQ(data_fine_share(e, 1.0), 1.0);
 }
 
 TEST(BudgetPlan, PacerLandsOnTheEndTime) {

@@ -83,7 +83,7 @@ def test_budget_runs_both_stages_on_the_resolution_pyramid(cli, dataset, tmp_pat
     assert 0.0 < rec["spent_s"] <= rec["budget_s"]
     assert _iterations(out) >= 1 and (out / "fit" / "gaussians.ply").exists()
     # Both phases' spp are planned (budget_plan.h's ladder) and kept for --resume.
-    m = re.search(r"at (\d+) spp \((\d+) while coarse\)", r.stderr)
+    m = re.search(r"at (\d+) spp \((\d+) while coarse, the last 25 % at full resolution\)", r.stderr)
     assert m, r.stderr[-2000:]
     assert (rec["spp"], rec["coarse_spp"]) == (int(m.group(1)), int(m.group(2))), rec
     # The planned fine fraction is in the fit's checkpoint: a budgeted fit resumed keeps it
@@ -91,7 +91,7 @@ def test_budget_runs_both_stages_on_the_resolution_pyramid(cli, dataset, tmp_pat
     # fingerprint must match the plan, not the default quarter).
     (out / "checkpoint.bin").unlink()
     r = optimize(cli, dataset, out, "--budget", "16s", "--coarse-pixels", "256", "--fit-iters", "40", "--resume")
-    assert "resumed from" in r.stderr and "at full resolution" not in r.stderr, r.stderr[-2000:]
+    assert "resumed from" in r.stderr and "of the iterations at full resolution" not in r.stderr, r.stderr[-2000:]
     assert _iterations(out) >= 1
     # --fine-fraction given: the fit keeps it (no plan).
     r = optimize(cli, dataset, tmp_path / "ff", "--budget", "8s", "--coarse-pixels", "256", "--fit-iters", "40",
@@ -113,6 +113,7 @@ def test_budget_runs_both_stages_on_the_resolution_pyramid(cli, dataset, tmp_pat
 def _flat_views(ptir, out, n, side, splats):
     """n views of side² around the origin: a grey disk on a transparent film (its mask box
     is the disk's), enough for the plan's estimate, which renders only its probe windows."""
+    out.mkdir()
     frames = []
     for i in range(n):
         phi = 2 * math.pi * i / n
@@ -126,6 +127,13 @@ def _flat_views(ptir, out, n, side, splats):
         (out / ("train_%03d" % i)).mkdir()
         ptir.write_image(str(out / ("train_%03d" % i) / "rgba.png"), img)
     shutil.copy(splats, out / "g.ply")
+    return out
+
+
+def _budget_estimate(cli, d, out, *extra):
+    """--estimate's plan for an 8-hour budget on the set in d."""
+    r = optimize(cli, d, out, "--budget", "8h", "--estimate", *extra)
+    return json.loads(next(l for l in r.stdout.splitlines() if l.startswith('{"estimate"')))["estimate"]
 
 
 def test_budget_spends_samples_on_patches_where_the_photos_hold_more_pixels(ptir, cli, dataset, tmp_path):  # noqa: F811
@@ -135,19 +143,43 @@ def test_budget_spends_samples_on_patches_where_the_photos_hold_more_pixels(ptir
     ceil(1.92 M / (200 x 1024)) = 10), never past kMaxPatchViews (32); where the views hold
     no more than 8 patches visit (6 views), or the patch count is given, the batch stays 8."""
     def estimate(d, *extra):
-        r = optimize(cli, d, tmp_path / "e", "--budget", "8h", "--estimate", *extra)
-        return json.loads(next(l for l in r.stdout.splitlines() if l.startswith('{"estimate"')))["estimate"]
+        return _budget_estimate(cli, d, tmp_path / "e", *extra)
 
-    many = tmp_path / "many"
-    many.mkdir()
-    _flat_views(ptir, many, 48, 200, dataset / "g.ply")
+    many = _flat_views(ptir, tmp_path / "many", 48, 200, dataset / "g.ply")
     est = estimate(many)
     assert (est["views_per_iter"], est["crop"]) == (10, 32), est
+    assert est["fine_share"] == 0.25, est  # 10 patches' worth: the quarter (the next test)
     assert est["spp"] >= 8 and est["coarse_spp"] > 0, est  # the pyramid's coarse phase keeps its own
     assert est["total_s"] <= 8 * 3600 * 1.01, est
     assert estimate(many, "--views-per-iter", "8")["views_per_iter"] == 8  # given: kept
-    few = tmp_path / "few"
-    few.mkdir()
-    _flat_views(ptir, few, 6, 200, dataset / "g.ply")
+    few = _flat_views(ptir, tmp_path / "few", 6, 200, dataset / "g.ply")
     est = estimate(few)
     assert (est["views_per_iter"], est["crop"]) == (6, 32), est  # the automatic batch: one patch a view
+    assert est["fine_share"] == 0.25, est
+
+
+def test_budget_runs_longer_at_full_resolution_where_the_photos_hold_more_pixels(ptir, cli, dataset, tmp_path):  # noqa: F811
+    """budget_plan.h's data_fine_share: where the photos hold more pixels than kMaxPatchViews
+    (32) patches of 32² visit in 800 x 0.25 iterations (6.6 M; 48 views of 400²: 7.7 M), the
+    plan runs the last half of the iterations at full resolution instead of the last quarter;
+    the share is kept in budget.json and the checkpoint's fingerprint, so --resume goes on with
+    it. 48 views of 200² (1.9 M) keep the quarter (the test above), as does a given --fine-fraction."""
+    def estimate(d, *extra):
+        return _budget_estimate(cli, d, tmp_path / "e", *extra)
+
+    big = _flat_views(ptir, tmp_path / "big", 48, 400, dataset / "g.ply")
+    est = estimate(big)
+    # ... and patches that visit the pixels once in 800 x 0.5 iterations: ceil(7.68 M / 409,600) = 19.
+    assert (est["fine_share"], est["views_per_iter"]) == (0.5, 19), est
+    assert estimate(big, "--fine-fraction", "0.25")["fine_share"] == 0.25  # given: kept
+    out = tmp_path / "run"
+    r = optimize(cli, big, out, "--budget", "6s")
+    assert "the last 50 % at full resolution" in r.stderr, r.stderr[-2000:]
+    rec = json.loads((out / "budget.json").read_text())
+    assert rec["fine_share"] == 0.5, rec
+    assert json.loads((out / "settings.json").read_text())["pyramid"].startswith("16384 until 0.5")
+    # Resumed (at the planned spp; the runner's own --spp 2 would override it): the checkpoint's
+    # fingerprint has the half, which the plan kept in budget.json restores.
+    r = optimize(cli, big, out, "--budget", "9s", "--resume", "--spp", rec["spp"])
+    assert "resumed from" in r.stderr, r.stderr[-2000:]
+    assert json.loads((out / "budget.json").read_text())["fine_share"] == 0.5

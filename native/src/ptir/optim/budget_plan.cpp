@@ -76,8 +76,22 @@ double iteration_seconds(const IterationEstimate& e, const OptimizerSettings& s,
   return e.coarse_share * phase_seconds(e, true, coarse_spp > 0 ? coarse_spp : spp) + (1.0 - e.coarse_share) * fine;
 }
 
-BudgetPlan plan_budget(double seconds, const IterationEstimate& e, const OptimizerSettings& s) {
+double data_fine_share(const IterationEstimate& e, double share) {
+  if (!e.fine_patches_auto || !(e.coarse_share > 0.0) || data_patch_views(e) <= kMaxPatchViews) return share;
+  return std::max(share, kLargeDataFineShare);
+}
+
+BudgetPlan plan_budget(double seconds, const IterationEstimate& estimate, const OptimizerSettings& s,
+                       bool choose_fine_share) {
   BudgetPlan p;
+  IterationEstimate e = estimate;
+  if (choose_fine_share) {  // the photos' pixels may ask for a longer full-resolution phase
+    const double share = data_fine_share(estimate, 1.0 - estimate.coarse_share);
+    if (share > 1.0 - estimate.coarse_share) {
+      e.coarse_share = 1.0 - share;
+      p.fine_share = share;
+    }
+  }
   auto iterations_at = [&](int spp, int coarse, int views) {
     return iterations_within(seconds, std::max(1e-9, iteration_seconds(e, s, spp, coarse, views)));
   };

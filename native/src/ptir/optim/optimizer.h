@@ -219,6 +219,8 @@ class Optimizer {
   // The full-resolution batch's patch count (the budget's plan, budget_plan.h); the pyramid's
   // coarse levels keep their automatic batch.
   void set_views_per_iteration(int views) { settings_.views_per_iteration = views; }
+  // The resolution pyramid's full-resolution share (a budget's plan, before the first iteration).
+  void set_fine_fraction(float f) { settings_.fine_fraction = f; }
   // Whether the patches per iteration were left automatic (--views-per-iter not given).
   bool auto_views() const { return auto_views_; }
   // Data-parallel runs (optim/data_parallel.h): every rank's optimiser shares each

@@ -33,6 +33,7 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 // The optimiser for the run's options (inputs loaded; resumed when asked).
 std::unique_ptr<Optimizer> make_optimizer(const PipelineRun& o, std::shared_ptr<const Dataset>* data) {
   OptimizeOptions opt = o.opt;
+  if (o.inversion_fine_share > 0.0) opt.fine_fraction = float(o.inversion_fine_share);  // the plan it resumes
   char extra = 0;
   if (std::sscanf(o.env_size.c_str(), "%dx%d%c", &opt.env_width, &opt.env_height, &extra) != 2 || opt.env_width < 1 ||
       opt.env_height < 1)
@@ -189,7 +190,7 @@ int run_inversion_stage(PipelineRun& o, const Communicator& comm, BudgetState bu
   if (o.estimate) {  // with a budget: the inversion's share of it (a geometry stage would take up to kFitShare)
     const int rc = comm.rank() == 0 ? print_estimate(opt, o.t_start,
                                                      budget.budget_s * (o.fit_iters > 0 && !o.dataset.empty() ? 1.0 - kFitShare : 1.0),
-                                                     o.targets_left_s)
+                                                     o.targets_left_s, budget.choose_fine_share)
                                     : 0;
     comm.barrier();  // every rank done with the scratch folder before it goes
     return rc;

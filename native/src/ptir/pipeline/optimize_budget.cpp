@@ -1,10 +1,12 @@
 #include "ptir/pipeline/optimize_budget.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
 
 #include <nlohmann/json.hpp>
 
@@ -40,12 +42,13 @@ BudgetState read_budget_state(const std::string& out_dir) {
     b.spp = j.at("spp").get<int>();
     b.coarse_spp = j.value("coarse_spp", 0);
     b.views = j.value("views", 0);  // (absent in a budget planned before the patch count was)
+    b.fine_share = j.value("fine_share", 0.0);  // (absent: the settings' share)
   } catch (const std::exception& e) {
     throw Error(path, std::string("not a budget record (budget_s, spent_s, spp): ") + e.what());
   }
   if (!(b.budget_s >= kMinBudgetSeconds && b.budget_s <= kMaxBudgetSeconds) || !(b.spent_s >= 0.0 && b.spent_s <= 1e9) ||
-      b.spp < 0 || b.coarse_spp < 0 || b.views < 0 || b.views > 4096)
-    throw Error(path, "budget_s, spent_s, spp, coarse_spp or views out of range");
+      b.spp < 0 || b.coarse_spp < 0 || b.views < 0 || b.views > 4096 || !(b.fine_share >= 0.0 && b.fine_share <= 1.0))
+    throw Error(path, "budget_s, spent_s, spp, coarse_spp, views or fine_share out of range");
   return b;
 }
 
@@ -56,6 +59,7 @@ void write_budget_state(const std::string& out_dir, const BudgetState& b) {
   j["spp"] = b.spp;
   j["coarse_spp"] = b.coarse_spp;
   if (b.views > 0) j["views"] = b.views;
+  if (b.fine_share > 0.0) j["fine_share"] = b.fine_share;
   io::write_text_atomic(budget_path(out_dir), j.dump() + "\n");
 }
 
@@ -72,8 +76,12 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
   if (b.spp > 0) {
     iterations = iterations_within(left, std::max(1e-9, est.seconds));
   } else {
-    const BudgetPlan p = plan_budget(std::max(0.0, left), est, opt.settings());
+    const BudgetPlan p = plan_budget(std::max(0.0, left), est, opt.settings(), b.choose_fine_share);
     iterations = left > 0.0 ? p.iterations : 0;
+    if (p.fine_share > 0.0) {
+      opt.set_fine_fraction(float(p.fine_share));
+      b.fine_share = p.fine_share;
+    }
     opt.set_spp(p.spp);
     opt.set_coarse_spp(p.coarse_spp);
     if (p.views > 0) opt.set_views_per_iteration(p.views);
@@ -91,9 +99,11 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
   b.est_fine_s = est.fine_spp > 0 ? phase_seconds(est, false, b.spp, b.views) : est.fine_seconds;
   if (!quiet) {
     const bool pyramid = opt.pyramid_coarse_share() > 0.0;
+    const std::string coarse = " (" + std::to_string(opt.spp_at(2)) + " while coarse, the last " +
+                               std::to_string(int(std::lround(100.0 * opt.settings().fine_fraction))) +
+                               " % at full resolution)";
     std::fprintf(stderr, "optimize: budget %.0f s (%.0f s left): %d iterations at %d spp%s, %d patch(es) of %s per iteration\n",
-                 b.budget_s, std::max(0.0, left), iterations, b.spp,
-                 pyramid ? (" (" + std::to_string(opt.spp_at(2)) + " while coarse)").c_str() : "",
+                 b.budget_s, std::max(0.0, left), iterations, b.spp, pyramid ? coarse.c_str() : "",
                  opt.settings().views_per_iteration,
                  opt.settings().crop_size > 0 ? (std::to_string(opt.settings().crop_size) + "^2").c_str() : "whole views");
   }
@@ -101,14 +111,17 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
 }
 
 int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double budget_s,
-                   double extra_setup_s) {
+                   double extra_setup_s, bool choose_fine_share) {
   IterationEstimate est = estimate_iteration(opt);
   const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() + extra_setup_s;
   int iters = opt.settings().iterations - opt.iteration(), spp = opt.settings().integrator.spp,
       coarse_spp = opt.pyramid_coarse_share() > 0.0 ? opt.spp_at(2) : 0;
   int views = opt.settings().views_per_iteration;
+  double fine_share = opt.pyramid_coarse_share() > 0.0 ? double(opt.settings().fine_fraction) : 1.0;
   if (budget_s > 0.0) {
-    const BudgetPlan p = plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings());
+    const BudgetPlan p =
+        plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings(), choose_fine_share);
+    if (p.fine_share > 0.0) fine_share = p.fine_share;
     iters = p.iterations;
     spp = p.spp;
     coarse_spp = p.coarse_spp;
@@ -117,10 +130,11 @@ int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t
   }
   std::printf("{\"estimate\": {\"setup_s\": %.4f, \"s_per_iter\": %.6f, \"iterations\": %d, \"total_s\": %.3f, "
               "\"gaussians\": %zu, \"views\": %zu, \"width\": %d, \"height\": %d, \"probe_pixels\": %d, "
-              "\"probe_spp\": %d, \"spp\": %d, \"coarse_spp\": %d, \"views_per_iter\": %d, \"crop\": %d, \"budget_s\": %.1f}}\n",
+              "\"probe_spp\": %d, \"spp\": %d, \"coarse_spp\": %d, \"views_per_iter\": %d, \"crop\": %d, \"fine_share\": %.4g, "
+              "\"budget_s\": %.1f}}\n",
               setup, est.seconds, iters, setup + iters * est.seconds, opt.scene().gaussians->size(),
               opt.dataset().size(), opt.dataset().width, opt.dataset().height, est.probe_pixels, est.probe_spp, spp, coarse_spp,
-              views, opt.settings().crop_size, budget_s);
+              views, opt.settings().crop_size, fine_share, budget_s);
   std::fflush(stdout);
   return 0;
 }

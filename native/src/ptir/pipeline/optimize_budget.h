@@ -41,6 +41,9 @@ struct BudgetState {
   int spp = 0;            // planned (0: not planned yet)
   int coarse_spp = 0;     // planned for the resolution pyramid's coarse phase (0: spp)
   int views = 0;          // planned patches per full-resolution iteration (0: the automatic batch's)
+  double fine_share = 0.0;  // the resolution pyramid's full-resolution share the plan chose (0: the settings')
+  // Not kept: the plan may choose that share (a budget without --fine-fraction, not resumed).
+  bool choose_fine_share = false;
   // Not kept in budget.json: the probe's estimate of a coarse and a full-resolution
   // iteration (the resolution pyramid's phases), until the run measures its own.
   double est_coarse_s = 0.0, est_fine_s = 0.0;
@@ -60,6 +63,6 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
 // With a budget (budget_s > 0): the plan for what is left of it after the set-up ("spp" is the planned one).
 // extra_setup_s: set-up still to come (radiance targets not rendered yet). Returns 0.
 int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t_start, double budget_s,
-                   double extra_setup_s);
+                   double extra_setup_s, bool choose_fine_share = false);
 
 }  // namespace ptir::pipeline

@@ -262,6 +262,8 @@ BudgetState resolve_budget(PipelineRun& o, const Communicator& comm) {
       budget.spp = kept.spp;
       budget.coarse_spp = kept.coarse_spp;
       budget.views = kept.views;
+      budget.fine_share = kept.fine_share;
+      if (kept.fine_share > 0.0 && !o.given.count("--fine-fraction")) o.inversion_fine_share = kept.fine_share;
     }
   } else if (!o.resume && !o.estimate && budget.budget_s == 0.0 && comm.rank() == 0) {
     std::error_code ec_budget;  // a fresh run without a budget: an older run's budget is stale
@@ -279,6 +281,9 @@ BudgetState resolve_budget(PipelineRun& o, const Communicator& comm) {
     // three quarters on views reduced to at most kBudgetCoarsePixels.
     if (!o.given.count("--coarse-pixels")) o.opt.coarse_pixels = kBudgetCoarsePixels;
     o.plan_fit_fine_fraction = !o.given.count("--fine-fraction");  // full resolution first (fit_stage.h)
+    // The inversion's share, from the photos' pixels (budget_plan.h: data_fine_share), when it
+    // plans afresh; a resumed plan keeps its own.
+    budget.choose_fine_share = !o.given.count("--fine-fraction") && budget.spp == 0;
   }
   return budget;
 }

@@ -19,6 +19,7 @@ struct PipelineRun : OptimizePipelineOptions {
   explicit PipelineRun(const OptimizePipelineOptions& o) : OptimizePipelineOptions(o) {}
   bool fitted = false;   // the inversion runs on splats its geometry stage fitted (OUT/fit/)
   bool plan_fit_fine_fraction = false;  // a budget without --fine-fraction: the stage plans its own (fit_stage.h)
+  double inversion_fine_share = 0.0;    // a resumed budget's planned full-resolution share (0: the options')
   double targets_left_s = 0;  // --estimate without --dataset: the radiance targets still to render
   bool env_detail = false;  // the environment started from the photos' background: OUT/env.exr gets their detail
   std::shared_ptr<ScratchFolder> scratch;  // --estimate without --dataset: its probe target (outside OUT)
