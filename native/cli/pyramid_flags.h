@@ -13,8 +13,8 @@ inline void add_pyramid_flags(CLI::App* cmd, int* coarse_pixels, float* fine_fra
       ->capture_default_str();
   cmd->add_option("--fine-fraction", *fine_fraction,
                   "resolution pyramid: the last fraction of the iterations, at the photos' full resolution (not "
-                  "given, a --budget plans it: the geometry stage's from its time, the inversion's 0.5 where the "
-                  "photos hold more pixels than its patches visit)")
+                  "given, a --budget plans it: the geometry stage's from its time, the inversion's 0.5 on real "
+                  "photos with more pixels than its patches visit)")
       ->capture_default_str();
 }
 

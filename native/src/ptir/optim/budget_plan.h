@@ -68,14 +68,14 @@ constexpr int kMaxPatchViews = 32;
 
 // Where the photos hold more pixels than even kMaxPatchViews patches visit in the default
 // full-resolution share (data_patch_views above it), a budget that may choose the resolution
-// pyramid's share (no --fine-fraction given) runs its last kLargeDataFineShare at full
-// resolution instead of the settings' quarter: fewer iterations, each of the later ones on
-// the photos' own pixels. Measured on the plush dog (73 photos of 750x500, 134 patches'
-// worth) at --budget 6m from the same splats: 22.20 / 22.45 dB (object / frame, 903
-// iterations) against 21.93 / 22.37 with the quarter (1313), 10 of the 11 held-out photos
-// up; on a 256² synthetic set, whose pixels 8 patches already visit, the share was measured
-// the other way (0.1 and 1.0 both lost to 0.25), and the rule leaves it at the quarter
-// (docs/captures.md, "Pixels before samples").
+// pyramid's share (no --fine-fraction given; the pipeline asks it for real photos only,
+// pipeline/optimize_budget.cpp) runs its last kLargeDataFineShare at full resolution instead of
+// the settings' quarter: fewer iterations, each of the later ones on the photos' own pixels.
+// Measured on the plush dog (73 photos of 750x500, 134 patches' worth) at --budget 6m from the
+// same splats: 22.17 / 22.44 dB (object / frame) against 21.93 / 22.37 with the quarter, every
+// held-out photo up. On a rendered 512² set of 40 views (10.5 M pixels) it went the other way
+// on the albedo: 28.66 against 28.91 dB (two seeds each; relight +0.07, NVS +0.13), and a 256²
+// set favoured the quarter too (docs/captures.md, "Pixels before samples").
 constexpr double kLargeDataFineShare = 0.5;
 
 struct BudgetPlan {
@@ -97,7 +97,7 @@ std::pair<int, int> spread_fine_samples(const IterationEstimate& e, int fine_spp
 
 // The pyramid's full-resolution share for the estimate's data: kLargeDataFineShare where the
 // automatic batch's photos hold more than kMaxPatchViews patches' worth of pixels, else
-// `share` (the settings'); never below `share`.
+// `share` (the settings'); never below `share`. (The caller decides whether the data are photos.)
 double data_fine_share(const IterationEstimate& e, double share);
 
 // The plan for `seconds` of iterations from the estimate of an iteration at `s`'s spp and batch;

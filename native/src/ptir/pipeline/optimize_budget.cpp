@@ -15,6 +15,7 @@
 #include "ptir/optim/budget_plan.h"
 #include "ptir/optim/iteration_estimate.h"
 #include "ptir/optim/optimizer.h"
+#include "ptir/scene/dataset.h"
 
 namespace ptir::pipeline {
 
@@ -25,6 +26,19 @@ std::string budget_text(double seconds) {
   return b;
 }
 std::string budget_path(const std::string& out_dir) { return (std::filesystem::path(out_dir) / "budget.json").string(); }
+
+// Photos as a camera took them: the capture stage's calibration applies to them (its masks are
+// its object's coverage), or, before that stage (--estimate), a capture's layout (COLMAP, 3DGS,
+// nerfstudio) without masks of its own, the room around the object in every photo. A rendered
+// set on a transparent film keeps the settings' full-resolution share (budget_plan.h:
+// kLargeDataFineShare, measured both ways).
+bool unmasked_photos(const Dataset& d) {
+  if (!d.calibration_record.empty()) return true;
+  if (d.layout == "nerf") return false;
+  for (const DatasetView& v : d.views)
+    if (!v.files.mask.empty()) return false;
+  return true;
+}
 }  // namespace
 
 BudgetState read_budget_state(const std::string& out_dir) {
@@ -76,7 +90,8 @@ BudgetState plan_optimizer_budget(Optimizer& opt, BudgetState b, std::chrono::st
   if (b.spp > 0) {
     iterations = iterations_within(left, std::max(1e-9, est.seconds));
   } else {
-    const BudgetPlan p = plan_budget(std::max(0.0, left), est, opt.settings(), b.choose_fine_share);
+    const BudgetPlan p =
+        plan_budget(std::max(0.0, left), est, opt.settings(), b.choose_fine_share && unmasked_photos(opt.dataset()));
     iterations = left > 0.0 ? p.iterations : 0;
     if (p.fine_share > 0.0) {
       opt.set_fine_fraction(float(p.fine_share));
@@ -120,7 +135,8 @@ int print_estimate(const Optimizer& opt, std::chrono::steady_clock::time_point t
   double fine_share = opt.pyramid_coarse_share() > 0.0 ? double(opt.settings().fine_fraction) : 1.0;
   if (budget_s > 0.0) {
     const BudgetPlan p =
-        plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings(), choose_fine_share);
+        plan_budget(std::max(0.0, budget_s - setup - kOutputReserve), est, opt.settings(),
+                    choose_fine_share && unmasked_photos(opt.dataset()));
     if (p.fine_share > 0.0) fine_share = p.fine_share;
     iters = p.iterations;
     spp = p.spp;
