@@ -14,7 +14,8 @@ once as rendered, once with the render scaled by the photo's EXIF exposure relat
 to the capture's median (as `ptir cameras` reports it) and once by the photo's own gain
 against the capture's consensus (its white balance and exposure, OUT/capture/calibration.json).
 Prints a table (per photo and the mean) and writes it as JSON (--json); --sheet: photo |
-recovered | error rows.
+recovered | albedo (the recovered base colour seen from the photo's camera, the albedo AOV) |
+|error| x 4 rows.
 """
 import argparse
 import json
@@ -114,7 +115,15 @@ def main():
             rows.append(row)
             if a.sheet:
                 err = np.abs(srgb(rgb) - srgb(photo)).mean(axis=2, keepdims=True) * 4
-                sheet.append(np.concatenate([srgb(photo), srgb(rgb), np.repeat(np.clip(err, 0, 1), 3, 2)], axis=1))
+                panels = [srgb(photo), srgb(rgb)]
+                if not a.radiance:  # the albedo AOV: one fabric should be one colour
+                    aov = Path(tmp) / ("%s_albedo.exr" % name)
+                    subprocess.run([cli, "render", "--gaussians", a.gaussians or str(res / "gaussians.ply"), "--cameras",
+                                    str(cams), "--frame", str(i), "-o", str(aov), "-q", "--aov", "albedo"], check=True)
+                    alb = ptir.read_image(str(aov))
+                    panels.append(srgb(alb[..., :3]))  # associated with its coverage (EXR's rule): black outside
+                panels.append(np.repeat(np.clip(err, 0, 1), 3, 2))
+                sheet.append(np.concatenate(panels, axis=1))
             print("%-10s exposure %.3f  object %.2f dB (EXIF-scaled %.2f, gain-scaled %.2f)  frame %.2f dB (EXIF-scaled "
                   "%.2f, gain-scaled %.2f)  coverage %.2f" % (name, e, row["object"], row["object_exif"], row["object_gain"],
                                                               row["frame"], row["frame_exif"], row["frame_gain"],
