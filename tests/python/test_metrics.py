@@ -185,3 +185,26 @@ def test_eval_scores_a_self_rendered_dataset(ptir, cli, tmp_path):
     assert d["albedo_scale"] == pytest.approx(m["albedo_scale"]) and d["sheets"] == []
     assert d["roughness_mse"] == pytest.approx(m["roughness_mse"])
     assert any(l.startswith("eval test_001") for l in lines)
+
+    # Photos without material truth: the recovered materials beside them (sheet_materials.png:
+    # photo | albedo | roughness | normal), in place of the scored sheets.
+    for k in range(2):
+        for f in ("albedo", "roughness", "normal"):
+            (data / ("test_%03d" % k) / (f + ".png")).unlink()
+    r = subprocess.run([str(cli), "eval", "--dataset", str(data), "--result", str(result), "--spp", "4",
+                        "--aov-spp", "16", "-q"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    m = json.loads((result / "eval" / "metrics.json").read_text())
+    assert "sheet_materials.png" in m["sheets"] and "sheet_albedo.png" not in m["sheets"]
+    sheet = ptir.read_image(str(result / "eval" / "sheet_materials.png"), linear=False)[..., :3]
+    h, w = sheet.shape[:2]
+    assert w - 10 == 2 * (h - 6)                 # two rows of four 40-pixel tiles, 2-pixel gaps
+    tile = (h - 6) // 2
+    albedo_tile = sheet[2:2 + tile, 4 + tile:4 + 2 * tile].reshape(-1, 3)
+    # The albedo tile shows the recovered albedo (0.5 x the two hemispheres' colours, sRGB) over white.
+    want = np.where(np.asarray([0.3, 0.1, 0.05, 0.05, 0.15, 0.25]) <= 0.0031308, 0,
+                    1.055 * np.asarray([0.3, 0.1, 0.05, 0.05, 0.15, 0.25]) ** (1 / 2.4) - 0.055).reshape(2, 3)
+    sphere = albedo_tile[albedo_tile.sum(1) < 2.9]  # over white
+    assert len(sphere) > 0.2 * len(albedo_tile)
+    dist = np.min(np.linalg.norm(sphere[:, None, :] - want[None], axis=2), axis=1)
+    assert np.mean(dist < 0.03) > 0.6, np.mean(dist < 0.03)  # most of the sphere: one of the two (0.76: soft rims)

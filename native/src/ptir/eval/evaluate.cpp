@@ -344,6 +344,9 @@ void evaluate_view(EvalRun& run, size_t i) {
     run.sheets["nvs"].push_back({gt_disp, ours_disp, heatmap(abs_difference(gt_disp, ours_disp), kColourErrorScale, &show)});
 
   Image gt_albedo = run.data->gt_albedo(i);
+  if (gt_albedo.width == 0 && i < run.sheet_n)  // photos without material truth: what was recovered, beside them
+    run.sheets["materials"].push_back({gt_disp, composite_srgb(albedo, &albedo), grey_to_rgb(rough, &rough),
+                                       normals_to_rgb(normal, &normal)});
   if (gt_albedo.width > 0) {
     run.have_albedo = true;
     run.ratios.add(gt_albedo, diffuse, mask);
@@ -511,7 +514,8 @@ std::string report_markdown(const EvalRun& run, const json& m) {
      << " dB); roughness MSE over the whole image with the background zeroed; normal MAE over foreground pixels. "
         "Relighting uses the scaled albedo. PSNR of identical images is reported as 100 dB.\n\n"
         "Contact sheets (rows = views; columns = ground truth | ours | error): colour error full scale = 0.25 "
-        "(sRGB display difference), roughness 0.5, normal 45°.\n";
+        "(sRGB display difference), roughness 0.5, normal 45°. Views without material ground truth (photos): "
+        "sheet_materials.png, photo | albedo | roughness | normal.\n";
   return md.str();
 }
 

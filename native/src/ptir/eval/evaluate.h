@@ -23,7 +23,9 @@
 //
 // Writes OUT/eval/metrics.json, OUT/eval/metrics.md (a markdown table) and
 // contact sheets OUT/eval/sheet_<quantity>.png (rows = views, columns = ground
-// truth | ours | error heat map; see metrics.md for the error scales).
+// truth | ours | error heat map; see metrics.md for the error scales); views without
+// material ground truth (photos) get sheet_materials.png instead: photo | albedo |
+// roughness | normal, what was recovered beside what was photographed.
 //
 // The folder is written whole: into RESULT/.eval-staging, which replaces
 // RESULT/eval only once metrics.json is in it (io/atomic_folder.h), so a failure
