@@ -71,3 +71,52 @@ def test_exif_exposure_divides_each_photo_by_its_relative_exposure(tmp_path):
 def test_photos_without_exif_keep_their_values(tmp_path):
     root = write_capture(tmp_path / "cap", exif=False)
     assert ptir.load_dataset(str(root), split="all").exposures == [1.0] * len(SETTINGS)
+
+
+@pytest.mark.skipif(OIIOTOOL is None, reason="oiiotool is not installed")
+def test_eval_reads_a_capture_result_as_its_run_did(tmp_path):
+    """`ptir eval` on a capture's result: where the capture stage left the EXIF exposure out
+    (RESULT/capture/calibration.json) the photos are scored as stored, and the capture's coverage
+    masks give the object's PSNR beside the frame's."""
+    import json
+    from ptir_testing import CLI, write_splat_ply
+    root = write_capture(tmp_path / "cap")
+    # The photos: 0.2 on the left half, 0.35 on the right, each with its EXIF (write_capture's settings).
+    half = np.full((H, W, 3), 0.2, np.float32)
+    half[:, W // 2:] = 0.35
+    src = tmp_path / "half.png"
+    ptir.write_image(str(src), half)
+    for i, (t, f, iso) in enumerate(SETTINGS):
+        subprocess.run([OIIOTOOL, str(src), "--attrib:type=float", "ExposureTime", repr(t), "--attrib:type=float",
+                        "FNumber", repr(f), "--attrib:type=int", "Exif:PhotographicSensitivity", str(iso), "-o",
+                        str(root / "images" / ("p%d.jpg" % i))], check=True, capture_output=True)
+    # The result: a sky of 0.2 and one small splat far behind the cameras' backs (every pixel sees the sky).
+    res = tmp_path / "result"
+    res.mkdir()
+    write_splat_ply(res / "gaussians.ply", [[0.0, 0.0, 40.0]], (0.01, 0.01, 0.01))
+    ptir.write_image(str(res / "env.exr"), np.full((8, 16, 3), 0.2, np.float32))
+    test_names = ptir.load_dataset(str(root), split="test", holdout=2).view_names
+
+    def evaluate():
+        r = subprocess.run([str(CLI), "eval", "--dataset", str(root), "--result", str(res), "--holdout", "2", "--spp",
+                            "4", "--aov-spp", "1", "--sheet-views", "0", "-q"], capture_output=True, text=True,
+                           timeout=300)
+        assert r.returncode == 0, r.stderr
+        return json.loads((res / "eval" / "metrics.json").read_text())
+
+    # Without the capture's record: EXIF applied (test photos 0.5x, 2x, 0.25x the median), no object.
+    m = evaluate()
+    assert m["nvs_psnr"] < 15.0 and m["nvs_psnr_object"] is None
+    # The capture stage's record: EXIF left out, the left half the object.
+    (res / "capture" / "masks").mkdir(parents=True)
+    mask = np.zeros((H, W, 3), np.float32)
+    mask[:, : W // 2] = 1.0
+    for n in test_names:
+        ptir.write_image(str(res / "capture" / "masks" / (n + ".png")), mask, colour=False)
+    (res / "capture" / "calibration.json").write_text(json.dumps(
+        {"subject": "object", "exif_exposure": False, "masks": "masks", "views": {}}))
+    m = evaluate()
+    # The frame: the right half 0.35 against the sky's 0.2 (sRGB 0.63 vs 0.48: ~19.5 dB); the object exact.
+    assert 18.0 < m["nvs_psnr"] < 21.0, m["nvs_psnr"]
+    assert m["nvs_psnr_object"] > 38.0, m["nvs_psnr_object"]
+    assert all("nvs_psnr_object" in v for v in m["per_view"])
