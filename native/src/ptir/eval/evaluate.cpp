@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "ptir/core/error.h"
+#include "ptir/eval/capture_result.h"
 #include "ptir/eval/contact_sheet.h"
 #include "ptir/eval/env_score.h"
 #include "ptir/eval/metrics.h"
@@ -22,7 +23,6 @@
 #include "ptir/render/aov.h"
 #include "ptir/render/row_bands.h"
 #include "ptir/render/render_path.h"
-#include "ptir/scene/capture_calibration.h"
 #include "ptir/scene/gaussian_ply.h"
 #include "ptir/scene/scene.h"
 #include "ptir/scene/scene_json.h"
@@ -193,21 +193,6 @@ Image foreground_mask(const Image& alpha) {
   return m;
 }
 
-// A real capture's object in view `name`: the capture stage's coverage mask
-// (RESULT/capture/masks/<name>.png, the input splat's coverage > 0.5), or an empty image
-// where the result has none. A mask of another size than the photo fails naming the file.
-Image capture_object_mask(const fs::path& result, const std::string& name, int width, int height) {
-  const fs::path f = result / "capture" / "masks" / (name + ".png");
-  if (name.empty() || !file_exists(f)) return Image();
-  const Image png = read_image(f.string(), Encoding::Data);
-  if (png.width != width || png.height != height)
-    throw Error(f.string(), "is " + std::to_string(png.width) + "x" + std::to_string(png.height) + ", the photo " +
-                                std::to_string(width) + "x" + std::to_string(height));
-  Image m(width, height, {"Y"});
-  for (size_t k = 0; k < m.pixels.size(); ++k) m.pixels[k] = png.pixels[k * size_t(png.channels)] > 0.5f ? 1.0f : 0.0f;
-  return m;
-}
-
 // The scene: recovered Gaussians under the recovered environment (+ the scene file's
 // meshes and lights), the tracer, normals oriented toward the test cameras.
 void load_eval_scene(EvalRun& run) {
@@ -222,12 +207,8 @@ void load_eval_scene(EvalRun& run) {
   dopt.cache_bytes = 0;  // every image is read once
   run.data = load_dataset(s.dataset, dopt);
   if (run.data->size() == 0) throw Error(run.data->transforms_path, "no views");
-  // A capture's result: its photos as the run read them. Where the capture stage left the
-  // EXIF exposure out (RESULT/capture/calibration.json), so does the score; the per-photo
-  // gains are not applied (the render as it is against the photo as stored, docs/captures.md).
-  const fs::path calibration = result / "capture" / "calibration.json";
-  if (dopt.calibration.empty() && file_exists(calibration) && !read_capture_calibration(calibration.string()).exif_exposure)
-    for (DatasetView& v : run.data->views) v.exposure = 1.0;
+  // A capture's result: its photos as the run read them (capture_result.h).
+  if (dopt.calibration.empty()) read_photos_as_the_run_did(*run.data, s.result);
   Scene& scene = run.scene;
   if (!s.scene.empty()) {
     Scene extra = load_scene_json(s.scene);
