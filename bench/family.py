@@ -87,7 +87,7 @@ def scene_row(m, a, runs, tag_dir):
         else:  # the dataset's splats as they are, path-traced bounce light (optimize --fit-iters 0)
             start = ["--gaussians", data / "gaussians.ply"]
         secs = run([CLI, "optimize", "--dataset", data, "--fit-iters", 0, "--out", out, "-q", "--threads", a.threads]
-                   + start + budget + a.extra.split(), log)
+                   + start + budget + a.extra.replace("{data}", str(data)).split(), log)
         json.dump({"optimize_s": secs}, open(timing, "w"))
         run(eval_cmd(data, out, a.eval_spp, a.threads), log)
     r = json.load(open(metrics))
@@ -141,7 +141,7 @@ def main():
     p.add_argument("--fit-iters", type=int, default=FIT_ITERS,
                    help="geometry stage iterations, run once per scene (0: the set's splats as they are)")
     p.add_argument("--tag", default="default", help="the variant's name (its runs go to RUNS/<tag>-<budget>/)")
-    p.add_argument("--extra", default="", help="optimize flags of the variant")
+    p.add_argument("--extra", default="", help="optimize flags of the variant ({data}: the member's set folder)")
     p.add_argument("--only", default="")
     p.add_argument("--family", default=str(REPO / "out" / "family"))
     p.add_argument("--runs", default=str(REPO / "out" / "family_runs"))

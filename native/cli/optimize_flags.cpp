@@ -53,6 +53,10 @@ void add_learning_flags(CLI::App* cmd, OptimizeOptions* opt) {
   cmd->add_option("--lambda-albedo-grey", opt->lambda_albedo_grey,
                   "grey-world prior on the albedos' mean colour, along the light-albedo balance only (0: off)")
       ->capture_default_str();
+  cmd->add_option("--lambda-albedo-facing", opt->lambda_albedo_facing,
+                  "facing prior: the albedo does not follow the direction a surface faces (its log's fit on the normals' "
+                  "SH bands 1-2 pulled to 0; the light takes the shading up); 0: off")
+      ->capture_default_str();
   cmd->add_option("--balance-start", opt->balance_start, "fraction of the iterations before the light-albedo balance learns")
       ->capture_default_str();
   cmd->add_option("--lr-env", opt->lr_env, "the environment's Adam learning rate (its log radiance per step)")

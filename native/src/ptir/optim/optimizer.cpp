@@ -13,6 +13,7 @@
 #include "ptir/core/error.h"
 #include "ptir/math/rng.h"
 #include "ptir/optim/data_parallel.h"
+#include "ptir/optim/albedo_facing_prior.h"
 #include "ptir/optim/light_balance.h"
 #include "ptir/optim/loss_space.h"
 #include "ptir/optim/patch_batch.h"
@@ -535,6 +536,12 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
       const auto prior = albedo_chroma_prior(params_, *scene_);
       for (int c = 0; c < 3; ++c) balance_grad_[c] += double(settings_.lambda_albedo_grey) * prior[c];
     }
+  }
+  if (settings_.lambda_albedo_facing > 0.0f && params_.find(ParamKind::GaussianAlbedo) && scene_->gaussians) {
+    // The facing prior (albedo_facing_prior.h): after the sum, once; on the albedos directly.
+    const double wt = settings_.lambda_albedo_facing;
+    const auto r = albedo_facing_prior(*scene_->gaussians, wt, with_gradients ? &grads_.gaussian_albedo : nullptr);
+    log.prior += wt * r.value;
   }
   log.loss = log.image + log.tv + log.prior;
   log.seconds = seconds_since(t_start);

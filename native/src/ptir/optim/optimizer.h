@@ -178,6 +178,10 @@ struct OptimizerSettings {
   // and costs the demo 0.17 dB; 0.01 makes the spread < 1 % there but costs the
   // demo's orange-red object 1.0 dB (grey world is wrong for it).
   float lambda_albedo_grey = 0.001f;
+  // Weight of the facing prior (albedo_facing_prior.h): the albedos' log regressed
+  // on their normals' SH bands 1-2 is pulled to 0, so the shading a wrong blind
+  // light leaves in the albedo goes back into the light. 0: off.
+  float lambda_albedo_facing = 0.0f;
   // Decorrelated adjoint: with gradients, the spp are rendered as two independent
   // halves and each half's replay is weighted by dL/dimage of the other half. With
   // one set of samples for both, the noise of a pixel's estimate and of its

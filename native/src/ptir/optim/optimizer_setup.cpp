@@ -71,6 +71,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.balance_start = o.balance_start;
   if (!(o.lambda_albedo_grey >= 0.0f)) throw Error(names("lambda_albedo_grey") + " must be >= 0");
   s.lambda_albedo_grey = o.lambda_albedo_grey;
+  if (!(o.lambda_albedo_facing >= 0.0f)) throw Error(names("lambda_albedo_facing") + " must be >= 0");
+  s.lambda_albedo_facing = o.lambda_albedo_facing;
   if (o.env_coarse < -1) throw Error(names("env_coarse") + " must be >= 0 (0: no coarse level; -1: automatic)");
   s.params.env_coarse_width = o.env_coarse;
   if (!(o.albedo_warmup == -1.0f || (o.albedo_warmup >= 0.0f && o.albedo_warmup < 1.0f)))

@@ -54,6 +54,7 @@ struct OptimizeOptions {
   float lr_balance = ParameterSettings{}.lr_balance;
   float balance_start = OptimizerSettings{}.balance_start;
   float lambda_albedo_grey = OptimizerSettings{}.lambda_albedo_grey;
+  float lambda_albedo_facing = OptimizerSettings{}.lambda_albedo_facing;
   float lr_env = ParameterSettings{}.lr_env;  // the environment's Adam rate (both levels)
   float lr_albedo = ParameterSettings{}.lr_albedo;        // the Gaussians' albedo logits' Adam rate
   float lr_roughness = ParameterSettings{}.lr_roughness;  // the Gaussians' roughness logits' Adam rate
