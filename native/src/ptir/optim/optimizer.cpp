@@ -13,7 +13,6 @@
 #include "ptir/core/error.h"
 #include "ptir/math/rng.h"
 #include "ptir/optim/data_parallel.h"
-#include "ptir/optim/albedo_facing_prior.h"
 #include "ptir/optim/light_balance.h"
 #include "ptir/optim/loss_space.h"
 #include "ptir/optim/patch_batch.h"
@@ -137,6 +136,11 @@ double Optimizer::warmup_factor(float fraction, int it) const {
 }
 
 double Optimizer::albedo_lr_factor(int it) const { return warmup_factor(settings_.albedo_warmup, it); }
+
+double Optimizer::light_rate_factor() const {
+  if (!settings_.short_run_light || settings_.iterations <= 0) return 1.0;
+  return std::clamp(double(kShortRunLightIterations) / double(settings_.iterations), 1.0, kShortRunLightBoost);
+}
 
 double Optimizer::tv_weight(int it) const {
   const double half = 0.5 * double(settings_.iterations);
@@ -265,7 +269,9 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
     const ParamKind kind = params_.groups[i].kind;
     const bool albedo = kind == ParamKind::GaussianAlbedo || kind == ParamKind::MeshColour;
     if (kind == ParamKind::LightBalance && double(iteration_) < double(settings_.balance_start) * settings_.iterations) continue;
-    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0));
+    const bool light = kind == ParamKind::Environment || kind == ParamKind::EnvironmentCoarse;
+    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0) *
+                        (light ? light_rate_factor() : 1.0));
     const std::vector<float> before = kind == ParamKind::LightBalance ? params_.groups[i].raw : std::vector<float>();
     adam_[i].step(params_.groups[i].raw, raw[i]);
     if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);
@@ -536,12 +542,6 @@ IterationLog Optimizer::evaluate(int it, bool with_gradients, const std::atomic<
       const auto prior = albedo_chroma_prior(params_, *scene_);
       for (int c = 0; c < 3; ++c) balance_grad_[c] += double(settings_.lambda_albedo_grey) * prior[c];
     }
-  }
-  if (settings_.lambda_albedo_facing > 0.0f && params_.find(ParamKind::GaussianAlbedo) && scene_->gaussians) {
-    // The facing prior (albedo_facing_prior.h): after the sum, once; on the albedos directly.
-    const double wt = settings_.lambda_albedo_facing;
-    const auto r = albedo_facing_prior(*scene_->gaussians, wt, with_gradients ? &grads_.gaussian_albedo : nullptr);
-    log.prior += wt * r.value;
   }
   log.loss = log.image + log.tv + log.prior;
   log.seconds = seconds_since(t_start);
