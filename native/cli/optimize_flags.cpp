@@ -55,9 +55,7 @@ void add_learning_flags(CLI::App* cmd, OptimizeOptions* opt) {
       ->capture_default_str();
   cmd->add_option("--balance-start", opt->balance_start, "fraction of the iterations before the light-albedo balance learns")
       ->capture_default_str();
-  cmd->add_option("--lr-env", opt->lr_env,
-                  "the environment's Adam learning rate (its log radiance per step); -1: automatic, 0.0175, and for a "
-                  "blind light in a run of under 800 iterations up to 4x as much (800 / iterations)")
+  cmd->add_option("--lr-env", opt->lr_env, "the environment's Adam learning rate (its log radiance per step)")
       ->capture_default_str();
   cmd->add_option("--lr-albedo", opt->lr_albedo, "the Gaussians' albedo Adam learning rate (logit per step)")
       ->capture_default_str();

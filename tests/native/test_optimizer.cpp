@@ -8,7 +8,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <memory>
 #include <random>
 #include <set>
@@ -549,39 +548,4 @@ TEST(Optimizer, SchedulesFollowTheirDefinitions) {
   EXPECT_NEAR(opt.tv_weight(25), 3.0 * s.lambda_tv, 1e-6);
   EXPECT_NEAR(opt.tv_weight(50), s.lambda_tv, 1e-6);
   EXPECT_NEAR(opt.tv_weight(90), s.lambda_tv, 1e-6);
-}
-
-// The short-run light (OptimizerSettings::short_run_light): the environment's rate times
-// 800 / iterations, between 1 and 4, and only when on. Checked on the schedule and on the
-// first Adam step itself (lr x sign for a gradient well above epsilon): the same first
-// gradient, 4x the light's step at 200 iterations, the same step at 800, the albedo's unchanged.
-TEST(Optimizer, AShortRunMovesABlindLightFaster) {
-  const test::OptimizerFixture& fx = fixture();
-  auto first_steps = [&](int iterations, bool on) {
-    OptimizerSettings s = small_settings();
-    s.iterations = iterations;
-    s.albedo_warmup = 0.0f;
-    s.short_run_light = on;
-    Optimizer opt(input_scene(fx.n), fx.data, s);
-    const Parameters before = opt.parameters();
-    opt.step();
-    std::map<ParamKind, double> largest;
-    for (size_t g = 0; g < before.groups.size(); ++g)
-      for (size_t i = 0; i < before.groups[g].raw.size(); ++i)
-        largest[before.groups[g].kind] = std::max(largest[before.groups[g].kind],
-                                                  double(std::abs(opt.parameters().groups[g].raw[i] - before.groups[g].raw[i])));
-    return std::make_pair(opt.light_rate_factor(), largest);
-  };
-  const auto [f800, at800] = first_steps(800, true);
-  const auto [f200, at200] = first_steps(200, true);
-  const auto [f100, at100] = first_steps(100, true);
-  const auto [off, at200off] = first_steps(200, false);
-  EXPECT_DOUBLE_EQ(f800, 1.0);
-  EXPECT_DOUBLE_EQ(f200, 4.0);
-  EXPECT_DOUBLE_EQ(f100, 4.0);  // at most 4x
-  EXPECT_DOUBLE_EQ(off, 1.0);
-  ASSERT_GT(at800.at(ParamKind::Environment), 0.0);
-  EXPECT_NEAR(at200.at(ParamKind::Environment) / at800.at(ParamKind::Environment), 4.0, 0.02);
-  EXPECT_NEAR(at200off.at(ParamKind::Environment) / at800.at(ParamKind::Environment), 1.0, 0.01);
-  EXPECT_NEAR(at200.at(ParamKind::GaussianAlbedo) / at800.at(ParamKind::GaussianAlbedo), 1.0, 0.01);
 }

@@ -1,6 +1,6 @@
 // The optimiser's set-up with the scene file's own light (optimizer_setup.h, docs/known_lamps.md):
 // --env none (no environment: the lamps alone) and its refusals, and the learnt environment's dark
-// start with no albedo warm-up where the file brings lamps; the short-run light rate for a blind light only.
+// start with no albedo warm-up where the file brings lamps.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -77,34 +77,4 @@ TEST(OptimizerSetup, TheScenesLampsStartALearntEnvironmentDark) {
   prepare_optimizer_scene(scene_file("given", true), std::make_shared<GaussianField>(), given, cli_option_name);
   EXPECT_EQ(given.albedo_warmup, 0.25f);
   EXPECT_EQ(given.params.env_init, kSceneLitEnvStart);
-}
-
-// The automatic --lr-env (-1): the release's rate, raised in short runs for a blind light only
-// (a light learnt from a constant start, no lamp of the scene's own). A given rate, a given map
-// (fixed or refined) and the scene's lamps keep the rate as it is; 0 is refused.
-TEST(OptimizerSetup, TheShortRunLightRateIsForABlindLightOnly) {
-  auto prepared = [](OptimizeOptions o, const std::string& scene) {
-    OptimizerSettings s = optimizer_settings(o, cli_option_name);
-    prepare_optimizer_scene(scene, std::make_shared<GaussianField>(), s, cli_option_name);
-    return s;
-  };
-  OptimizeOptions blind;
-  const OptimizerSettings b = prepared(blind, "");
-  EXPECT_TRUE(b.short_run_light);
-  EXPECT_EQ(b.params.lr_env, ParameterSettings{}.lr_env);
-  EXPECT_TRUE(prepared(blind, scene_file("walls_only", false)).short_run_light);  // walls bring no light
-  EXPECT_FALSE(prepared(blind, scene_file("lamp", true)).short_run_light);
-  OptimizeOptions given = blind;
-  given.lr_env = 0.03f;
-  const OptimizerSettings g = prepared(given, "");
-  EXPECT_FALSE(g.short_run_light);
-  EXPECT_EQ(g.params.lr_env, 0.03f);
-  OptimizeOptions map = blind;
-  map.env_init = "map.exr";
-  EXPECT_FALSE(prepared(map, "").short_run_light);
-  map.fix_env = true;
-  EXPECT_FALSE(prepared(map, "").short_run_light);
-  OptimizeOptions zero = blind;
-  zero.lr_env = 0.0f;
-  test::expect_error([&] { optimizer_settings(zero, cli_option_name); }, "--lr-env", {"must be > 0"});
 }

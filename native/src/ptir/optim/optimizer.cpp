@@ -137,11 +137,6 @@ double Optimizer::warmup_factor(float fraction, int it) const {
 
 double Optimizer::albedo_lr_factor(int it) const { return warmup_factor(settings_.albedo_warmup, it); }
 
-double Optimizer::light_rate_factor() const {
-  if (!settings_.short_run_light || settings_.iterations <= 0) return 1.0;
-  return std::clamp(double(kShortRunLightIterations) / double(settings_.iterations), 1.0, kShortRunLightBoost);
-}
-
 double Optimizer::tv_weight(int it) const {
   const double half = 0.5 * double(settings_.iterations);
   const double f = half <= 0.0 ? 0.0 : std::max(0.0, 1.0 - double(it) / half);
@@ -269,9 +264,7 @@ IterationLog Optimizer::step(const std::atomic<bool>* cancel) {
     const ParamKind kind = params_.groups[i].kind;
     const bool albedo = kind == ParamKind::GaussianAlbedo || kind == ParamKind::MeshColour;
     if (kind == ParamKind::LightBalance && double(iteration_) < double(settings_.balance_start) * settings_.iterations) continue;
-    const bool light = kind == ParamKind::Environment || kind == ParamKind::EnvironmentCoarse;
-    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0) *
-                        (light ? light_rate_factor() : 1.0));
+    adam_[i].lr = float(params_.groups[i].lr * lr_scale * (albedo ? albedo_lr_factor(iteration_) : 1.0));
     const std::vector<float> before = kind == ParamKind::LightBalance ? params_.groups[i].raw : std::vector<float>();
     adam_[i].step(params_.groups[i].raw, raw[i]);
     if (params_.groups[i].kind == ParamKind::Exposure) centre_exposure(params_.groups[i]);

@@ -85,10 +85,6 @@ inline IntegratorSettings inversion_integrator() {
   return s;
 }
 
-// OptimizerSettings::short_run_light: the run length that keeps the light's rate, the most it is raised.
-constexpr int kShortRunLightIterations = 800;
-constexpr double kShortRunLightBoost = 4.0;
-
 struct OptimizerSettings {
   int iterations = 800;           // docs/method.md §6
   // spp 32, 2 bounces (its seed is replaced per iteration); specular samples at least
@@ -182,14 +178,6 @@ struct OptimizerSettings {
   // and costs the demo 0.17 dB; 0.01 makes the spread < 1 % there but costs the
   // demo's orange-red object 1.0 dB (grey world is wrong for it).
   float lambda_albedo_grey = 0.001f;
-  // A blind light learnt in a short run moves faster: its rate x clamp(kShortRunLightIterations /
-  // iterations, 1, kShortRunLightBoost), so 800 iterations or more keep the rate and 200 take 4x
-  // (the count a --budget plans, as it re-plans). Why: from its constant start the light needs
-  // about as many steps of travel as the rate allows in 800 iterations; in fewer the albedo takes
-  // what the light has not reached. Measured on the family (docs/blind_light.md, 200 x 4): 4x
-  // gains +1.24 dB albedo on the tuning half (no member worse) and +1.09 held out; at 800 x 8 it
-  // is within -0.5..+0.5 dB of the rate, so long runs keep it. On when --lr-env is automatic.
-  bool short_run_light = false;
   // Decorrelated adjoint: with gradients, the spp are rendered as two independent
   // halves and each half's replay is weighted by dL/dimage of the other half. With
   // one set of samples for both, the noise of a pixel's estimate and of its
@@ -259,7 +247,6 @@ class Optimizer {
   // the extra one of the albedo groups (albedo_warmup).
   double lr_factor(int it) const;
   double albedo_lr_factor(int it) const;
-  double light_rate_factor() const;  // short_run_light's factor on the environment's rate (1: off)
   // A linear ramp from 0 to 1 over the first `fraction` x iterations (0: always 1).
   double warmup_factor(float fraction, int it) const;
   // The TV weight at (0-based) iteration it.

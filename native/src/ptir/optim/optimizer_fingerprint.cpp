@@ -116,7 +116,6 @@ Fingerprint Optimizer::fingerprint() const {
   if (is.indirect_from_field) fp.push_back({"indirect", "field"});
   if (settings_.neutral_light) fp.push_back({"light", "neutral"});
   if (settings_.tv_chroma > 0.0f) fp.push_back({"tv_guide", "chroma " + num(settings_.tv_chroma)});
-  if (settings_.short_run_light) fp.push_back({"light_rate", "short-run"});
   // Real captures read at a working size or their common size (dataset.h): the photos' own size and
   // what was done (absent where the photos are read as stored, so older checkpoints still resume).
   if (!dataset_->size_note.empty()) fp.push_back({"photos", dataset_->size_note});

@@ -49,9 +49,8 @@ OptimizerSettings optimizer_settings(const OptimizeOptions& o, const OptionNames
   s.lr_decay_start = o.lr_decay_start;
   if (o.sample_cache_mb < 0) throw Error(names("sample_cache_mb") + " must be >= 0");
   s.sample_cache_bytes = size_t(o.sample_cache_mb) << 20;
-  if (!(o.lr_env > 0.0f || o.lr_env == -1.0f)) throw Error(names("lr_env") + " must be > 0 (or -1: automatic)");
-  s.params.lr_env = o.lr_env > 0.0f ? o.lr_env : ParameterSettings{}.lr_env;
-  s.short_run_light = o.lr_env < 0.0f;  // narrowed to a blind light in prepare_optimizer_scene
+  if (!(o.lr_env > 0.0f)) throw Error(names("lr_env") + " must be > 0");
+  s.params.lr_env = o.lr_env;
   if (!(o.lr_albedo > 0.0f)) throw Error(names("lr_albedo") + " must be > 0");
   s.params.lr_albedo = o.lr_albedo;
   // 0 keeps roughness at its start (optimize without --dataset on SH degree 0: nothing constrains it).
@@ -165,9 +164,6 @@ Scene prepare_optimizer_scene(const std::string& scene_path, std::shared_ptr<Gau
   const bool lit = has_own_light(scene), learnt_env = s.params.env != EnvMode::None;
   if (s.albedo_warmup < 0.0f) s.albedo_warmup = lit && learnt_env ? 0.0f : OptimizerSettings{}.albedo_warmup;
   if (lit && learnt_env && s.params.env_init_path.empty()) s.params.env_init = kSceneLitEnvStart;
-  // The short-run light rate is for a blind light only: learnt from a constant start with no lamp
-  // of the scene's own (a given map, fixed or refined, and the lamps' runs keep their measured rate).
-  s.short_run_light = s.short_run_light && learnt_env && s.params.optimize_env && !lit && s.params.env_init_path.empty();
   if (s.params.env == EnvMode::None && !lit)
     throw Error((scene_path.empty() ? std::string() : scene_path + ": ") + names("env") +
                 " none leaves the scene file's lights and emissive meshes as the only light, and " +

@@ -54,9 +54,7 @@ struct OptimizeOptions {
   float lr_balance = ParameterSettings{}.lr_balance;
   float balance_start = OptimizerSettings{}.balance_start;
   float lambda_albedo_grey = OptimizerSettings{}.lambda_albedo_grey;
-  // The environment's Adam rate (both levels); -1: automatic (ParameterSettings' rate, raised for
-  // short runs of a blind light: OptimizerSettings::short_run_light).
-  float lr_env = -1.0f;
+  float lr_env = ParameterSettings{}.lr_env;  // the environment's Adam rate (both levels)
   float lr_albedo = ParameterSettings{}.lr_albedo;        // the Gaussians' albedo logits' Adam rate
   float lr_roughness = ParameterSettings{}.lr_roughness;  // the Gaussians' roughness logits' Adam rate
   float lr_metallic = ParameterSettings{}.lr_metallic;    // the Gaussians' metallic logits' Adam rate (when optimised)
